@@ -1,0 +1,17 @@
+#pragma once
+/// The kfx subcommands. Each `add_*_command` registers one subcommand and its callback on the
+/// application; callbacks throw kfx::Error on failure and main() turns that into a message and
+/// a non-zero exit status.
+
+#include <CLI/CLI.hpp>
+
+namespace kfx::cli {
+
+/// `kfx run INPUT --out DIR ...`: the SLAM pipeline over a sequence.
+void add_run_command(CLI::App& app);
+/// `kfx eval EST GT ...`: ATE (aligned and checkPos-style) and RPE of a trajectory.
+void add_eval_command(CLI::App& app);
+/// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
+void add_convert_command(CLI::App& app);
+
+}  // namespace kfx::cli

@@ -1,0 +1,45 @@
+#pragma once
+/// Platform glue shared by host and device code: the KFX_HD qualifier, the one error type and
+/// the contract check macro. Compiles with a plain host compiler (no CUDA headers needed).
+
+#include <sstream>
+#include <stdexcept>
+#include <string>
+
+#if defined(__CUDACC__)
+#define KFX_HD __host__ __device__
+#define KFX_INLINE __forceinline__
+#else
+#define KFX_HD
+#define KFX_INLINE inline
+#endif
+
+namespace kfx {
+
+/// The one exception type of the library: a clear message plus the source location that raised
+/// it. The CLI prints `what()`; `where()` is for debugging.
+class Error : public std::runtime_error {
+ public:
+  Error(const std::string& message, const char* file, int line)
+      : std::runtime_error(message), where_(std::string(file) + ":" + std::to_string(line)) {}
+  /// Source location (file:line) that raised the error.
+  const std::string& where() const { return where_; }
+
+ private:
+  std::string where_;
+};
+
+}  // namespace kfx
+
+/// Throws kfx::Error with a streamed message when `cond` is false. Host code only.
+#define KFX_CHECK(cond, msg)                                  \
+  do {                                                        \
+    if (!(cond)) {                                            \
+      std::ostringstream kfx_check_stream_;                   \
+      kfx_check_stream_ << msg;                               \
+      throw ::kfx::Error(kfx_check_stream_.str(), __FILE__, __LINE__); \
+    }                                                         \
+  } while (0)
+
+/// Throws kfx::Error with a streamed message unconditionally. Host code only.
+#define KFX_FAIL(msg) KFX_CHECK(false, msg)

@@ -1,0 +1,68 @@
+#pragma once
+/// The reader interface: every input format yields Frames in order, with intrinsics and ground
+/// truth where the format has them.
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "io/frame.hpp"
+#include "io/trajectory.hpp"
+
+namespace kfx::io {
+
+/// Outcome of Reader::next().
+enum class ReadStatus {
+  kOk,        ///< a frame was read
+  kEnd,       ///< no more frames
+  kBadFrame,  ///< this frame is bad (message says file, frame and problem); later ones may be fine
+};
+
+/// Result of Reader::next(): a status and, for kBadFrame, a message naming file, frame, problem.
+struct ReadResult {
+  ReadStatus status = ReadStatus::kOk;
+  std::string message;
+};
+
+/// Options common to all readers.
+struct ReaderOptions {
+  /// Raw PNG units per metre; 0 = the format's default (TUM and ICL-NUIM PNG: 5000).
+  double depth_scale_per_m = 0.0;
+  /// Ground-truth file to use instead of the one found in the dataset folder ("" = auto).
+  std::string ground_truth_path;
+};
+
+/// A source of depth frames.
+class Reader {
+ public:
+  virtual ~Reader() = default;
+  /// Reads the next frame into `frame`. Malformed input that makes the whole source unusable
+  /// throws kfx::Error; a single bad frame returns kBadFrame with a clear message.
+  virtual ReadResult next(Frame& frame) = 0;
+  /// Input image width and height in pixels.
+  virtual int width_px() const = 0;
+  virtual int height_px() const = 0;
+  /// Number of frames when known, else −1.
+  virtual int frame_count() const = 0;
+  /// The format's intrinsics at input resolution, if it defines them.
+  virtual std::optional<Intrinsics> default_intrinsics() const = 0;
+  /// Ground-truth poses (camera to world), empty when there are none.
+  virtual std::vector<StampedPose> ground_truth() const = 0;
+  /// One line describing the source, e.g. "TUM RGB-D folder X (798 frames)".
+  virtual std::string description() const = 0;
+  /// Pipeline settings (config key, value) that suit this input, applied unless the user set
+  /// them; e.g. the synthetic scene's volume size.
+  virtual std::vector<std::pair<std::string, std::string>> recommended_settings() const {
+    return {};
+  }
+};
+
+/// Opens `input`: a TUM RGB-D folder, an ICL-NUIM PNG folder, an ICL-NUIM native (POV-Ray)
+/// folder, a SLAMBench `.raw` file, or `synthetic[:key=value,...]`. Throws kfx::Error naming the
+/// path and what is wrong when it cannot be opened or recognised.
+std::unique_ptr<Reader> open_reader(const std::string& input, const ReaderOptions& options = {});
+
+}  // namespace kfx::io
