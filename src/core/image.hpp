@@ -2,6 +2,7 @@
 /// Non-owning 2-D image views (host or device memory) and an owning host image.
 
 #include <cstdint>
+#include <type_traits>
 #include <vector>
 
 #include "core/platform.hpp"
@@ -17,6 +18,11 @@ struct ImageView {
   int pitch = 0;
 
   KFX_HD T& operator()(int x, int y) const { return data[x + y * pitch]; }
+  /// A read-only view of the same pixels.
+  template <class U = T, class = std::enable_if_t<!std::is_const<U>::value>>
+  KFX_HD operator ImageView<const U>() const {
+    return ImageView<const U>{data, width, height, pitch};
+  }
   KFX_HD bool contains(int x, int y) const { return x >= 0 && y >= 0 && x < width && y < height; }
   KFX_HD int size() const { return width * height; }
 };

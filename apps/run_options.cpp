@@ -1,0 +1,87 @@
+#include "run_options.hpp"
+
+#include <set>
+
+#include "core/platform.hpp"
+
+namespace kfx::cli {
+
+void add_run_options(CLI::App& command, RunOptions& o) {
+  command.add_option("input", o.input,
+                     "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or "
+                     "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]")
+      ->required();
+  command.add_option("--backend", o.backend, "cpu, cuda or auto (CUDA when a GPU is present)")
+      ->capture_default_str();
+  std::string presets;
+  for (const auto& name : preset_names()) presets += (presets.empty() ? "" : ", ") + name;
+  command.add_option("--preset", o.preset, "named bundle of settings: " + presets)
+      ->capture_default_str();
+  command.add_option_function<std::vector<std::string>>(
+      "--set",
+      [&o](const std::vector<std::string>& values) {
+        for (const auto& v : values) o.assignments.push_back(v);
+      },
+      "set any setting, key=value (see `kfx settings`); repeatable");
+  // SLAMBench's flags, with their meaning, from the one config table.
+  for (const auto& field : config_fields()) {
+    if (field.slambench_short.empty()) continue;
+    const std::string key = field.key;
+    command.add_option_function<std::string>(
+        "-" + field.slambench_short + ",--" + field.slambench_long,
+        [&o, key](const std::string& value) { o.assignments.push_back(key + "=" + value); },
+        "(SLAMBench) " + field.help + " [" + key + "]");
+  }
+  command.add_option("--frames", o.max_frames, "process at most N frames (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  command.add_option_function<std::string>(
+      "--depth-scale",
+      [&o](const std::string& value) { o.assignments.push_back("depth_scale=" + value); },
+      "PNG depth units per metre (default: the format's, 5000 for TUM and ICL-NUIM)");
+  command.add_option("--gt", o.ground_truth_path,
+                     "ground-truth trajectory (TUM format); found automatically for TUM and ICL");
+  command.add_flag("--skip-bad-frames", o.skip_bad_frames,
+                   "warn about bad frames and skip them instead of stopping");
+  command.add_flag("-q,--quiet", o.quiet, "no progress lines");
+}
+
+PreparedRun prepare_run(const RunOptions& o) {
+  PreparedRun run;
+  run.backend = parse_backend_kind(o.backend);
+  // The user's own settings first on a scratch config: the reader needs the depth scale, and
+  // the reader's recommendations must not override what the user set.
+  PipelineConfig user = make_preset(o.preset);
+  std::set<std::string> user_keys;
+  for (const auto& a : o.assignments) {
+    set_config_assignment(user, a);
+    user_keys.insert(a.substr(0, a.find('=')));
+  }
+  io::ReaderOptions reader_options;
+  reader_options.depth_scale_per_m = user.input.depth_scale_per_m;
+  reader_options.ground_truth_path = o.ground_truth_path;
+  run.reader = io::open_reader(o.input, reader_options);
+
+  run.config = make_preset(o.preset);
+  for (const auto& [key, value] : run.reader->recommended_settings()) {
+    if (!user_keys.count(key)) set_config_value(run.config, key, value);
+  }
+  for (const auto& a : o.assignments) set_config_assignment(run.config, a);
+  run.config.validate();
+
+  const auto& k = run.config.input.camera_px;
+  const auto defaults = run.reader->default_intrinsics();
+  if (k[0] != 0 || k[1] != 0) {
+    run.input_intrinsics = Intrinsics{k[0], k[1], k[2], k[3]};
+  } else {
+    KFX_CHECK(defaults.has_value(), o.input << ": this input has no default intrinsics; give them "
+                                               "with -k fx,fy,cx,cy (pixels, input size)");
+    run.input_intrinsics = *defaults;
+  }
+  // SLAMBench runs ICL-NUIM with +fy where the true camera has −fy: that mirrors the world in
+  // y, so evaluation must flip y back.
+  run.evaluate_flip_y = defaults.has_value() && defaults->fy * run.input_intrinsics.fy < 0;
+  run.ground_truth = run.reader->ground_truth();
+  return run;
+}
+
+}  // namespace kfx::cli

@@ -1,0 +1,46 @@
+#pragma once
+/// Options shared by the commands that run the pipeline (`run`, `bench`): the input, backend,
+/// preset, `--set key=value`, SLAMBench's own flags (from the config table), frames and ground
+/// truth; and the step that turns them into a validated configuration and an open reader.
+
+#include <CLI/CLI.hpp>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "backend/backend.hpp"
+#include "io/reader.hpp"
+#include "pipeline/config.hpp"
+
+namespace kfx::cli {
+
+/// What the user asked for on the command line.
+struct RunOptions {
+  std::string input;
+  std::string backend = "auto";
+  std::string preset = "exact";
+  std::vector<std::string> assignments;  ///< key=value, from --set and SLAMBench flags, in order
+  int max_frames = 0;                    ///< 0 = all
+  std::string ground_truth_path;
+  bool skip_bad_frames = false;
+  bool quiet = false;
+};
+
+/// Registers the shared options on a subcommand.
+void add_run_options(CLI::App& command, RunOptions& options);
+
+/// A configuration and a reader ready to run.
+struct PreparedRun {
+  PipelineConfig config;
+  std::unique_ptr<io::Reader> reader;
+  Intrinsics input_intrinsics;        ///< at input size
+  std::vector<io::StampedPose> ground_truth;
+  bool evaluate_flip_y = false;       ///< intrinsics mirror the dataset's world in y
+  BackendKind backend = BackendKind::kAuto;
+};
+
+/// Opens the input and builds the configuration: preset, then the reader's recommended
+/// settings (unless the user set those keys), then the user's settings; validated.
+PreparedRun prepare_run(const RunOptions& options);
+
+}  // namespace kfx::cli

@@ -1,0 +1,67 @@
+#include "run_summary.hpp"
+
+#include <algorithm>
+#include <cstdio>
+#include <numeric>
+
+namespace kfx::cli {
+
+double median_of(std::vector<double> values) {
+  if (values.empty()) return 0.0;
+  const size_t mid = values.size() / 2;
+  std::nth_element(values.begin(), values.begin() + mid, values.end());
+  const double upper = values[mid];
+  if (values.size() % 2) return upper;
+  const double lower = *std::max_element(values.begin(), values.begin() + mid);
+  return 0.5 * (lower + upper);
+}
+
+double mean_of(const std::vector<double>& values) {
+  if (values.empty()) return 0.0;
+  return std::accumulate(values.begin(), values.end(), 0.0) / values.size();
+}
+
+void RunSummary::add(const FrameReport& report) {
+  ++frames;
+  tracked += report.tracked ? 1 : 0;
+  integrated += report.integrated ? 1 : 0;
+  for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+    stage_ms[s].push_back(report.stage_ms[s]);
+  }
+  computation_ms.push_back(report.computation_ms);
+}
+
+double RunSummary::frames_per_second() const {
+  const double mean = mean_of(computation_ms);
+  return mean > 0 ? 1000.0 / mean : 0.0;
+}
+
+nlohmann::json RunSummary::to_json() const {
+  nlohmann::json j;
+  j["frames"] = frames;
+  j["tracked"] = tracked;
+  j["integrated"] = integrated;
+  j["frames_per_second"] = frames_per_second();
+  j["frames_per_second_definition"] = "1 / mean computation time (preprocess + track + "
+                                      "integrate + raycast) over all frames";
+  for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+    j["stages_ms"][stage_name(static_cast<Stage>(s))] = {{"mean", mean_of(stage_ms[s])},
+                                                         {"median", median_of(stage_ms[s])}};
+  }
+  j["computation_ms"] = {{"mean", mean_of(computation_ms)}, {"median", median_of(computation_ms)}};
+  return j;
+}
+
+std::string RunSummary::one_line() const {
+  char buffer[256];
+  std::snprintf(buffer, sizeof(buffer), "%d frames, %d tracked, %d integrated, %.1f frames/s",
+                frames, tracked, integrated, frames_per_second());
+  std::string line = buffer;
+  if (ate_rmse_m >= 0) {
+    std::snprintf(buffer, sizeof(buffer), ", ATE RMSE %.2f cm", ate_rmse_m * 100.0);
+    line += buffer;
+  }
+  return line;
+}
+
+}  // namespace kfx::cli

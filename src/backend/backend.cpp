@@ -1,0 +1,53 @@
+/// Backend selection shared by both builds.
+
+#include "backend/backend.hpp"
+
+namespace kfx {
+
+#if defined(KFX_HAVE_CUDA)
+// Defined in src/backend/cuda/.
+bool cuda_device_present(std::string* why_not);
+std::unique_ptr<Backend> make_cuda_backend(const BackendSetup& setup);
+#endif
+
+const char* stage_name(Stage stage) {
+  switch (stage) {
+    case Stage::kPreprocess: return "preprocess";
+    case Stage::kTrack: return "track";
+    case Stage::kIntegrate: return "integrate";
+    case Stage::kRaycast: return "raycast";
+    case Stage::kRender: return "render";
+    default: return "?";
+  }
+}
+
+BackendKind parse_backend_kind(const std::string& text) {
+  if (text == "cpu") return BackendKind::kCpu;
+  if (text == "cuda") return BackendKind::kCuda;
+  if (text == "auto") return BackendKind::kAuto;
+  KFX_FAIL("unknown backend '" << text << "' (expected cpu, cuda or auto)");
+}
+
+bool cuda_available(std::string* why_not) {
+#if defined(KFX_HAVE_CUDA)
+  return cuda_device_present(why_not);
+#else
+  if (why_not) *why_not = "this kfx was built without the CUDA backend (nvcc was not found)";
+  return false;
+#endif
+}
+
+std::unique_ptr<Backend> make_backend(BackendKind kind, const BackendSetup& setup) {
+  if (kind == BackendKind::kCpu) return make_cpu_backend(setup);
+  std::string why_not;
+  const bool have_cuda = cuda_available(&why_not);
+  if (kind == BackendKind::kCuda) {
+    KFX_CHECK(have_cuda, "the CUDA backend was requested but " << why_not);
+  }
+#if defined(KFX_HAVE_CUDA)
+  if (have_cuda) return make_cuda_backend(setup);
+#endif
+  return make_cpu_backend(setup);
+}
+
+}  // namespace kfx

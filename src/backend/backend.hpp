@@ -1,0 +1,158 @@
+#pragma once
+/// The backend interface: one call per pipeline stage, implemented by the CPU backend (OpenMP
+/// loops) and the CUDA backend (thin __global__ stubs), both over the kernel bodies in
+/// src/kernels/. The pipeline (src/pipeline/) decides which stages run; decisions that depend on
+/// the frame's data (converged, tracked) are flags in the backend's TrackingState, which later
+/// stages read and early-out on, so the GPU never waits for the host inside a frame.
+
+#include <array>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/image.hpp"
+#include "core/math.hpp"
+#include "core/volume.hpp"
+#include "kernels/frame_logic.hpp"
+#include "kernels/tracking_state.hpp"
+
+namespace kfx {
+
+/// Most pyramid levels supported.
+constexpr int kMaxPyramidLevels = 4;
+
+/// Sizes fixed for a backend's lifetime; every buffer is allocated once from these.
+struct BackendSetup {
+  int input_width_px = 640;
+  int input_height_px = 480;
+  int compute_ratio = 2;  ///< compute size = input size / ratio
+  int pyramid_levels = 3;
+  int volume_res_vox = 256;
+  float volume_size_m = 2.0f;
+  int compute_width_px() const { return input_width_px / compute_ratio; }
+  int compute_height_px() const { return input_height_px / compute_ratio; }
+};
+
+/// Pipeline stages, for timing.
+enum class Stage : int { kPreprocess = 0, kTrack, kIntegrate, kRaycast, kRender, kCount };
+
+/// Stage names as reported ("preprocess", "track", ...).
+const char* stage_name(Stage stage);
+
+/// Parameters of the preprocessing stage.
+struct PreprocessParams {
+  int bilateral_radius_px = 2;
+  float spatial_weight[9] = {};          ///< per-axis Gaussian weights, 2r+1 of them
+  float range_denominator_m2 = 0.02f;    ///< 2σ_r²
+  bool use_range_term = true;
+};
+
+/// Parameters of the pyramid (half-sampling, vertices, normals).
+struct PyramidParams {
+  float half_sample_range_m = 0.3f;
+  std::array<Intrinsics, kMaxPyramidLevels> level_intrinsics{};  ///< K at each level
+};
+
+/// Parameters of one ICP iteration.
+struct IcpParams {
+  float dist_threshold_m = 0.1f;
+  float normal_threshold = 0.8f;
+  float icp_threshold = 1e-5f;
+};
+
+/// Parameters of integration.
+struct IntegrateParams {
+  Intrinsics k;  ///< compute-size intrinsics
+  float mu_m = 0.1f;
+  int max_weight = 100;
+};
+
+/// Parameters of the raycast.
+struct RaycastParams {
+  Intrinsics k;  ///< compute-size intrinsics
+  float near_m = 0.4f;
+  float far_m = 4.0f;
+  float step_m = 0.0f;
+  float large_step_m = 0.075f;
+};
+
+/// Host copies of the maps a renderer or a test wants to look at.
+struct DebugMaps {
+  HostImage<float> depth_m;             ///< unfiltered compute-size depth
+  HostImage<float> filtered_m;          ///< bilateral output (pyramid level 0)
+  HostImage<Vec3f> ref_vertex;          ///< raycast vertices
+  HostImage<Vec3f> ref_normal;          ///< raycast normals
+  HostImage<int8_t> track_outcome;      ///< last level-0 ICP outcome per pixel
+};
+
+/// One stage-per-call backend.
+class Backend {
+ public:
+  virtual ~Backend() = default;
+  /// "cpu" or "cuda".
+  virtual std::string name() const = 0;
+  /// Human-readable device (CPU model and threads, or GPU name).
+  virtual std::string device_name() const = 0;
+
+  /// Empties the volume (tsdf 1, weight 0) and sets the pose; no reference view yet.
+  virtual void reset(const Mat4f& T_world_cam) = 0;
+  /// Copies the next input depth frame (input size, millimetres) to the backend.
+  virtual void upload_depth(const HostImage<uint16_t>& depth_mm) = 0;
+  /// Brackets one frame's stage calls. `shape` identifies which stages the frame runs (the
+  /// pipeline derives it from the frame number alone), so the GPU can record the sequence once
+  /// per shape as a graph and replay it. end_frame() submits the frame; read_state() waits.
+  virtual void begin_frame(int shape) = 0;
+  virtual void end_frame() = 0;
+  /// mm → metres at compute size (and the frame's largest depth), then the bilateral filter.
+  virtual void preprocess(const PreprocessParams& params) = 0;
+  /// Builds every pyramid level's depth, vertex and normal maps.
+  virtual void build_pyramid(const PyramidParams& params) = 0;
+  /// Marks the start of a tracked frame (pose saved for a revert).
+  virtual void begin_tracking() = 0;
+  /// Clears the convergence flag at the start of a pyramid level.
+  virtual void begin_level() = 0;
+  /// One ICP iteration at `level`: track, reduce, solve, update; a no-op once converged.
+  virtual void icp_iteration(int level, const IcpParams& params) = 0;
+  /// Accept test on the last iteration; reverts the pose on reject.
+  virtual void accept_or_revert(const AcceptParams& params) = 0;
+  /// Marks this frame as not tracked (tracking skipped).
+  virtual void skip_tracking() = 0;
+  /// Integrates the unfiltered depth at the current pose when `always` or the frame tracked.
+  virtual void integrate(const IntegrateParams& params, bool always) = 0;
+  /// Raycasts the volume from the current pose; it becomes the ICP reference view.
+  virtual void raycast(const RaycastParams& params) = 0;
+  /// Waits for the oldest submitted frame not read yet and returns its state after the frame
+  /// (frame_stage_ms() then gives that frame's stage times).
+  virtual TrackingState read_state() = 0;
+
+  /// Stage timing: marks around stages; frame_stage_ms() after read_state() gives the last
+  /// frame's time per stage in milliseconds (device time on the GPU).
+  virtual void begin_stage(Stage stage) = 0;
+  virtual void end_stage(Stage stage) = 0;
+  virtual std::array<double, static_cast<int>(Stage::kCount)> frame_stage_ms() = 0;
+
+  /// Host copies of the intermediate maps (slow; tests and renders).
+  virtual DebugMaps read_maps() = 0;
+  /// Host copy of the whole volume (slow; tests and mesh export).
+  virtual std::vector<Voxel> read_volume() = 0;
+};
+
+/// Backend choice on the command line.
+enum class BackendKind { kCpu, kCuda, kAuto };
+
+/// Parses "cpu", "cuda" or "auto"; throws kfx::Error otherwise.
+BackendKind parse_backend_kind(const std::string& text);
+
+/// True when this build has the CUDA backend and a CUDA device is present.
+bool cuda_available(std::string* why_not = nullptr);
+
+/// Creates a backend; `kAuto` picks CUDA when available. Asking for CUDA in a CPU-only build or
+/// without a GPU throws kfx::Error saying which.
+std::unique_ptr<Backend> make_backend(BackendKind kind, const BackendSetup& setup);
+
+/// The CPU (OpenMP) backend.
+std::unique_ptr<Backend> make_cpu_backend(const BackendSetup& setup);
+
+}  // namespace kfx

@@ -1,0 +1,251 @@
+/// The CPU backend: every stage is an OpenMP loop over rows calling the shared kernel bodies.
+/// Reductions are per-row partial sums added in row order, so runs repeat bit for bit.
+
+#include <omp.h>
+
+#include <algorithm>
+#include <chrono>
+#include <fstream>
+#include <thread>
+
+#include "backend/backend.hpp"
+#include "kernels/integrate.hpp"
+#include "kernels/preprocess.hpp"
+#include "kernels/raycast.hpp"
+#include "kernels/track.hpp"
+
+namespace kfx {
+namespace {
+
+/// Calls body(x, y) for every pixel of a width × height grid, rows spread over threads.
+template <class Body>
+void for_each_pixel(int width, int height, Body body) {
+#pragma omp parallel for schedule(static)
+  for (int y = 0; y < height; ++y) {
+    for (int x = 0; x < width; ++x) body(x, y);
+  }
+}
+
+std::string cpu_model_name() {
+  std::ifstream cpuinfo("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(cpuinfo, line)) {
+    if (line.rfind("model name", 0) == 0) {
+      const auto colon = line.find(':');
+      if (colon != std::string::npos) return line.substr(colon + 2);
+    }
+  }
+  return "unknown CPU";
+}
+
+class CpuBackend final : public Backend {
+ public:
+  explicit CpuBackend(const BackendSetup& setup) : setup_(setup) {
+    const int w = setup.compute_width_px(), h = setup.compute_height_px();
+    input_mm_ = HostImage<uint16_t>(setup.input_width_px, setup.input_height_px);
+    depth_m_ = HostImage<float>(w, h);
+    for (int l = 0; l < setup.pyramid_levels; ++l) {
+      level_depth_[l] = HostImage<float>(w >> l, h >> l);
+      level_vertex_[l] = HostImage<Vec3f>(w >> l, h >> l);
+      level_normal_[l] = HostImage<Vec3f>(w >> l, h >> l);
+    }
+    ref_vertex_ = HostImage<Vec3f>(w, h);
+    ref_normal_ = HostImage<Vec3f>(w, h, Vec3f{kInvalidNormal, 0, 0});
+    track_outcome_ = HostImage<int8_t>(w, h);
+    row_partials_.assign(static_cast<size_t>(h) * kAccumulatorSize, 0.0);
+    volume_.assign(static_cast<size_t>(setup.volume_res_vox) * setup.volume_res_vox *
+                       setup.volume_res_vox,
+                   Voxel{});
+    state_ = TrackingState{};
+  }
+
+  std::string name() const override { return "cpu"; }
+  std::string device_name() const override {
+    return cpu_model_name() + ", " + std::to_string(omp_get_max_threads()) + " OpenMP threads";
+  }
+
+  void reset(const Mat4f& T_world_cam) override {
+    const Voxel empty{static_cast<int16_t>(kTsdfScale), 0};
+    std::fill(volume_.begin(), volume_.end(), empty);
+    state_ = TrackingState{};
+    state_.T_world_cam = T_world_cam;
+    state_.T_world_cam_before = T_world_cam;
+    state_.T_world_raycast = T_world_cam;
+  }
+
+  void upload_depth(const HostImage<uint16_t>& depth_mm) override {
+    KFX_CHECK(depth_mm.width() == setup_.input_width_px &&
+                  depth_mm.height() == setup_.input_height_px,
+              "depth frame is " << depth_mm.width() << "x" << depth_mm.height()
+                                << ", the pipeline was set up for " << setup_.input_width_px
+                                << "x" << setup_.input_height_px);
+    input_mm_.pixels() = depth_mm.pixels();
+  }
+
+  // The CPU runs each stage as it is called: nothing to record or submit.
+  void begin_frame(int /*shape*/) override {}
+  void end_frame() override {}
+
+  void preprocess(const PreprocessParams& p) override {
+    const MmToMArgs mm{input_mm_.view(), depth_m_.view(), setup_.compute_ratio};
+    const int w = depth_m_.width(), h = depth_m_.height();
+    float max_depth_m = 0.0f;
+#pragma omp parallel for schedule(static) reduction(max : max_depth_m)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) max_depth_m = std::max(max_depth_m, mm_to_m_pixel(x, y, mm));
+    }
+    state_.max_depth_m = max_depth_m;
+    BilateralArgs b;
+    b.in_m = depth_m_.view();
+    b.out_m = level_depth_[0].view();
+    b.radius_px = p.bilateral_radius_px;
+    std::copy(std::begin(p.spatial_weight), std::end(p.spatial_weight), b.spatial_weight);
+    b.range_denominator_m2 = p.range_denominator_m2;
+    b.use_range_term = p.use_range_term;
+    for_each_pixel(w, h, [&](int x, int y) { bilateral_pixel(x, y, b); });
+  }
+
+  void build_pyramid(const PyramidParams& p) override {
+    for (int l = 1; l < setup_.pyramid_levels; ++l) {
+      const HalfSampleArgs a{level_depth_[l - 1].view(), level_depth_[l].view(),
+                             p.half_sample_range_m};
+      for_each_pixel(level_depth_[l].width(), level_depth_[l].height(),
+                     [&](int x, int y) { half_sample_pixel(x, y, a); });
+    }
+    for (int l = 0; l < setup_.pyramid_levels; ++l) {
+      const DepthToVertexArgs v{level_depth_[l].view(), level_vertex_[l].view(),
+                                p.level_intrinsics[l].inverse_matrix()};
+      for_each_pixel(v.vertex.width, v.vertex.height,
+                     [&](int x, int y) { depth_to_vertex_pixel(x, y, v); });
+      const VertexToNormalArgs n{level_vertex_[l].view(), level_normal_[l].view(),
+                                 p.level_intrinsics[l].handedness()};
+      for_each_pixel(n.normal.width, n.normal.height,
+                     [&](int x, int y) { vertex_to_normal_pixel(x, y, n); });
+    }
+  }
+
+  void begin_tracking() override { kfx::begin_tracking(state_); }
+  void begin_level() override { kfx::begin_level(state_); }
+
+  void icp_iteration(int level, const IcpParams& p) override {
+    if (state_.level_converged) return;
+    TrackArgs a;
+    a.in_vertex = level_vertex_[level].view();
+    a.in_normal = level_normal_[level].view();
+    a.ref_vertex = ref_vertex_.view();
+    a.ref_normal = ref_normal_.view();
+    a.state = &state_;
+    a.dist_threshold_m = p.dist_threshold_m;
+    a.normal_threshold = p.normal_threshold;
+    const int w = a.in_vertex.width, h = a.in_vertex.height;
+    const bool keep_outcome = level == 0;
+#pragma omp parallel for schedule(static)
+    for (int y = 0; y < h; ++y) {
+      double* acc = &row_partials_[static_cast<size_t>(y) * kAccumulatorSize];
+      std::fill(acc, acc + kAccumulatorSize, 0.0);
+      for (int x = 0; x < w; ++x) {
+        const TrackRow row = track_pixel(x, y, a);
+        accumulate_row(acc, row);
+        if (keep_outcome) track_outcome_(x, y) = static_cast<int8_t>(row.outcome);
+      }
+    }
+    double total[kAccumulatorSize] = {};
+    for (int y = 0; y < h; ++y) {  // fixed order: repeatable
+      const double* acc = &row_partials_[static_cast<size_t>(y) * kAccumulatorSize];
+      for (int i = 0; i < kAccumulatorSize; ++i) total[i] += acc[i];
+    }
+    icp_update(state_, total, p.icp_threshold);
+  }
+
+  void accept_or_revert(const AcceptParams& p) override { kfx::accept_or_revert(state_, p); }
+  void skip_tracking() override { state_.tracked = 0; }
+
+  void integrate(const IntegrateParams& p, bool always) override {
+    prepare_integration(state_, always);
+    if (!state_.integrate_now) return;
+    IntegrateArgs a;
+    a.volume = volume_view();
+    a.depth_m = depth_m_.view();
+    a.k = p.k;
+    a.state = &state_;
+    a.mu_m = p.mu_m;
+    a.max_weight = p.max_weight;
+    const int res = setup_.volume_res_vox;
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < res; ++y) {
+      for (int x = 0; x < res; ++x) {
+        int z_begin, z_end;
+        integrate_column_bounds(x, y, a, z_begin, z_end);
+        integrate_column(x, y, z_begin, z_end, a);
+      }
+    }
+  }
+
+  void raycast(const RaycastParams& p) override {
+    set_reference_view(state_, p.k);
+    RaycastArgs a;
+    a.volume = volume_view();
+    a.vertex = ref_vertex_.view();
+    a.normal = ref_normal_.view();
+    a.state = &state_;
+    a.near_m = p.near_m;
+    a.far_m = p.far_m;
+    a.step_m = p.step_m;
+    a.large_step_m = p.large_step_m;
+    const int w = ref_vertex_.width(), h = ref_vertex_.height();
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) raycast_pixel(x, y, a);
+    }
+  }
+
+  TrackingState read_state() override { return state_; }
+
+  void begin_stage(Stage stage) override {
+    stage_start_[static_cast<int>(stage)] = std::chrono::steady_clock::now();
+  }
+  void end_stage(Stage stage) override {
+    const int i = static_cast<int>(stage);
+    stage_ms_[i] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() -
+                                                             stage_start_[i])
+                       .count();
+  }
+  std::array<double, static_cast<int>(Stage::kCount)> frame_stage_ms() override {
+    auto result = stage_ms_;
+    stage_ms_.fill(0.0);
+    return result;
+  }
+
+  DebugMaps read_maps() override {
+    return DebugMaps{depth_m_, level_depth_[0], ref_vertex_, ref_normal_, track_outcome_};
+  }
+  std::vector<Voxel> read_volume() override { return volume_; }
+
+ private:
+  VolumeView volume_view() {
+    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m};
+  }
+
+  BackendSetup setup_;
+  HostImage<uint16_t> input_mm_;
+  HostImage<float> depth_m_;
+  std::array<HostImage<float>, kMaxPyramidLevels> level_depth_;
+  std::array<HostImage<Vec3f>, kMaxPyramidLevels> level_vertex_;
+  std::array<HostImage<Vec3f>, kMaxPyramidLevels> level_normal_;
+  HostImage<Vec3f> ref_vertex_;
+  HostImage<Vec3f> ref_normal_;
+  HostImage<int8_t> track_outcome_;
+  std::vector<double> row_partials_;
+  std::vector<Voxel> volume_;
+  TrackingState state_{};
+  std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
+  std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};
+};
+
+}  // namespace
+
+std::unique_ptr<Backend> make_cpu_backend(const BackendSetup& setup) {
+  return std::make_unique<CpuBackend>(setup);
+}
+
+}  // namespace kfx

@@ -1,0 +1,178 @@
+#pragma once
+/// Thin __global__ stubs: each computes its index, bounds-checks and calls the shared kernel
+/// body from src/kernels/. The only GPU-specific code is the index mapping and the fixed-order
+/// block reductions.
+
+#include <cuda_runtime.h>
+
+#include "kernels/frame_logic.hpp"
+#include "kernels/integrate.hpp"
+#include "kernels/preprocess.hpp"
+#include "kernels/raycast.hpp"
+#include "kernels/track.hpp"
+
+namespace kfx::cuda {
+
+/// Threads per block of the reduction kernels.
+constexpr int kReduceBlock = 256;
+
+/// One thread per pixel of a width × height grid, calling Body{}(x, y, args).
+template <class Body, class Args>
+__global__ void pixel_kernel(Args args, int width, int height) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x < width && y < height) Body{}(x, y, args);
+}
+
+struct BilateralBody {
+  __device__ void operator()(int x, int y, const BilateralArgs& a) const { bilateral_pixel(x, y, a); }
+};
+struct HalfSampleBody {
+  __device__ void operator()(int x, int y, const HalfSampleArgs& a) const {
+    half_sample_pixel(x, y, a);
+  }
+};
+struct DepthToVertexBody {
+  __device__ void operator()(int x, int y, const DepthToVertexArgs& a) const {
+    depth_to_vertex_pixel(x, y, a);
+  }
+};
+struct VertexToNormalBody {
+  __device__ void operator()(int x, int y, const VertexToNormalArgs& a) const {
+    vertex_to_normal_pixel(x, y, a);
+  }
+};
+struct RaycastBody {
+  __device__ void operator()(int x, int y, const RaycastArgs& a) const { raycast_pixel(x, y, a); }
+};
+
+/// mm → metres, and the frame's largest depth (block max, then one atomic per block; a max is
+/// exact whatever the order, so this stays repeatable).
+__global__ void mm_to_m_kernel(MmToMArgs args, TrackingState* state) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  float d = 0.0f;
+  if (x < args.out_m.width && y < args.out_m.height) d = mm_to_m_pixel(x, y, args);
+  for (int offset = 16; offset > 0; offset /= 2) {
+    d = fmaxf(d, __shfl_down_sync(0xffffffffu, d, offset));
+  }
+  __shared__ float warp_max[32];
+  const int lane = (threadIdx.y * blockDim.x + threadIdx.x) % 32;
+  const int warp = (threadIdx.y * blockDim.x + threadIdx.x) / 32;
+  if (lane == 0) warp_max[warp] = d;
+  __syncthreads();
+  if (warp == 0) {
+    const int warps = (blockDim.x * blockDim.y + 31) / 32;
+    float m = lane < warps ? warp_max[lane] : 0.0f;
+    for (int offset = 16; offset > 0; offset /= 2) {
+      m = fmaxf(m, __shfl_down_sync(0xffffffffu, m, offset));
+    }
+    // Non-negative floats order like their bit patterns as ints.
+    if (lane == 0) atomicMax(reinterpret_cast<int*>(&state->max_depth_m), __float_as_int(m));
+  }
+}
+
+/// Fills the volume with empty voxels (tsdf +1, weight 0).
+__global__ void init_volume_kernel(Voxel* voxels, long long count) {
+  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
+  if (i < count) voxels[i] = Voxel{static_cast<int16_t>(kTsdfScale), 0};
+}
+
+__global__ void begin_tracking_kernel(TrackingState* state) { begin_tracking(*state); }
+__global__ void begin_level_kernel(TrackingState* state) { begin_level(*state); }
+__global__ void accept_kernel(TrackingState* state, AcceptParams params) {
+  accept_or_revert(*state, params);
+}
+__global__ void skip_tracking_kernel(TrackingState* state) { state->tracked = 0; }
+__global__ void prepare_integration_kernel(TrackingState* state, bool always) {
+  prepare_integration(*state, always);
+}
+__global__ void set_reference_kernel(TrackingState* state, Intrinsics k) {
+  set_reference_view(*state, k);
+}
+
+/// Sums kAccumulatorSize doubles over the block in a fixed order (warp shuffles, then warps in
+/// order). Thread t < kAccumulatorSize returns element t of the block's total.
+__device__ inline double block_sum_accumulator(const double (&acc)[kAccumulatorSize]) {
+  __shared__ double warp_sums[kReduceBlock / 32][kAccumulatorSize];
+  const int lane = threadIdx.x % 32, warp = threadIdx.x / 32;
+#pragma unroll
+  for (int i = 0; i < kAccumulatorSize; ++i) {
+    double v = acc[i];
+    for (int offset = 16; offset > 0; offset /= 2) v += __shfl_down_sync(0xffffffffu, v, offset);
+    if (lane == 0) warp_sums[warp][i] = v;
+  }
+  __syncthreads();
+  double total = 0.0;
+  if (threadIdx.x < kAccumulatorSize) {
+    for (int w = 0; w < kReduceBlock / 32; ++w) total += warp_sums[w][threadIdx.x];
+  }
+  return total;
+}
+
+/// One ICP iteration in one launch: every thread tracks its pixels and accumulates; blocks
+/// write partial sums; the last block to finish adds the partials in block order, solves the
+/// 6×6 system and updates the pose. A no-op once the level has converged.
+__global__ void __launch_bounds__(kReduceBlock)
+    icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
+                         unsigned int* blocks_done, float icp_threshold, int8_t* outcome) {
+  if (state->level_converged) return;  // uniform: set by an earlier launch
+  const int width = args.in_vertex.width;
+  const int pixels = width * args.in_vertex.height;
+  double acc[kAccumulatorSize];
+#pragma unroll
+  for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0.0;
+  for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < pixels; i += gridDim.x * kReduceBlock) {
+    const int x = i % width, y = i / width;
+    const TrackRow row = track_pixel(x, y, args);
+    accumulate_row(acc, row);
+    if (outcome) outcome[i] = static_cast<int8_t>(row.outcome);
+  }
+  const double block_total = block_sum_accumulator(acc);
+  __shared__ bool is_last;
+  if (threadIdx.x < kAccumulatorSize) {
+    partials[blockIdx.x * kAccumulatorSize + threadIdx.x] = block_total;
+  }
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0) is_last = atomicAdd(blocks_done, 1u) == gridDim.x - 1;
+  __syncthreads();
+  if (!is_last) return;
+  // Last block: 8 groups of 32 threads sum interleaved blocks, then the groups in order.
+  __shared__ double group_sums[kReduceBlock / 32][kAccumulatorSize];
+  __shared__ double total[kAccumulatorSize];
+  const int value = threadIdx.x % kAccumulatorSize, group = threadIdx.x / kAccumulatorSize;
+  double s = 0.0;
+  for (int b = group; b < gridDim.x; b += kReduceBlock / kAccumulatorSize) {
+    s += __ldcg(&partials[b * kAccumulatorSize + value]);
+  }
+  group_sums[group][value] = s;
+  __syncthreads();
+  if (threadIdx.x < kAccumulatorSize) {
+    double t = 0.0;
+    for (int g = 0; g < kReduceBlock / kAccumulatorSize; ++g) t += group_sums[g][threadIdx.x];
+    total[threadIdx.x] = t;
+  }
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    icp_update(*state, total, icp_threshold);
+    *blocks_done = 0;  // ready for the next launch
+  }
+}
+
+/// Integration: one thread per voxel column (x, y) and z-chunk; early-out unless this frame
+/// integrates.
+__global__ void integrate_kernel(IntegrateArgs args, int z_chunks) {
+  if (!args.state->integrate_now) return;
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  const int res = args.volume.res;
+  if (x >= res || y >= res) return;
+  int z_begin, z_end;
+  integrate_column_bounds(x, y, args, z_begin, z_end);
+  const int chunk = (res + z_chunks - 1) / z_chunks;
+  const int c = blockIdx.z;
+  integrate_column(x, y, max(z_begin, c * chunk), min(z_end, (c + 1) * chunk), args);
+}
+
+}  // namespace kfx::cuda

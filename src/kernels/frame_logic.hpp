@@ -1,0 +1,74 @@
+#pragma once
+/// Single-thread kernels that make the frame's decisions on the state (REFERENCE.md step 3–5):
+/// the ICP update and convergence test, the accept test with pose revert, the integration gate
+/// and the reference-view update. The CPU runs them inline; the GPU runs them in one thread
+/// (the last block of a reduction, or a one-thread launch), so the host never waits on them.
+
+#include <cmath>
+
+#include "core/camera.hpp"
+#include "core/se3.hpp"
+#include "kernels/solve.hpp"
+#include "kernels/tracking_state.hpp"
+
+namespace kfx {
+
+/// Start of a tracked frame: remember the pose for a revert, clear the frame's flags.
+KFX_HD inline void begin_tracking(TrackingState& s) {
+  s.T_world_cam_before = s.T_world_cam;
+  s.tracked = 0;
+  s.iterations_run = 0;
+}
+
+/// Start of a pyramid level: its iterations run until convergence or their cap.
+KFX_HD inline void begin_level(TrackingState& s) { s.level_converged = 0; }
+
+/// ICP update from the reduction of one iteration: solve, T ← exp(x)·T, convergence test.
+/// `acc` is kept as the frame's last accumulator for the accept test.
+KFX_HD inline void icp_update(TrackingState& s, const double* acc, float icp_threshold) {
+  for (int i = 0; i < kAccumulatorSize; ++i) s.accumulator[i] = acc[i];
+  double x[6];
+  solve_6x6(acc, x);
+  s.T_world_cam = se3_exp(x) * s.T_world_cam;
+  double norm_sq = 0.0;
+  for (int i = 0; i < 6; ++i) norm_sq += x[i] * x[i];
+  s.last_step_norm = sqrt(norm_sq);
+  s.iterations_run += 1;
+  if (s.last_step_norm < icp_threshold) s.level_converged = 1;
+}
+
+/// Thresholds of the accept test.
+struct AcceptParams {
+  float max_rms_error_m = 0.02f;     ///< reject if sqrt(Σe²/inliers) exceeds this
+  float min_inlier_fraction = 0.15f; ///< reject if inliers/(compute w·h) is below this
+  int compute_pixels = 0;            ///< compute width × height
+};
+
+/// Accept test on the last iteration's accumulator; on reject the pose goes back.
+KFX_HD inline void accept_or_revert(TrackingState& s, const AcceptParams& p) {
+  const double inliers = s.accumulator[kAccInliers];
+  const double rms = sqrt(s.accumulator[kAccErrorSq] / inliers);  // NaN when no inliers
+  const bool reject = rms > p.max_rms_error_m || inliers / p.compute_pixels < p.min_inlier_fraction;
+  if (reject) {
+    s.T_world_cam = s.T_world_cam_before;
+    s.tracked = 0;
+  } else {
+    s.tracked = 1;
+  }
+}
+
+/// Integration gate: `always` for the first frames, otherwise only when tracked. Also caches
+/// the inverse pose every voxel needs.
+KFX_HD inline void prepare_integration(TrackingState& s, bool always) {
+  s.integrate_now = (always || s.tracked) ? 1 : 0;
+  s.T_cam_world = rigid_inverse(s.T_world_cam);
+}
+
+/// The raycast's pose becomes the ICP reference view.
+KFX_HD inline void set_reference_view(TrackingState& s, const Intrinsics& k) {
+  s.T_world_raycast = s.T_world_cam;
+  s.raycast_view = s.T_world_raycast * k.inverse_matrix();
+  s.project_reference = k.matrix() * rigid_inverse(s.T_world_raycast);
+}
+
+}  // namespace kfx

@@ -1,0 +1,132 @@
+#pragma once
+/// Raycast of the TSDF (Newcombe et al. 2011, sec. 3.4; REFERENCE.md step 5), one ray per
+/// compute pixel, giving the reference vertex and normal maps for the next frame's ICP.
+
+#include "core/image.hpp"
+#include "core/math.hpp"
+#include "core/volume.hpp"
+#include "kernels/preprocess.hpp"
+#include "kernels/tracking_state.hpp"
+
+namespace kfx {
+
+/// Trilinear tsdf at a volume-frame point (metres); voxel indices clamped to the volume.
+KFX_HD inline float volume_interp(const VolumeView& vol, Vec3f p_m) {
+  const Vec3f s{p_m.x * vol.res / vol.size_m - 0.5f, p_m.y * vol.res / vol.size_m - 0.5f,
+                p_m.z * vol.res / vol.size_m - 0.5f};
+  const int bx = static_cast<int>(floorf(s.x)), by = static_cast<int>(floorf(s.y)),
+            bz = static_cast<int>(floorf(s.z));
+  const float fx = s.x - floorf(s.x), fy = s.y - floorf(s.y), fz = s.z - floorf(s.z);
+  const int last = vol.res - 1;
+  const int lx = maxi(bx, 0), ly = maxi(by, 0), lz = maxi(bz, 0);
+  const int ux = mini(bx + 1, last), uy = mini(by + 1, last), uz = mini(bz + 1, last);
+  auto t = [&](int x, int y, int z) { return static_cast<float>(vol.at(x, y, z).tsdf); };
+  return (((t(lx, ly, lz) * (1 - fx) + t(ux, ly, lz) * fx) * (1 - fy) +
+           (t(lx, uy, lz) * (1 - fx) + t(ux, uy, lz) * fx) * fy) * (1 - fz) +
+          ((t(lx, ly, uz) * (1 - fx) + t(ux, ly, uz) * fx) * (1 - fy) +
+           (t(lx, uy, uz) * (1 - fx) + t(ux, uy, uz) * fx) * fy) * fz) *
+         kTsdfInvScale;
+}
+
+KFX_HD inline float lerp(float a, float b, float f) { return a * (1 - f) + b * f; }
+
+/// Unnormalised tsdf gradient at a point: trilinear central differences of ±1 voxel, summed in
+/// SLAMBench's order for each axis.
+KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
+  const float sx = p_m.x * vol.res / vol.size_m - 0.5f, sy = p_m.y * vol.res / vol.size_m - 0.5f,
+              sz = p_m.z * vol.res / vol.size_m - 0.5f;
+  const int bx = static_cast<int>(floorf(sx)), by = static_cast<int>(floorf(sy)),
+            bz = static_cast<int>(floorf(sz));
+  const float fx = sx - floorf(sx), fy = sy - floorf(sy), fz = sz - floorf(sz);
+  const int last = vol.res - 1;
+  // Per axis: ll = base−1, lu = base (the trilinear "lower"), ul = base+1 ("upper"), uu = base+2.
+  const int llx = maxi(bx - 1, 0), lux = maxi(bx, 0), ulx = mini(bx + 1, last), uux = mini(bx + 2, last);
+  const int lly = maxi(by - 1, 0), luy = maxi(by, 0), uly = mini(by + 1, last), uuy = mini(by + 2, last);
+  const int llz = maxi(bz - 1, 0), luz = maxi(bz, 0), ulz = mini(bz + 1, last), uuz = mini(bz + 2, last);
+  auto t = [&](int x, int y, int z) { return static_cast<float>(vol.at(x, y, z).tsdf); };
+  // Central differences at the lower (lo) and upper (hi) trilinear corner along each axis.
+  auto dx_lo = [&](int y, int z) { return t(ulx, y, z) - t(llx, y, z); };
+  auto dx_hi = [&](int y, int z) { return t(uux, y, z) - t(lux, y, z); };
+  auto dy_lo = [&](int x, int z) { return t(x, uly, z) - t(x, lly, z); };
+  auto dy_hi = [&](int x, int z) { return t(x, uuy, z) - t(x, luy, z); };
+  auto dz_lo = [&](int x, int y) { return t(x, y, ulz) - t(x, y, llz); };
+  auto dz_hi = [&](int x, int y) { return t(x, y, uuz) - t(x, y, luz); };
+  Vec3f g;
+  g.x = lerp(lerp(lerp(dx_lo(luy, luz), dx_hi(luy, luz), fx),
+                  lerp(dx_lo(uly, luz), dx_hi(uly, luz), fx), fy),
+             lerp(lerp(dx_lo(luy, ulz), dx_hi(luy, ulz), fx),
+                  lerp(dx_lo(uly, ulz), dx_hi(uly, ulz), fx), fy), fz);
+  g.y = lerp(lerp(lerp(dy_lo(lux, luz), dy_lo(ulx, luz), fx),
+                  lerp(dy_hi(lux, luz), dy_hi(ulx, luz), fx), fy),
+             lerp(lerp(dy_lo(lux, ulz), dy_lo(ulx, ulz), fx),
+                  lerp(dy_hi(lux, ulz), dy_hi(ulx, ulz), fx), fy), fz);
+  g.z = lerp(lerp(lerp(dz_lo(lux, luy), dz_lo(ulx, luy), fx),
+                  lerp(dz_lo(lux, uly), dz_lo(ulx, uly), fx), fy),
+             lerp(lerp(dz_hi(lux, luy), dz_hi(ulx, luy), fx),
+                  lerp(dz_hi(lux, uly), dz_hi(ulx, uly), fx), fy), fz);
+  return g;
+}
+
+/// Arguments of raycast_pixel.
+struct RaycastArgs {
+  VolumeView volume;
+  ImageView<Vec3f> vertex;      ///< hit points (volume frame); 0 on a miss
+  ImageView<Vec3f> normal;      ///< unit normals; x = kInvalidNormal on a miss
+  const TrackingState* state;   ///< raycast_view = T_world_raycast · K⁻¹
+  float near_m = 0.4f;
+  float far_m = 4.0f;
+  float step_m = 0.0f;          ///< one voxel
+  float large_step_m = 0.075f;  ///< 0.75 · mu
+};
+
+/// Marches one ray; returns t of the hit (> 0) or 0 on a miss, and the hit point.
+KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Vec3f& hit) {
+  const float size = a.volume.size_m;
+  // Slab intersection with the volume cube [0, size]³.
+  const Vec3f inv_dir{1.0f / direction.x, 1.0f / direction.y, 1.0f / direction.z};
+  const Vec3f t_bottom = (-1.0f * inv_dir) * origin;
+  const Vec3f t_top = inv_dir * (Vec3f{size, size, size} - origin);
+  const Vec3f t_min{fminf(t_top.x, t_bottom.x), fminf(t_top.y, t_bottom.y),
+                    fminf(t_top.z, t_bottom.z)};
+  const Vec3f t_max{fmaxf(t_top.x, t_bottom.x), fmaxf(t_top.y, t_bottom.y),
+                    fmaxf(t_top.z, t_bottom.z)};
+  const float largest_t_min = fmaxf(fmaxf(t_min.x, t_min.y), fmaxf(t_min.x, t_min.z));
+  const float smallest_t_max = fminf(fminf(t_max.x, t_max.y), fminf(t_max.x, t_max.z));
+  const float t_near = fmaxf(largest_t_min, a.near_m);
+  const float t_far = fminf(smallest_t_max, a.far_m);
+  if (!(t_near < t_far)) return 0.0f;
+  float t = t_near;
+  float step = a.large_step_m;
+  float f_t = volume_interp(a.volume, origin + direction * t);
+  if (!(f_t > 0.0f)) return 0.0f;
+  float f_tt = 0.0f;
+  for (; t < t_far; t += step) {
+    f_tt = volume_interp(a.volume, origin + direction * t);
+    if (f_tt < 0.0f) break;
+    if (f_tt < 0.8f) step = a.step_m;
+    f_t = f_tt;
+  }
+  if (!(f_tt < 0.0f)) return 0.0f;
+  t = t + step * f_tt / (f_t - f_tt);  // secant refinement
+  hit = origin + direction * t;
+  return t;
+}
+
+/// One raycast pixel: vertex and normal of the first zero crossing, or a miss.
+KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgs& a) {
+  const Mat4f& view = a.state->raycast_view;
+  const Vec3f origin = view.translation_part();
+  const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
+  Vec3f hit{0.0f, 0.0f, 0.0f};
+  if (raycast_ray(a, origin, direction, hit) > 0.0f) {
+    a.vertex(x, y) = hit;
+    const Vec3f g = volume_gradient(a.volume, hit);
+    const float len = length(g);
+    a.normal(x, y) = len == 0.0f ? Vec3f{kInvalidNormal, 0.0f, 0.0f} : normalize(g);
+  } else {
+    a.vertex(x, y) = Vec3f{0.0f, 0.0f, 0.0f};
+    a.normal(x, y) = Vec3f{kInvalidNormal, 0.0f, 0.0f};
+  }
+}
+
+}  // namespace kfx

@@ -1,0 +1,112 @@
+#pragma once
+/// ICP tracking kernels (Newcombe et al. 2011, point-to-plane, projective association): the
+/// per-pixel residual and Jacobian row, and its contribution to the packed accumulator.
+
+#include "core/image.hpp"
+#include "core/math.hpp"
+#include "kernels/preprocess.hpp"
+#include "kernels/tracking_state.hpp"
+
+namespace kfx {
+
+/// Outcome codes of one pixel (REFERENCE.md step 3).
+enum TrackOutcome : int {
+  kTrackInlier = 1,
+  kTrackNoInputNormal = -1,
+  kTrackOutsideReference = -2,
+  kTrackNoReferenceNormal = -3,
+  kTrackTooFar = -4,
+  kTrackNormalMismatch = -5,
+};
+
+/// One pixel's ICP row: outcome, point-to-plane error e (metres) and Jacobian J.
+struct TrackRow {
+  int outcome;
+  float error_m;
+  float jacobian[6];
+};
+
+/// Arguments of track_pixel.
+struct TrackArgs {
+  ImageView<const Vec3f> in_vertex;   ///< this level's vertices (camera frame)
+  ImageView<const Vec3f> in_normal;   ///< this level's normals (camera frame)
+  ImageView<const Vec3f> ref_vertex;  ///< raycast vertices (volume frame), compute size
+  ImageView<const Vec3f> ref_normal;  ///< raycast normals (volume frame), compute size
+  const TrackingState* state;         ///< T_world_cam and project_reference
+  float dist_threshold_m = 0.1f;      ///< |ref_v − p| above this → −4
+  float normal_threshold = 0.8f;      ///< dot(R·n, ref_n) below this → −5
+};
+
+/// Projective data association and point-to-plane residual of one pixel.
+KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
+  TrackRow row{};
+  const Vec3f n = a.in_normal(x, y);
+  if (n.x == kInvalidNormal) {
+    row.outcome = kTrackNoInputNormal;
+    return row;
+  }
+  const Mat4f& pose = a.state->T_world_cam;
+  const Vec3f p_world = pose * a.in_vertex(x, y);
+  const Vec3f p_ref = a.state->project_reference * p_world;
+  const float u = p_ref.x / p_ref.z + 0.5f;
+  const float v = p_ref.y / p_ref.z + 0.5f;
+  // NOTE: the comparisons are false for NaN (p_ref.z = 0), which SLAMBench then truncates;
+  // we reject those explicitly to stay in bounds.
+  if (!(u >= 0.0f && u <= a.ref_vertex.width - 1 && v >= 0.0f && v <= a.ref_vertex.height - 1)) {
+    row.outcome = kTrackOutsideReference;
+    return row;
+  }
+  const int ref_x = static_cast<int>(u), ref_y = static_cast<int>(v);
+  const Vec3f ref_n = a.ref_normal(ref_x, ref_y);
+  if (ref_n.x == kInvalidNormal) {
+    row.outcome = kTrackNoReferenceNormal;
+    return row;
+  }
+  const Vec3f diff = a.ref_vertex(ref_x, ref_y) - p_world;
+  const Vec3f n_world = rotate(pose, n);
+  if (length(diff) > a.dist_threshold_m) {
+    row.outcome = kTrackTooFar;
+    return row;
+  }
+  if (dot(n_world, ref_n) < a.normal_threshold) {
+    row.outcome = kTrackNormalMismatch;
+    return row;
+  }
+  row.outcome = kTrackInlier;
+  row.error_m = dot(ref_n, diff);
+  const Vec3f rot = cross(p_world, ref_n);
+  row.jacobian[0] = ref_n.x;
+  row.jacobian[1] = ref_n.y;
+  row.jacobian[2] = ref_n.z;
+  row.jacobian[3] = rot.x;
+  row.jacobian[4] = rot.y;
+  row.jacobian[5] = rot.z;
+  return row;
+}
+
+/// Adds one row to a packed accumulator (kAccumulatorSize doubles), scaled by `weight`
+/// (1 for exact; >1 when pixels are perforated and one stands for a block).
+KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weight = 1.0) {
+  if (row.outcome < 1) {
+    if (row.outcome == kTrackTooFar) {
+      acc[kAccTooFar] += weight;
+    } else if (row.outcome == kTrackNormalMismatch) {
+      acc[kAccBadNormal] += weight;
+    } else {
+      acc[kAccOtherFail] += weight;
+    }
+    return;
+  }
+  const double e = row.error_m;
+  double j[6];
+  for (int i = 0; i < 6; ++i) j[i] = row.jacobian[i];
+  acc[kAccErrorSq] += weight * e * e;
+  for (int i = 0; i < 6; ++i) acc[kAccJtE + i] += weight * e * j[i];
+  int k = kAccJtJ;
+  for (int r = 0; r < 6; ++r) {
+    for (int c = r; c < 6; ++c) acc[k++] += weight * j[r] * j[c];
+  }
+  acc[kAccInliers] += weight;
+}
+
+}  // namespace kfx

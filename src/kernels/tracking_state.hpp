@@ -1,0 +1,39 @@
+#pragma once
+/// The per-pipeline state that kernels read and write: the pose, the reference (raycast) view
+/// and the decisions of the current frame. It lives in device memory on the GPU, so the host
+/// never has to read it inside a frame; later kernels read its flags and early-out.
+
+#include "core/math.hpp"
+
+namespace kfx {
+
+/// Layout of the packed ICP accumulator (REFERENCE.md: Σe², Σe·J, JᵀJ upper triangle, counts).
+enum AccumulatorIndex : int {
+  kAccErrorSq = 0,      ///< Σ e²
+  kAccJtE = 1,          ///< Σ e·J, 6 values
+  kAccJtJ = 7,          ///< upper triangle of JᵀJ, row-major, 21 values
+  kAccInliers = 28,     ///< inlier count
+  kAccTooFar = 29,      ///< outcome −4 count
+  kAccBadNormal = 30,   ///< outcome −5 count
+  kAccOtherFail = 31,   ///< outcomes −1, −2, −3 count
+  kAccumulatorSize = 32,
+};
+
+/// Pose and per-frame decisions shared by all kernels of one pipeline.
+struct TrackingState {
+  Mat4f T_world_cam;         ///< current camera pose estimate (camera → volume frame)
+  Mat4f T_world_cam_before;  ///< pose before this frame's ICP, restored on reject
+  Mat4f T_cam_world;         ///< inverse of T_world_cam, set before integration
+  Mat4f T_world_raycast;     ///< pose of the last raycast (the ICP reference view)
+  Mat4f raycast_view;        ///< T_world_raycast · K⁻¹ at compute size (ray directions)
+  Mat4f project_reference;   ///< K · T_world_raycast⁻¹ at compute size (projection into it)
+  double accumulator[kAccumulatorSize];  ///< reduction of the last ICP iteration run
+  double last_step_norm;     ///< |x| of the last ICP update
+  float max_depth_m;         ///< largest depth of the current frame (bounds integration)
+  int level_converged;       ///< 1 once |x| < icp_threshold at the current level
+  int tracked;               ///< outcome of this frame's accept test
+  int integrate_now;         ///< 1 when this frame is integrated
+  int iterations_run;        ///< ICP iterations actually run this frame (all levels)
+};
+
+}  // namespace kfx

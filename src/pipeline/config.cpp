@@ -1,0 +1,327 @@
+/// The configuration table, validation, dump and presets.
+
+#include "pipeline/config.hpp"
+
+#include <cmath>
+#include <cstdlib>
+#include <sstream>
+
+#include "core/platform.hpp"
+
+namespace kfx {
+namespace {
+
+std::vector<std::string> split_commas(const std::string& text) {
+  std::vector<std::string> parts;
+  std::stringstream stream(text);
+  std::string part;
+  while (std::getline(stream, part, ',')) parts.push_back(part);
+  if (!text.empty() && text.back() == ',') parts.push_back("");
+  return parts;
+}
+
+double parse_number(const std::string& key, const std::string& text) {
+  const char* begin = text.c_str();
+  char* end = nullptr;
+  const double value = std::strtod(begin, &end);
+  KFX_CHECK(end != begin && *end == '\0' && std::isfinite(value),
+            "setting '" << key << "': '" << text << "' is not a number");
+  return value;
+}
+
+int parse_integer(const std::string& key, const std::string& text) {
+  const double value = parse_number(key, text);
+  KFX_CHECK(value == std::floor(value) && std::fabs(value) < 1e9,
+            "setting '" << key << "': '" << text << "' is not an integer");
+  return static_cast<int>(value);
+}
+
+bool parse_bool(const std::string& key, const std::string& text) {
+  if (text == "1" || text == "true" || text == "on" || text == "yes") return true;
+  if (text == "0" || text == "false" || text == "off" || text == "no") return false;
+  KFX_FAIL("setting '" << key << "': '" << text << "' is not a boolean (use on/off)");
+}
+
+/// n comma-separated floats; a single value is repeated when `allow_single`.
+template <size_t N>
+std::array<float, N> parse_floats(const std::string& key, const std::string& text,
+                                  bool allow_single) {
+  const auto parts = split_commas(text);
+  std::array<float, N> out{};
+  if (allow_single && parts.size() == 1) {
+    out.fill(static_cast<float>(parse_number(key, parts[0])));
+    return out;
+  }
+  KFX_CHECK(parts.size() == N, "setting '" << key << "': expected " << N
+                                           << " comma-separated numbers, got '" << text << "'");
+  for (size_t i = 0; i < N; ++i) out[i] = static_cast<float>(parse_number(key, parts[i]));
+  return out;
+}
+
+std::string format_number(double v) {
+  std::ostringstream s;
+  s.precision(9);
+  s << v;
+  return s.str();
+}
+
+template <class Container>
+std::string format_list(const Container& values) {
+  std::string out;
+  for (const auto& v : values) out += (out.empty() ? "" : ",") + format_number(v);
+  return out;
+}
+
+using C = PipelineConfig;
+
+// Helpers that build a table row from a member accessor.
+template <class Get>
+ConfigField number_field(std::string key, std::string section, std::string short_opt,
+                         std::string long_opt, std::string help, Get get, bool integer) {
+  ConfigField f;
+  f.key = key;
+  f.section = std::move(section);
+  f.slambench_short = std::move(short_opt);
+  f.slambench_long = std::move(long_opt);
+  f.help = std::move(help);
+  f.parse = [key, get, integer](C& c, const std::string& text) {
+    auto& field = get(c);
+    using T = std::remove_reference_t<decltype(field)>;
+    if (integer) {
+      field = static_cast<T>(parse_integer(key, text));
+    } else {
+      field = static_cast<T>(parse_number(key, text));
+    }
+  };
+  f.format = [get](const C& c) { return format_number(get(const_cast<C&>(c))); };
+  return f;
+}
+
+std::vector<ConfigField> build_fields() {
+  std::vector<ConfigField> t;
+  auto num = [&](std::string key, std::string section, std::string s, std::string l,
+                 std::string help, auto get) {
+    t.push_back(number_field(key, section, s, l, help, get, false));
+  };
+  auto integer = [&](std::string key, std::string section, std::string s, std::string l,
+                     std::string help, auto get) {
+    t.push_back(number_field(key, section, s, l, help, get, true));
+  };
+  // Input.
+  integer("compute_size_ratio", "input", "c", "compute-size-ratio",
+          "compute size = input size / ratio (1, 2, 4 or 8)",
+          [](C& c) -> int& { return c.input.compute_size_ratio; });
+  {
+    ConfigField f;
+    f.key = "camera";
+    f.section = "input";
+    f.slambench_short = "k";
+    f.slambench_long = "camera";
+    f.help = "intrinsics fx,fy,cx,cy in pixels at input size (default: the format's)";
+    f.parse = [](C& c, const std::string& text) {
+      c.input.camera_px = parse_floats<4>("camera", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.input.camera_px); };
+    t.push_back(f);
+  }
+  num("depth_scale", "input", "", "", "PNG depth units per metre (0 = the format's: 5000)",
+      [](C& c) -> double& { return c.input.depth_scale_per_m; });
+  // Volume.
+  {
+    ConfigField f;
+    f.key = "volume_resolution";
+    f.section = "volume";
+    f.slambench_short = "v";
+    f.slambench_long = "volume-resolution";
+    f.help = "voxels per side (8..1024; SLAMBench's x,y,z form must be a cube)";
+    f.parse = [](C& c, const std::string& text) {
+      const auto v = parse_floats<3>("volume_resolution", text, true);
+      KFX_CHECK(v[0] == v[1] && v[1] == v[2],
+                "setting 'volume_resolution': only cubic volumes are supported, got " << text);
+      c.volume.resolution_vox = parse_integer("volume_resolution", format_number(v[0]));
+    };
+    f.format = [](const C& c) { return std::to_string(c.volume.resolution_vox); };
+    t.push_back(f);
+  }
+  {
+    ConfigField f;
+    f.key = "volume_size_m";
+    f.section = "volume";
+    f.slambench_short = "s";
+    f.slambench_long = "volume-size";
+    f.help = "volume cube side in metres (SLAMBench's x,y,z form must be a cube)";
+    f.parse = [](C& c, const std::string& text) {
+      const auto v = parse_floats<3>("volume_size_m", text, true);
+      KFX_CHECK(v[0] == v[1] && v[1] == v[2],
+                "setting 'volume_size_m': only cubic volumes are supported, got " << text);
+      c.volume.size_m = v[0];
+    };
+    f.format = [](const C& c) { return format_number(c.volume.size_m); };
+    t.push_back(f);
+  }
+  {
+    ConfigField f;
+    f.key = "init_pose_factor";
+    f.section = "volume";
+    f.slambench_short = "p";
+    f.slambench_long = "init-pose";
+    f.help = "first camera position as fractions x,y,z of the volume size";
+    f.parse = [](C& c, const std::string& text) {
+      c.volume.init_pose_factor = parse_floats<3>("init_pose_factor", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.volume.init_pose_factor); };
+    t.push_back(f);
+  }
+  num("mu_m", "volume", "m", "mu", "TSDF truncation distance in metres",
+      [](C& c) -> float& { return c.volume.mu_m; });
+  integer("max_weight", "volume", "", "", "voxel weight cap (1..32767)",
+          [](C& c) -> int& { return c.volume.max_weight; });
+  // Preprocess.
+  integer("bilateral_radius_px", "preprocess", "", "", "bilateral window radius (0..4)",
+          [](C& c) -> int& { return c.preprocess.bilateral_radius_px; });
+  num("bilateral_spatial_sigma_px", "preprocess", "", "", "bilateral spatial sigma, pixels",
+      [](C& c) -> float& { return c.preprocess.bilateral_spatial_sigma_px; });
+  num("bilateral_range_sigma_m", "preprocess", "", "", "bilateral range sigma, metres",
+      [](C& c) -> float& { return c.preprocess.bilateral_range_sigma_m; });
+  // Tracking.
+  integer("tracking_rate", "tracking", "t", "tracking-rate", "track every N-th frame (>= 1)",
+          [](C& c) -> int& { return c.tracking.rate; });
+  {
+    ConfigField f;
+    f.key = "pyramid_iterations";
+    f.section = "tracking";
+    f.slambench_short = "y";
+    f.slambench_long = "pyramid-levels";
+    f.help = "ICP iteration caps per level, finest first; the count is the number of levels (1..4)";
+    f.parse = [](C& c, const std::string& text) {
+      std::vector<int> levels;
+      for (const auto& part : split_commas(text)) {
+        levels.push_back(parse_integer("pyramid_iterations", part));
+      }
+      c.tracking.iterations_per_level = levels;
+    };
+    f.format = [](const C& c) { return format_list(c.tracking.iterations_per_level); };
+    t.push_back(f);
+  }
+  num("icp_threshold", "tracking", "l", "icp-threshold", "stop a level when |update| < this",
+      [](C& c) -> float& { return c.tracking.icp_threshold; });
+  num("dist_threshold_m", "tracking", "", "", "ICP association distance gate, metres",
+      [](C& c) -> float& { return c.tracking.dist_threshold_m; });
+  num("normal_threshold", "tracking", "", "", "ICP association normal gate (cosine)",
+      [](C& c) -> float& { return c.tracking.normal_threshold; });
+  num("max_rms_error_m", "tracking", "", "", "accept test: largest residual RMS, metres",
+      [](C& c) -> float& { return c.tracking.max_rms_error_m; });
+  num("min_inlier_fraction", "tracking", "", "", "accept test: smallest inliers / pixels",
+      [](C& c) -> float& { return c.tracking.min_inlier_fraction; });
+  num("half_sample_range_m", "tracking", "", "", "pyramid half-sample range, metres",
+      [](C& c) -> float& { return c.tracking.half_sample_range_m; });
+  // Integration, raycast, render.
+  integer("integration_rate", "integration", "r", "integration-rate",
+          "integrate every N-th tracked frame (>= 1)",
+          [](C& c) -> int& { return c.integration.rate; });
+  num("near_m", "raycast", "", "", "raycast near plane, metres",
+      [](C& c) -> float& { return c.raycast.near_m; });
+  num("far_m", "raycast", "", "", "raycast far plane, metres",
+      [](C& c) -> float& { return c.raycast.far_m; });
+  num("large_step_mu", "raycast", "", "", "raycast large step in units of mu",
+      [](C& c) -> float& { return c.raycast.large_step_mu; });
+  integer("render_rate", "render", "z", "rendering-rate", "render every N-th frame (>= 1)",
+          [](C& c) -> int& { return c.render.rate; });
+  (void)parse_bool;
+  return t;
+}
+
+}  // namespace
+
+const std::vector<ConfigField>& config_fields() {
+  static const std::vector<ConfigField> fields = build_fields();
+  return fields;
+}
+
+void set_config_value(PipelineConfig& config, const std::string& key, const std::string& value) {
+  for (const auto& field : config_fields()) {
+    if (field.key == key) {
+      field.parse(config, value);
+      return;
+    }
+  }
+  std::string known;
+  for (const auto& field : config_fields()) known += (known.empty() ? "" : ", ") + field.key;
+  KFX_FAIL("unknown setting '" << key << "'; known settings: " << known);
+}
+
+void set_config_assignment(PipelineConfig& config, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  KFX_CHECK(eq != std::string::npos && eq > 0,
+            "'" << assignment << "' is not of the form key=value");
+  set_config_value(config, assignment.substr(0, eq), assignment.substr(eq + 1));
+}
+
+void PipelineConfig::validate() const {
+  const int r = input.compute_size_ratio;
+  KFX_CHECK(r == 1 || r == 2 || r == 4 || r == 8,
+            "compute_size_ratio must be 1, 2, 4 or 8, got " << r);
+  const auto& k = input.camera_px;
+  const bool camera_default = k[0] == 0 && k[1] == 0 && k[2] == 0 && k[3] == 0;
+  KFX_CHECK(camera_default || (k[0] != 0 && k[1] != 0),
+            "camera: fx and fy must be non-zero, got " << k[0] << "," << k[1]);
+  KFX_CHECK(input.depth_scale_per_m >= 0, "depth_scale must be >= 0 (0 = format default)");
+  KFX_CHECK(volume.resolution_vox >= 8 && volume.resolution_vox <= 1024,
+            "volume_resolution must be in 8..1024 voxels, got " << volume.resolution_vox);
+  KFX_CHECK(volume.size_m > 0, "volume_size_m must be > 0, got " << volume.size_m);
+  for (float f : volume.init_pose_factor) {
+    KFX_CHECK(f >= 0 && f <= 1, "init_pose_factor components must be in [0, 1], got " << f);
+  }
+  KFX_CHECK(volume.mu_m > 0, "mu_m must be > 0, got " << volume.mu_m);
+  KFX_CHECK(volume.max_weight >= 1 && volume.max_weight <= 32767,
+            "max_weight must be in 1..32767, got " << volume.max_weight);
+  KFX_CHECK(preprocess.bilateral_radius_px >= 0 && preprocess.bilateral_radius_px <= 4,
+            "bilateral_radius_px must be in 0..4, got " << preprocess.bilateral_radius_px);
+  KFX_CHECK(preprocess.bilateral_spatial_sigma_px > 0, "bilateral_spatial_sigma_px must be > 0");
+  KFX_CHECK(preprocess.bilateral_range_sigma_m > 0, "bilateral_range_sigma_m must be > 0");
+  KFX_CHECK(tracking.rate >= 1, "tracking_rate must be >= 1, got " << tracking.rate);
+  const auto& levels = tracking.iterations_per_level;
+  KFX_CHECK(!levels.empty() && levels.size() <= 4,
+            "pyramid_iterations must list 1 to 4 levels, got " << levels.size());
+  for (int it : levels) {
+    KFX_CHECK(it >= 0 && it <= 1000, "pyramid_iterations entries must be in 0..1000, got " << it);
+  }
+  KFX_CHECK(tracking.icp_threshold >= 0, "icp_threshold must be >= 0");
+  KFX_CHECK(tracking.dist_threshold_m > 0, "dist_threshold_m must be > 0");
+  KFX_CHECK(tracking.normal_threshold >= -1 && tracking.normal_threshold <= 1,
+            "normal_threshold must be in [-1, 1]");
+  KFX_CHECK(tracking.max_rms_error_m > 0, "max_rms_error_m must be > 0");
+  KFX_CHECK(tracking.min_inlier_fraction >= 0 && tracking.min_inlier_fraction <= 1,
+            "min_inlier_fraction must be in [0, 1]");
+  KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
+  KFX_CHECK(integration.rate >= 1, "integration_rate must be >= 1, got " << integration.rate);
+  KFX_CHECK(raycast.near_m > 0 && raycast.far_m > raycast.near_m,
+            "raycast planes must satisfy 0 < near_m < far_m, got " << raycast.near_m << ", "
+                                                                    << raycast.far_m);
+  KFX_CHECK(raycast.large_step_mu > 0, "large_step_mu must be > 0");
+  KFX_CHECK(render.rate >= 1, "render_rate must be >= 1, got " << render.rate);
+}
+
+std::string PipelineConfig::dump() const {
+  std::ostringstream out;
+  std::string section;
+  for (const auto& field : config_fields()) {
+    if (field.section != section) {
+      section = field.section;
+      out << "[" << section << "]\n";
+    }
+    out << field.key << " = " << field.format(*this) << "\n";
+  }
+  return out.str();
+}
+
+std::vector<std::string> preset_names() { return {"exact"}; }
+
+PipelineConfig make_preset(const std::string& name) {
+  if (name == "exact") return PipelineConfig{};
+  std::string known;
+  for (const auto& n : preset_names()) known += (known.empty() ? "" : ", ") + n;
+  KFX_FAIL("unknown preset '" << name << "'; presets: " << known);
+}
+
+}  // namespace kfx

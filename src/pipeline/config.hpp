@@ -1,0 +1,88 @@
+#pragma once
+/// The one configuration object of a pipeline: every setting and approximation knob, with its
+/// unit in its name and its default beside it. Command-line flags, `--set key=value`, presets and
+/// the dump all go through ONE table (config_fields()), so names, help and defaults cannot drift.
+
+#include <array>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "core/camera.hpp"
+
+namespace kfx {
+
+/// All pipeline settings. Defaults are SLAMBench KFusion's (the `exact` preset).
+struct PipelineConfig {
+  struct Input {
+    int compute_size_ratio = 2;          ///< compute size = input size / this (1, 2, 4, 8)
+    std::array<float, 4> camera_px{};    ///< fx, fy, cx, cy at input size; all 0 = format default
+    double depth_scale_per_m = 0.0;      ///< PNG units per metre; 0 = format default
+  } input;
+  struct Volume {
+    int resolution_vox = 256;                        ///< voxels per side
+    float size_m = 2.0f;                             ///< cube side, metres
+    std::array<float, 3> init_pose_factor{0.5f, 0.5f, 0.0f};  ///< first camera at factor·size
+    float mu_m = 0.1f;                               ///< TSDF truncation distance
+    int max_weight = 100;                            ///< voxel weight cap
+  } volume;
+  struct Preprocess {
+    int bilateral_radius_px = 2;             ///< window (2r+1)²
+    float bilateral_spatial_sigma_px = 4.0f; ///< Gaussian σ of the spatial weight
+    float bilateral_range_sigma_m = 0.1f;    ///< σ of the range weight
+  } preprocess;
+  struct Tracking {
+    int rate = 1;                                    ///< track frames f with f % rate == 0
+    std::vector<int> iterations_per_level{10, 5, 4}; ///< ICP caps, finest level first
+    float icp_threshold = 1e-5f;                     ///< stop a level when |x| is below this
+    float dist_threshold_m = 0.1f;                   ///< association distance gate
+    float normal_threshold = 0.8f;                   ///< association normal-dot gate
+    float max_rms_error_m = 0.02f;                   ///< accept test: residual RMS limit
+    float min_inlier_fraction = 0.15f;               ///< accept test: inliers / pixels
+    float half_sample_range_m = 0.3f;                ///< pyramid: robust half-sample range
+  } tracking;
+  struct Integration {
+    int rate = 2;  ///< integrate tracked frames f with f % rate == 0 (and frames 0–3)
+  } integration;
+  struct Raycast {
+    float near_m = 0.4f;          ///< near plane
+    float far_m = 4.0f;           ///< far plane
+    float large_step_mu = 0.75f;  ///< large march step, in units of mu
+  } raycast;
+  struct Render {
+    int rate = 4;  ///< render the volume every N frames when rendering is on
+  } render;
+
+  /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.
+  void validate() const;
+  /// `key = value` lines for every setting, grouped by section.
+  std::string dump() const;
+};
+
+/// One configurable setting.
+struct ConfigField {
+  std::string key;            ///< name for --set key=value and the dump
+  std::string section;        ///< which sub-struct it lives in
+  std::string slambench_short;  ///< SLAMBench's short option letter, or ""
+  std::string slambench_long;   ///< SLAMBench's long option name, or ""
+  std::string help;           ///< one line: effect, unit, range
+  std::function<void(PipelineConfig&, const std::string&)> parse;  ///< throws on bad text
+  std::function<std::string(const PipelineConfig&)> format;
+};
+
+/// The table of every setting.
+const std::vector<ConfigField>& config_fields();
+
+/// Sets `key` from text; throws kfx::Error on an unknown key (listing close ones) or bad value.
+void set_config_value(PipelineConfig& config, const std::string& key, const std::string& value);
+
+/// Applies "key=value"; throws when there is no '='.
+void set_config_assignment(PipelineConfig& config, const std::string& assignment);
+
+/// Names of the presets.
+std::vector<std::string> preset_names();
+
+/// A preset's configuration; throws on an unknown name.
+PipelineConfig make_preset(const std::string& name);
+
+}  // namespace kfx

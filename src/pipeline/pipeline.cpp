@@ -1,0 +1,144 @@
+/// The frame loop and the derivation of stage parameters from the configuration.
+
+#include "pipeline/pipeline.hpp"
+
+#include <cmath>
+
+namespace kfx {
+
+Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics,
+                   int input_width_px, int input_height_px, BackendKind backend_kind)
+    : config_(config) {
+  config_.validate();
+  const int ratio = config_.input.compute_size_ratio;
+  const int levels = static_cast<int>(config_.tracking.iterations_per_level.size());
+  KFX_CHECK(input_width_px % ratio == 0 && input_height_px % ratio == 0,
+            "input size " << input_width_px << "x" << input_height_px
+                          << " is not divisible by compute_size_ratio " << ratio);
+  const int cw = input_width_px / ratio, ch = input_height_px / ratio;
+  KFX_CHECK((cw >> (levels - 1)) >= 8 && (ch >> (levels - 1)) >= 8,
+            "compute size " << cw << "x" << ch << " is too small for " << levels
+                            << " pyramid levels");
+  setup_.input_width_px = input_width_px;
+  setup_.input_height_px = input_height_px;
+  setup_.compute_ratio = ratio;
+  setup_.pyramid_levels = levels;
+  setup_.volume_res_vox = config_.volume.resolution_vox;
+  setup_.volume_size_m = config_.volume.size_m;
+
+  compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
+  const auto& f = config_.volume.init_pose_factor;
+  const float size = config_.volume.size_m;
+  initial_pose_ = Mat4f::translation(Vec3f{f[0] * size, f[1] * size, f[2] * size});
+
+  // Bilateral: g[k] = exp(−(k−r)²/(2σ²)) and the range denominator 2σ_r², as SLAMBench.
+  const auto& pre = config_.preprocess;
+  preprocess_.bilateral_radius_px = pre.bilateral_radius_px;
+  for (int i = 0; i <= 2 * pre.bilateral_radius_px; ++i) {
+    const int x = i - pre.bilateral_radius_px;
+    const float sigma = pre.bilateral_spatial_sigma_px;
+    preprocess_.spatial_weight[i] = expf(-(x * x) / (2 * sigma * sigma));
+  }
+  preprocess_.range_denominator_m2 =
+      2 * pre.bilateral_range_sigma_m * pre.bilateral_range_sigma_m;
+  preprocess_.use_range_term = true;
+
+  pyramid_.half_sample_range_m = config_.tracking.half_sample_range_m;
+  for (int l = 0; l < levels; ++l) {
+    pyramid_.level_intrinsics[l] = compute_k_.scaled_down(static_cast<float>(1 << l));
+  }
+  icp_.dist_threshold_m = config_.tracking.dist_threshold_m;
+  icp_.normal_threshold = config_.tracking.normal_threshold;
+  icp_.icp_threshold = config_.tracking.icp_threshold;
+  accept_.max_rms_error_m = config_.tracking.max_rms_error_m;
+  accept_.min_inlier_fraction = config_.tracking.min_inlier_fraction;
+  accept_.compute_pixels = cw * ch;
+  integrate_.k = compute_k_;
+  integrate_.mu_m = config_.volume.mu_m;
+  integrate_.max_weight = config_.volume.max_weight;
+  raycast_.k = compute_k_;
+  raycast_.near_m = config_.raycast.near_m;
+  raycast_.far_m = config_.raycast.far_m;
+  raycast_.step_m = size / static_cast<float>(config_.volume.resolution_vox);
+  raycast_.large_step_m = config_.raycast.large_step_mu * config_.volume.mu_m;
+
+  backend_ = make_backend(backend_kind, setup_);
+  backend_->reset(initial_pose_);
+}
+
+FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm) {
+  submit(depth_mm);
+  return collect();
+}
+
+void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
+  const int f = frame_;
+  FrameReport report;
+  report.index = f;
+  Backend& b = *backend_;
+  b.upload_depth(depth_mm);
+  const bool track = f > 3 && f % config_.tracking.rate == 0;
+  const bool always = f <= 3;
+  const bool may_integrate = always || f % config_.integration.rate == 0;
+  report.raycast = f > 2;
+  // Which stages run depends on the frame number only: the shape names the sequence.
+  const int shape = (track ? 1 : 0) | (may_integrate ? 2 : 0) | (always ? 4 : 0) |
+                    (report.raycast ? 8 : 0);
+  b.begin_frame(shape);
+
+  b.begin_stage(Stage::kPreprocess);
+  b.preprocess(preprocess_);
+  b.end_stage(Stage::kPreprocess);
+
+  // The reference view exists only after the first raycast (end of frame 3).
+  b.begin_stage(Stage::kTrack);
+  if (track) {
+    b.build_pyramid(pyramid_);
+    b.begin_tracking();
+    const auto& iterations = config_.tracking.iterations_per_level;
+    for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
+      b.begin_level();
+      for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, icp_);
+    }
+    b.accept_or_revert(accept_);
+  } else {
+    b.skip_tracking();
+  }
+  b.end_stage(Stage::kTrack);
+
+  // Integrate tracked frames on the integration rate, and always the first four.
+  b.begin_stage(Stage::kIntegrate);
+  if (may_integrate) b.integrate(integrate_, always);
+  b.end_stage(Stage::kIntegrate);
+
+  b.begin_stage(Stage::kRaycast);
+  if (report.raycast) b.raycast(raycast_);
+  b.end_stage(Stage::kRaycast);
+  b.end_frame();
+  // What the host knows now; collect() completes it from the backend's state.
+  in_flight_.push_back(PendingFrame{report, track, may_integrate, always});
+  ++frame_;
+}
+
+FrameReport Pipeline::collect() {
+  KFX_CHECK(!in_flight_.empty(), "Pipeline::collect() without a submitted frame");
+  const PendingFrame pending = in_flight_.front();
+  in_flight_.pop_front();
+  FrameReport report = pending.report;
+  const bool track = pending.track, may_integrate = pending.may_integrate;
+  const bool always = pending.always;
+  const TrackingState state = backend_->read_state();
+  report.stage_ms = backend_->frame_stage_ms();
+  report.tracked = track && state.tracked;
+  report.integrated = may_integrate && (always || state.tracked);
+  report.T_world_cam = state.T_world_cam;
+  report.icp_iterations = track ? state.iterations_run : 0;
+  report.inlier_fraction =
+      track ? state.accumulator[kAccInliers] / static_cast<double>(accept_.compute_pixels) : 0.0;
+  for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
+    report.computation_ms += report.stage_ms[static_cast<int>(s)];
+  }
+  return report;
+}
+
+}  // namespace kfx

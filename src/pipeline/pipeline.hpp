@@ -1,0 +1,77 @@
+#pragma once
+/// The one frame loop (REFERENCE.md "Per frame, in this order"): preprocess → track (pyramid
+/// ICP) → accept/revert → integrate → raycast. Orchestration lives here once; the backend runs
+/// the stages.
+
+#include <array>
+#include <deque>
+#include <memory>
+
+#include "backend/backend.hpp"
+#include "core/camera.hpp"
+#include "core/image.hpp"
+#include "pipeline/config.hpp"
+
+namespace kfx {
+
+/// What happened to one frame.
+struct FrameReport {
+  int index = 0;              ///< frame number f, from 0
+  bool tracked = false;       ///< accept test passed
+  bool integrated = false;    ///< depth fused into the volume
+  bool raycast = false;       ///< reference view refreshed
+  Mat4f T_world_cam;          ///< pose after the frame
+  std::array<double, static_cast<int>(Stage::kCount)> stage_ms{};  ///< per-stage time
+  double computation_ms = 0;  ///< preprocess + track + integrate + raycast
+  int icp_iterations = 0;     ///< ICP iterations run (all levels)
+  double inlier_fraction = 0; ///< inliers / compute pixels at the last iteration
+};
+
+/// A KinectFusion pipeline over one backend.
+class Pipeline {
+ public:
+  /// Validates `config`, derives every stage's parameters and allocates the backend.
+  /// `input_intrinsics` are at input size (before the compute-size ratio).
+  Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics, int input_width_px,
+           int input_height_px, BackendKind backend_kind);
+
+  /// Processes the next depth frame (input size, millimetres) and waits for its report.
+  FrameReport process(const HostImage<uint16_t>& depth_mm);
+  /// Submits the next frame without waiting (the GPU computes while the host reads on).
+  void submit(const HostImage<uint16_t>& depth_mm);
+  /// Waits for the oldest submitted frame and returns its report.
+  FrameReport collect();
+  /// Frames submitted but not collected.
+  int frames_in_flight() const { return static_cast<int>(in_flight_.size()); }
+
+  /// The first camera pose: a translation to init_pose_factor · volume size.
+  const Mat4f& initial_pose() const { return initial_pose_; }
+  /// Compute-size intrinsics.
+  const Intrinsics& compute_intrinsics() const { return compute_k_; }
+  Backend& backend() { return *backend_; }
+  const PipelineConfig& config() const { return config_; }
+  /// Frames submitted so far.
+  int frame_count() const { return frame_; }
+
+ private:
+  PipelineConfig config_;
+  BackendSetup setup_;
+  Intrinsics compute_k_;
+  Mat4f initial_pose_;
+  PreprocessParams preprocess_;
+  PyramidParams pyramid_;
+  IcpParams icp_;
+  AcceptParams accept_;
+  IntegrateParams integrate_;
+  RaycastParams raycast_;
+  std::unique_ptr<Backend> backend_;
+  /// A submitted frame and the host-side decisions made for it.
+  struct PendingFrame {
+    FrameReport report;
+    bool track, may_integrate, always;
+  };
+  std::deque<PendingFrame> in_flight_;  ///< submitted, not yet collected
+  int frame_ = 0;
+};
+
+}  // namespace kfx
