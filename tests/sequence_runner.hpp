@@ -1,0 +1,39 @@
+#pragma once
+/// Test helper: runs the pipeline over a whole input and returns its trajectory, plus the
+/// per-frame position comparison used by the parity tests.
+
+#include <string>
+#include <vector>
+
+#include "io/reader.hpp"
+#include "io/trajectory.hpp"
+#include "pipeline/pipeline.hpp"
+
+namespace kfx::test {
+
+/// Path of a folder or file under ../shared (KFX_SHARED_DIR), and whether it exists.
+std::string shared_path(const std::string& relative);
+bool shared_exists(const std::string& relative);
+
+/// A finished run.
+struct SequenceRun {
+  std::vector<io::StampedPose> trajectory;  ///< pose after each frame
+  std::vector<io::StampedPose> ground_truth;
+  int frames = 0;
+  int tracked = 0;
+};
+
+/// Runs `input` through a pipeline with `config` on `backend`; intrinsics from the config's
+/// camera when set, else the reader's default. `max_frames` 0 = all.
+SequenceRun run_sequence(const std::string& input, const PipelineConfig& config,
+                         BackendKind backend = BackendKind::kCpu, int max_frames = 0);
+
+/// Per-frame camera position differences (metres) of two trajectories paired by equal stamps.
+struct PositionDifference {
+  int pairs = 0;
+  double median_m = 0, p95_m = 0, max_m = 0;
+};
+PositionDifference compare_positions(const std::vector<io::StampedPose>& a,
+                                     const std::vector<io::StampedPose>& b);
+
+}  // namespace kfx::test
