@@ -1,0 +1,44 @@
+#pragma once
+/// Internal: the per-format reader factories behind open_reader(), and constants they share.
+/// Callers outside src/io/ use open_reader() (reader.hpp) instead.
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "io/reader.hpp"
+
+namespace kfx::io {
+
+/// ICL-NUIM's true camera at 640×480 (fy negative: the renderer's image y points up).
+inline constexpr Intrinsics kIclNuimIntrinsics{481.2f, -480.0f, 319.5f, 239.5f};
+
+/// Default raw PNG depth units per metre of TUM RGB-D and ICL-NUIM PNG depth images.
+inline constexpr double kPngDepthScalePerM = 5000.0;
+
+/// Opens a TUM RGB-D folder (depth.txt or an associations file), or one such listing file.
+/// Ground truth comes from groundtruth.txt unless `options.ground_truth_path` is set (the
+/// caller applies that override).
+std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOptions& options);
+
+/// Opens an ICL-NUIM PNG folder (associations.txt, depth/n.png, *.gt.freiburg).
+std::unique_ptr<Reader> open_icl_png_folder(const std::string& folder,
+                                            const ReaderOptions& options);
+
+/// Opens an ICL-NUIM native POV-Ray folder (scene_00_NNNN.depth and .txt, *.gt.freiburg).
+std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
+                                               const ReaderOptions& options);
+
+/// True when `folder` holds ICL-NUIM native depth files (scene_00_NNNN.depth).
+bool has_icl_native_files(const std::string& folder);
+
+/// The ground truth a reader should return: read from `options.ground_truth_path` when set,
+/// else from `found_path` ("" = none). `used_path` receives the file read ("" = none). Throws
+/// kfx::Error naming the file when it cannot be read or has a malformed line.
+std::vector<StampedPose> load_ground_truth(const ReaderOptions& options,
+                                           const std::string& found_path, std::string* used_path);
+
+/// The `*.gt.freiburg` files directly in `folder`, sorted by name.
+std::vector<std::string> find_freiburg_ground_truth(const std::string& folder);
+
+}  // namespace kfx::io

@@ -1,0 +1,118 @@
+#pragma once
+/// The built-in synthetic input: a furnished room ray-cast analytically along a smooth closed
+/// camera loop, with Kinect-like depth noise and exact ground truth.
+///
+/// Spec: "synthetic" or "synthetic:key=value,key=value,...". Keys (defaults):
+///   frames=300    number of frames, 1 … 1000000
+///   width=640     image width in pixels, 16 … 8192
+///   height=480    image height in pixels, 16 … 8192
+///   seed=1        noise seed, 0 … 2⁶⁴−1
+///   noise=1       1 = Kinect-like noise, mm quantisation and holes; 0 = exact depth (in mm)
+///   speed=1       camera speed factor, (0, 4]; at 1 the loop takes 10 s = 300 frames
+///
+/// Frames are numbered from 0 and stamped frame / 30 s. Poses are T_world_cam in the SCENE
+/// frame (x right, y down, z forward; see io/synthetic_scene.hpp), chosen so that frame 0's pose
+/// is the identity.
+
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "core/camera.hpp"
+#include "core/image.hpp"
+#include "core/math.hpp"
+#include "io/reader.hpp"
+#include "io/synthetic_scene.hpp"
+#include "io/trajectory.hpp"
+
+namespace kfx::io {
+
+/// Options of the synthetic scene, as parsed from a spec.
+struct SyntheticOptions {
+  int frames = 300;     ///< sequence length
+  int width_px = 640;   ///< image width
+  int height_px = 480;  ///< image height
+  uint64_t seed = 1;    ///< noise seed
+  bool noise = true;    ///< Kinect-like noise, quantisation and holes when true
+  double speed = 1.0;   ///< camera speed factor (1 = the loop in 10 s)
+};
+
+/// Parses "synthetic" or "synthetic:key=value,...". Throws kfx::Error naming the key and the
+/// allowed keys, values or range on an unknown key, a malformed item or a bad value.
+SyntheticOptions parse_synthetic_spec(const std::string& spec);
+
+/// The Kinect-like depth model of the synthetic scene (noise=1), one pixel at a time: axial
+/// noise growing with depth and incidence (Nguyen, Izadi, Lovell 2012), whole millimetres, and
+/// holes out of range, at grazing incidence and (randomly) on depth edges.
+struct KinectDepthModel {
+  /// Valid depth range, metres: nearer or farther reads 0.
+  static constexpr double kMinDepthM = 0.4;
+  static constexpr double kMaxDepthM = 4.0;
+  /// |cos(incidence)| below kGrazingCosHole (about 83°) always reads 0; between it and
+  /// kGrazingCosStart (about 75°) the dropout probability ramps up linearly from 0 to 1.
+  static constexpr double kGrazingCosStart = 0.26;
+  static constexpr double kGrazingCosHole = 0.12;
+  /// A pixel is on a depth edge when a 3×3 neighbour's exact depth differs by more than this.
+  static constexpr double kEdgeJumpM = 0.05;
+  /// Probability that a depth-edge pixel reads 0.
+  static constexpr double kEdgeDropout = 0.3;
+
+  /// Axial standard deviation σ(z, θ) in metres: 0.0012 + 0.0019 (z − 0.4)² plus
+  /// 0.0001/√z · θ²/(π/2 − θ)² for incidence θ (Nguyen et al. 2012), for z in metres.
+  static double axial_sigma_m(double z_m, double cos_incidence);
+
+  /// The reading of one pixel in millimetres (0 = hole) from its exact depth `z_m`, the |cos|
+  /// of its incidence, the largest exact-depth difference to its 3×3 neighbours, a standard
+  /// normal variate `gauss` and two uniform variates in (0, 1).
+  static uint16_t measure_mm(double z_m, double cos_incidence, double neighbour_jump_m,
+                             double gauss, double u_grazing, double u_edge);
+};
+
+/// The synthetic scene and camera loop with random access by frame index: a frame's depth and
+/// pose depend only on (options, frame), never on what was rendered before.
+class SyntheticScene {
+ public:
+  /// Validates `options` (kfx::Error on a bad value) and builds the room.
+  explicit SyntheticScene(const SyntheticOptions& options);
+
+  const SyntheticOptions& options() const { return options_; }
+
+  /// Intrinsics at the chosen resolution: fx = fy = 525·width/640, cx = (width−1)/2,
+  /// cy = (height−1)/2 (pixel centres at integer coordinates).
+  Intrinsics intrinsics() const;
+
+  /// Timestamp of a frame: frame / 30 s.
+  static double stamp_s(int frame) { return frame / 30.0; }
+
+  /// Exact camera pose T_world_cam of a frame (any integer ≥ 0; the loop repeats), scene frame,
+  /// rotation row-major in R[3][3] and translation t in metres.
+  void pose(int frame, double R[3][3], double t[3]) const;
+
+  /// The same pose as a stamped quaternion pose (stamp = stamp_s(frame)).
+  StampedPose stamped_pose(int frame) const;
+
+  /// The same pose as a float matrix.
+  Mat4f pose_matrix(int frame) const;
+
+  /// Renders a frame's depth (uint16 millimetres, 0 = hole) into `depth_mm`, resizing it to
+  /// width × height when needed. Uses OpenMP over rows when enabled; the result does not
+  /// depend on the thread count.
+  void render(int frame, HostImage<uint16_t>& depth_mm) const;
+
+  /// Side of the cubic TSDF volume that holds the whole room, metres (see recommended
+  /// settings of the reader).
+  static constexpr double kVolumeSizeM = 4.2;
+  /// First camera position in the volume frame as a fraction of kVolumeSizeM per axis; the
+  /// volume frame is the scene frame translated by kInitPoseFactor · kVolumeSizeM.
+  static constexpr double kInitPoseFactor[3] = {0.5, 0.52, 0.09};
+
+ private:
+  SyntheticOptions options_;
+  synth::RoomGeometry room_;
+};
+
+/// Opens the synthetic scene from a spec (see the top of this header) as a Reader. Its
+/// recommended_settings() are {"volume_size_m", "4.2"} and {"init_pose_factor", "0.5,0.52,0.09"}.
+std::unique_ptr<Reader> make_synthetic_reader(const std::string& spec);
+
+}  // namespace kfx::io

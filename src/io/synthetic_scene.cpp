@@ -1,0 +1,330 @@
+#include "io/synthetic_scene.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/platform.hpp"
+
+namespace kfx::io::synth {
+namespace {
+
+/// Hits closer than this to the ray origin are ignored (metres along a unit-depth ray).
+constexpr double kMinT = 1e-9;
+
+/// Entry parameter of the ray o + t·d into the box [lo, hi] (slab test), or +inf on a miss.
+/// `axis` receives the axis whose slab was entered last (the face that was hit). An origin
+/// inside the box gives an entry parameter ≤ 0.
+inline double slab_entry(const double o[3], const double inv_d[3], const double lo[3],
+                         const double hi[3], int* axis) {
+  double t_enter = -std::numeric_limits<double>::infinity();
+  double t_exit = std::numeric_limits<double>::infinity();
+  int enter_axis = 0;
+  for (int a = 0; a < 3; ++a) {
+    double t0 = (lo[a] - o[a]) * inv_d[a];
+    double t1 = (hi[a] - o[a]) * inv_d[a];
+    if (t0 > t1) std::swap(t0, t1);
+    if (t0 > t_enter) {
+      t_enter = t0;
+      enter_axis = a;
+    }
+    t_exit = std::min(t_exit, t1);
+  }
+  if (t_exit < t_enter || t_exit <= kMinT) return std::numeric_limits<double>::infinity();
+  *axis = enter_axis;
+  return t_enter;
+}
+
+}  // namespace
+
+RoomGeometry::RoomGeometry() {
+  // Heights read as "metres above the floor": y = kFloorY − height (y is down).
+  const double f = kFloorY;
+
+  // Table (0.75 m high, 1.2 × 0.8 m top) in the middle of the room, with things on it.
+  add_box(-0.7, 0.5, f - 0.75, f - 0.70, 1.6, 2.4);  // top
+  for (double x : {-0.67, 0.41}) {
+    for (double z : {1.63, 2.31}) add_box(x, x + 0.06, f - 0.70, f, z, z + 0.06);  // legs
+  }
+  add_sphere(0.15, f - 0.75 - 0.12, 1.9, 0.12);                  // ball on the table
+  add_cylinder(1, -0.4, 2.15, 0.07, f - 0.75 - 0.25, f - 0.75);  // vase
+  add_box(-0.25, -0.05, f - 0.80, f - 0.75, 1.75, 1.95);         // book
+
+  // Shelf unit (1.9 m high, 0.35 m deep) against the left wall: two side panels, four boards,
+  // things on the boards.
+  const double sx0 = kRoomMinX, sx1 = kRoomMinX + 0.35;
+  add_box(sx0, sx1, f - 1.9, f, 1.60, 1.63);
+  add_box(sx0, sx1, f - 1.9, f, 2.97, 3.00);
+  for (double top : {f - 1.9, f - 1.4, f - 0.9, f - 0.4})
+    add_box(sx0, sx1, top, top + 0.03, 1.63, 2.97);
+  add_box(sx0 + 0.05, sx0 + 0.30, f - 1.62, f - 1.40, 1.70, 2.00);     // books, 2nd board
+  add_sphere(sx0 + 0.18, f - 1.40 - 0.10, 2.60, 0.10);                 // globe beside them
+  add_box(sx0 + 0.05, sx0 + 0.25, f - 1.12, f - 0.90, 2.30, 2.80);     // box, 3rd board
+  add_cylinder(1, sx0 + 0.18, 2.00, 0.08, f - 0.90 - 0.17, f - 0.90);  // jar beside it
+  add_box(sx0 + 0.05, sx0 + 0.32, f - 0.62, f - 0.40, 1.75, 2.15);     // crate, 4th board
+
+  // Sofa against the front wall, right of centre, with a bolster cushion along x.
+  add_box(0.0, 1.5, f - 0.45, f, 2.85, kRoomMaxZ);         // seat base
+  add_box(0.0, 1.5, f - 0.95, f - 0.45, 3.35, kRoomMaxZ);  // backrest
+  add_box(0.0, 0.2, f - 0.70, f - 0.45, 2.85, 3.35);       // left armrest
+  add_box(1.3, 1.5, f - 0.70, f - 0.45, 2.85, 3.35);       // right armrest
+  add_cylinder(0, f - 0.55, 3.24, 0.10, 0.2, 0.65);        // bolster
+
+  // Sideboard (0.85 m high) against the right wall with a lamp: stem and round shade.
+  add_box(kRoomMaxX - 0.45, kRoomMaxX, f - 0.85, f, 1.40, 2.50);
+  add_cylinder(1, kRoomMaxX - 0.22, 1.95, 0.03, f - 1.30, f - 0.85);  // lamp stem
+  add_sphere(kRoomMaxX - 0.22, f - 1.30 - 0.12, 1.95, 0.15);          // lamp shade
+
+  // A floor-to-ceiling column near the front-left corner, and a large ball on the floor.
+  add_cylinder(1, -1.2, 3.25, 0.12, kCeilingY, f);
+  add_sphere(-0.75, f - 0.3, 2.95, 0.3);
+
+  // Wall and ceiling details: a picture on the front wall and one on the right wall, a
+  // ceiling beam across the room, a skirting board along the left wall.
+  add_box(-1.0, 0.0, f - 2.2, f - 1.5, kRoomMaxZ - 0.04, kRoomMaxZ);
+  add_box(kRoomMaxX - 0.04, kRoomMaxX, f - 2.1, f - 1.5, 2.7, 3.4);
+  add_box(kRoomMinX, kRoomMaxX, kCeilingY, kCeilingY + 0.2, 2.2, 2.45);
+  add_box(kRoomMinX, kRoomMinX + 0.03, f - 0.1, f, kRoomMinZ, 1.60);
+}
+
+void RoomGeometry::add_box(double x0, double x1, double y0, double y1, double z0, double z1) {
+  KFX_CHECK(x0 < x1 && y0 < y1 && z0 < z1, "synthetic scene: degenerate box");
+  Prim p;
+  p.kind = Kind::kBox;
+  const double lo[3] = {x0, y0, z0}, hi[3] = {x1, y1, z1};
+  std::copy(lo, lo + 3, p.lo);
+  std::copy(hi, hi + 3, p.hi);
+  prims_.push_back(p);
+}
+
+void RoomGeometry::add_sphere(double cx, double cy, double cz, double r) {
+  Prim p;
+  p.kind = Kind::kSphere;
+  p.c[0] = cx;
+  p.c[1] = cy;
+  p.c[2] = cz;
+  p.radius = r;
+  for (int a = 0; a < 3; ++a) {
+    p.lo[a] = p.c[a] - r;
+    p.hi[a] = p.c[a] + r;
+  }
+  prims_.push_back(p);
+}
+
+void RoomGeometry::add_cylinder(int axis, double c0, double c1, double r, double lo, double hi) {
+  KFX_CHECK(axis >= 0 && axis < 3 && lo < hi && r > 0, "synthetic scene: bad cylinder");
+  Prim p;
+  p.kind = Kind::kCylinder;
+  p.axis = axis;
+  p.radius = r;
+  const int b = (axis + 1) % 3, c = (axis + 2) % 3;
+  // c0, c1 are the coordinates on the other two axes in increasing axis order.
+  p.c[std::min(b, c)] = c0;
+  p.c[std::max(b, c)] = c1;
+  for (int a = 0; a < 3; ++a) {
+    p.lo[a] = a == axis ? lo : p.c[a] - r;
+    p.hi[a] = a == axis ? hi : p.c[a] + r;
+  }
+  prims_.push_back(p);
+}
+
+struct RoomGeometry::Ray {
+  double o[3];
+  double d[3];
+  double inv_d[3];
+  double best_t;
+  /// |n·d| of the best hit (unit normal n); divided by |d| once at the end.
+  double best_n_dot_d;
+
+  Ray(const Vec3d& origin, const Vec3d& dir)
+      : o{origin.x, origin.y, origin.z}, d{dir.x, dir.y, dir.z} {
+    for (int a = 0; a < 3; ++a) {
+      // NOTE: a huge finite reciprocal instead of ±inf keeps 0·inf NaNs out of slab tests.
+      inv_d[a] = std::fabs(d[a]) > 1e-300 ? 1.0 / d[a] : std::copysign(1e300, d[a]);
+    }
+    best_t = std::numeric_limits<double>::infinity();
+    best_n_dot_d = 0;
+  }
+  /// The best hit so far, with |cos| of the incidence.
+  RayHit hit() const {
+    return {best_t, best_n_dot_d / std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])};
+  }
+};
+
+inline void RoomGeometry::hit_room(Ray& ray) {
+  static constexpr double kRoomLo[3] = {kRoomMinX, kCeilingY, kRoomMinZ};
+  static constexpr double kRoomHi[3] = {kRoomMaxX, kFloorY, kRoomMaxZ};
+  for (int a = 0; a < 3; ++a) {
+    if (ray.d[a] == 0) continue;
+    const double t = ((ray.d[a] > 0 ? kRoomHi[a] : kRoomLo[a]) - ray.o[a]) * ray.inv_d[a];
+    if (t < ray.best_t) {
+      ray.best_t = t;
+      ray.best_n_dot_d = std::fabs(ray.d[a]);
+    }
+  }
+}
+
+inline void RoomGeometry::hit_prim(const Prim& p, Ray& ray) {
+  const double* o = ray.o;
+  const double* d = ray.d;
+  switch (p.kind) {
+    case Kind::kBox: {
+      int axis = 0;
+      const double t = slab_entry(o, ray.inv_d, p.lo, p.hi, &axis);
+      if (t > kMinT && t < ray.best_t) {
+        ray.best_t = t;
+        ray.best_n_dot_d = std::fabs(d[axis]);
+      }
+      return;
+    }
+    case Kind::kSphere: {
+      // |o + t·d − c|² = r²  →  qa t² + 2 qb t + qc = 0, nearer root.
+      const double oc[3] = {o[0] - p.c[0], o[1] - p.c[1], o[2] - p.c[2]};
+      const double qa = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+      const double qb = oc[0] * d[0] + oc[1] * d[1] + oc[2] * d[2];
+      const double qc = oc[0] * oc[0] + oc[1] * oc[1] + oc[2] * oc[2] - p.radius * p.radius;
+      const double disc = qb * qb - qa * qc;
+      if (disc < 0) return;
+      const double t = (-qb - std::sqrt(disc)) / qa;
+      if (t > kMinT && t < ray.best_t) {
+        double n_dot_d = 0;  // (hit − c)·d, with |hit − c| = r
+        for (int a = 0; a < 3; ++a) n_dot_d += (oc[a] + t * d[a]) * d[a];
+        ray.best_t = t;
+        ray.best_n_dot_d = std::fabs(n_dot_d) / p.radius;
+      }
+      return;
+    }
+    case Kind::kCylinder: {
+      const int ax = p.axis, b = (ax + 1) % 3, c = (ax + 2) % 3;
+      const double ob = o[b] - p.c[b], oc = o[c] - p.c[c];
+      const double r2 = p.radius * p.radius;
+      // Side: the circle equation across the axis, nearer root, within the extent.
+      const double qa = d[b] * d[b] + d[c] * d[c];
+      if (qa > 0) {
+        const double qb = ob * d[b] + oc * d[c];
+        const double disc = qb * qb - qa * (ob * ob + oc * oc - r2);
+        if (disc >= 0) {
+          const double t = (-qb - std::sqrt(disc)) / qa;
+          const double s = o[ax] + t * d[ax];
+          if (t > kMinT && t < ray.best_t && s >= p.lo[ax] && s <= p.hi[ax]) {
+            const double n_dot_d = (ob + t * d[b]) * d[b] + (oc + t * d[c]) * d[c];
+            ray.best_t = t;
+            ray.best_n_dot_d = std::fabs(n_dot_d) / p.radius;
+          }
+        }
+      }
+      // The cap facing the ray.
+      if (d[ax] != 0) {
+        const double plane = d[ax] > 0 ? p.lo[ax] : p.hi[ax];
+        const double t = (plane - o[ax]) * ray.inv_d[ax];
+        if (t > kMinT && t < ray.best_t) {
+          const double eb = ob + t * d[b], ec = oc + t * d[c];
+          if (eb * eb + ec * ec <= r2) {
+            ray.best_t = t;
+            ray.best_n_dot_d = std::fabs(d[ax]);
+          }
+        }
+      }
+      return;
+    }
+  }
+}
+
+RayHit RoomGeometry::cast(const Vec3d& origin, const Vec3d& dir) const {
+  Ray ray(origin, dir);
+  hit_room(ray);
+  for (const Prim& p : prims_) hit_prim(p, ray);
+  return ray.hit();
+}
+
+void RoomGeometry::render(const double R[3][3], const double t[3], double f, double cx, double cy,
+                          int width, int height, double* depth_m, float* cos_incidence) const {
+  // Per primitive: the image rectangle (inclusive, clipped) its bounding box projects to, and
+  // the box's nearest depth (a hit on it can be no nearer). A box with a corner behind (or
+  // nearly at) the camera plane conservatively gets the whole image and depth 0.
+  struct Cull {
+    int x0, x1, y0, y1;
+    double min_depth_m;
+    int prim;
+  };
+  std::vector<Cull> culls;
+  culls.reserve(prims_.size());
+  for (size_t i = 0; i < prims_.size(); ++i) {
+    const Prim& p = prims_[i];
+    double u_min = std::numeric_limits<double>::infinity(), u_max = -u_min;
+    double v_min = u_min, v_max = -u_min, z_min = u_min;
+    for (int corner = 0; corner < 8; ++corner) {
+      const double w[3] = {(corner & 1 ? p.hi[0] : p.lo[0]) - t[0],
+                           (corner & 2 ? p.hi[1] : p.lo[1]) - t[1],
+                           (corner & 4 ? p.hi[2] : p.lo[2]) - t[2]};
+      // Camera coordinates: Rᵀ (p_world − t).
+      double c[3];
+      for (int k = 0; k < 3; ++k) c[k] = R[0][k] * w[0] + R[1][k] * w[1] + R[2][k] * w[2];
+      z_min = std::min(z_min, c[2]);
+      if (z_min < 1e-3) break;
+      const double u = f * c[0] / c[2] + cx, v = f * c[1] / c[2] + cy;
+      u_min = std::min(u_min, u);
+      u_max = std::max(u_max, u);
+      v_min = std::min(v_min, v);
+      v_max = std::max(v_max, v);
+    }
+    Cull cull{0, width - 1, 0, height - 1, 0.0, static_cast<int>(i)};
+    if (z_min >= 1e-3) {
+      // NOTE: one pixel of padding absorbs rounding in the projection; the clamp keeps the
+      // int conversion in range.
+      auto to_px = [](double v) { return static_cast<int>(std::clamp(v, -1e6, 1e6)); };
+      cull.x0 = std::max(0, to_px(std::floor(u_min)) - 1);
+      cull.x1 = std::min(width - 1, to_px(std::ceil(u_max)) + 1);
+      cull.y0 = std::max(0, to_px(std::floor(v_min)) - 1);
+      cull.y1 = std::min(height - 1, to_px(std::ceil(v_max)) + 1);
+      cull.min_depth_m = z_min;
+    }
+    if (cull.x0 <= cull.x1 && cull.y0 <= cull.y1) culls.push_back(cull);
+  }
+  // Front to back, so that a far primitive is mostly skipped by rays a near one already hit.
+  std::sort(culls.begin(), culls.end(), [](const Cull& a, const Cull& b) {
+    return a.min_depth_m < b.min_depth_m || (a.min_depth_m == b.min_depth_m && a.prim < b.prim);
+  });
+
+  const Vec3d origin{t[0], t[1], t[2]};
+  // NOTE: small images stay on one thread: a parallel region's start-up and barrier cost more
+  // than they save there (and much more on an oversubscribed machine).
+  const bool parallel = static_cast<long long>(width) * height >= kMinParallelPixels;
+  (void)parallel;  // unused without OpenMP
+#pragma omp parallel if (parallel)
+  {
+    std::vector<Ray> rays;  // one row, reused by this thread
+    rays.reserve(width);
+#pragma omp for schedule(static)
+    for (int y = 0; y < height; ++y) {
+      // The row's rays, each starting at the wall it leaves the room through.
+      rays.clear();
+      const double ry = (y - cy) / f;
+      for (int x = 0; x < width; ++x) {
+        const double rx = (x - cx) / f;
+        // World direction R·(rx, ry, 1): its camera z component is 1, so t is depth.
+        rays.emplace_back(origin, Vec3d{R[0][0] * rx + R[0][1] * ry + R[0][2],
+                                        R[1][0] * rx + R[1][1] * ry + R[1][2],
+                                        R[2][0] * rx + R[2][1] * ry + R[2][2]});
+        hit_room(rays.back());
+      }
+      // Each primitive whose rectangle spans this row, over its columns only, front to back:
+      // a ray whose best hit is nearer than the primitive's nearest depth skips it.
+      for (const Cull& c : culls) {
+        if (y < c.y0 || y > c.y1) continue;
+        const Prim& p = prims_[c.prim];
+        for (int x = c.x0; x <= c.x1; ++x) {
+          if (c.min_depth_m < rays[x].best_t) hit_prim(p, rays[x]);
+        }
+      }
+      for (int x = 0; x < width; ++x) {
+        const size_t i = static_cast<size_t>(y) * width + x;
+        const RayHit hit = rays[x].hit();
+        depth_m[i] = hit.t;
+        cos_incidence[i] = static_cast<float>(hit.cos_incidence);
+      }
+    }
+  }
+}
+
+}  // namespace kfx::io::synth

@@ -1,0 +1,90 @@
+#pragma once
+/// Geometry of the built-in synthetic scene: a furnished room made of axis-aligned boxes,
+/// spheres and axis-aligned capped cylinders, intersected analytically by camera rays.
+///
+/// Scene frame (metres): x right, y DOWN, z forward, so that the first camera of the synthetic
+/// sequence sits at the origin looking along +z with the identity pose. The floor is the plane
+/// y = kFloorY (below the camera), the ceiling y = kCeilingY (above it).
+
+#include <vector>
+
+namespace kfx::io::synth {
+
+/// A 3-vector in double precision (host-only scene math).
+struct Vec3d {
+  double x = 0, y = 0, z = 0;
+};
+
+/// Room interior bounds (the walls' inner faces), scene frame, metres.
+inline constexpr double kRoomMinX = -1.8;   ///< left wall
+inline constexpr double kRoomMaxX = 1.8;    ///< right wall
+inline constexpr double kCeilingY = -1.5;   ///< ceiling (y down, so above the camera)
+inline constexpr double kFloorY = 1.3;      ///< floor, 1.3 m below the first camera
+inline constexpr double kRoomMinZ = -0.35;  ///< back wall, behind the first camera
+inline constexpr double kRoomMaxZ = 3.6;    ///< front wall, facing the first camera
+
+/// Images with fewer pixels than this are rendered on one thread (OpenMP builds).
+inline constexpr long long kMinParallelPixels = 100000;
+
+/// Result of casting one ray into the scene.
+struct RayHit {
+  /// Ray parameter of the first hit. With a direction whose camera-frame z component is 1
+  /// (d = R·K⁻¹(u, v, 1)) this is the depth along the optical axis, metres.
+  double t = 0;
+  /// |cos| of the angle between the ray and the surface normal at the hit (1 = head on).
+  double cos_incidence = 0;
+};
+
+/// The furnished room: walls, floor and ceiling, plus a table, a shelf unit, a sofa, a
+/// sideboard with a lamp, a column, a ball and wall details. Immutable after construction;
+/// `cast` is thread-safe.
+class RoomGeometry {
+ public:
+  /// Builds the room layout (fixed; does not depend on any option).
+  RoomGeometry();
+
+  /// First intersection of the ray origin + t·dir (t > 0) with the scene. The origin must lie
+  /// inside the room and outside all furniture; the room is closed, so every ray hits. Tests
+  /// every primitive: a reference for single rays; images go through `render`.
+  RayHit cast(const Vec3d& origin, const Vec3d& dir) const;
+
+  /// Ray casts a pinhole image of `width × height` pixels seen from the pose T_world_cam =
+  /// [R | t]: pixel (x, y) looks along R·((x − cx)/f, (y − cy)/f, 1). Writes the depth along
+  /// the optical axis (metres) to `depth_m` and the incidence |cos| to `cos_incidence`, both
+  /// row-major with `width` elements per row. Same results as `cast` per pixel, faster: each
+  /// primitive is tested only inside the image rectangle its bounding box projects to. OpenMP
+  /// over rows when enabled.
+  void render(const double R[3][3], const double t[3], double f, double cx, double cy, int width,
+              int height, double* depth_m, float* cos_incidence) const;
+
+  /// Number of primitives (for tests and descriptions).
+  int primitive_count() const { return static_cast<int>(prims_.size()); }
+
+ private:
+  enum class Kind { kBox, kSphere, kCylinder };
+  /// One primitive; `lo`/`hi` always bound it (for a box they are the box). Sphere: `c`,
+  /// `radius`. Cylinder: axis `axis` (0 = x, 1 = y, 2 = z) through `c` (the axis coordinate of
+  /// `c` is unused), `radius`, extent [lo, hi] along the axis.
+  struct Prim {
+    Kind kind = Kind::kBox;
+    double lo[3] = {0, 0, 0};
+    double hi[3] = {0, 0, 0};
+    double c[3] = {0, 0, 0};
+    double radius = 0;
+    int axis = 1;
+  };
+  /// A ray with precomputed reciprocal direction and length, and its best hit so far.
+  struct Ray;
+
+  void add_box(double x0, double x1, double y0, double y1, double z0, double z1);
+  void add_sphere(double cx, double cy, double cz, double r);
+  void add_cylinder(int axis, double c0, double c1, double r, double lo, double hi);
+  /// Starts `ray` at the room's walls (the nearest inner face it leaves through).
+  static void hit_room(Ray& ray);
+  /// Updates `ray`'s best hit with primitive `p` when it is hit nearer.
+  static void hit_prim(const Prim& p, Ray& ray);
+
+  std::vector<Prim> prims_;
+};
+
+}  // namespace kfx::io::synth

@@ -1,0 +1,90 @@
+/// TUM RGB-D folders: depth/<stamp>.png listed in depth.txt or in an associations file.
+
+#include <algorithm>
+#include <cctype>
+#include <filesystem>
+#include <string>
+
+#include "core/platform.hpp"
+#include "io/formats.hpp"
+#include "io/png_sequence_reader.hpp"
+
+namespace kfx::io {
+namespace {
+
+namespace fs = std::filesystem;
+
+/// Association file names tried, in order, before depth.txt (an associations file selects the
+/// frames that have a colour image too, so it wins when both exist).
+constexpr const char* kAssociationNames[] = {"associations.txt", "associate.txt", "assoc.txt"};
+
+std::string lower(std::string text) {
+  std::transform(text.begin(), text.end(), text.begin(),
+                 [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
+  return text;
+}
+
+/// The TUM camera (freiburg 1, 2 or 3) named in `text`, or 0.
+int freiburg_camera_in(const std::string& text) {
+  const std::string s = lower(text);
+  for (int camera = 1; camera <= 3; ++camera) {
+    const std::string n = std::to_string(camera);
+    if (s.find("freiburg" + n) != std::string::npos || s.find("fr" + n) != std::string::npos) {
+      return camera;
+    }
+  }
+  return 0;
+}
+
+/// TUM's published intrinsics at 640×480 for the camera named by the folder (then the path),
+/// else the generic Kinect defaults (525, 525, 319.5, 239.5).
+Intrinsics tum_intrinsics_for(const fs::path& folder) {
+  int camera = freiburg_camera_in(folder.filename().string());
+  if (camera == 0) camera = freiburg_camera_in(folder.string());
+  switch (camera) {
+    case 1:
+      return {517.3f, 516.5f, 318.6f, 255.3f};
+    case 2:
+      return {520.9f, 521.0f, 325.1f, 249.7f};
+    case 3:
+      return {535.4f, 539.2f, 320.1f, 247.6f};
+    default:
+      return {525.0f, 525.0f, 319.5f, 239.5f};
+  }
+}
+
+}  // namespace
+
+std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOptions& options) {
+  std::error_code error;
+  PngSequenceSpec spec;
+  spec.format_name = "TUM RGB-D folder";
+  if (fs::is_regular_file(path, error)) {
+    // A listing file given directly: its folder holds the images.
+    spec.listing_path = path;
+    spec.folder = fs::absolute(path, error).parent_path().string();
+  } else {
+    spec.folder = path;
+    for (const char* name : kAssociationNames) {
+      const fs::path candidate = fs::path(path) / name;
+      if (fs::is_regular_file(candidate, error)) {
+        spec.listing_path = candidate.string();
+        break;
+      }
+    }
+    if (spec.listing_path.empty()) spec.listing_path = (fs::path(path) / "depth.txt").string();
+    KFX_CHECK(fs::is_regular_file(spec.listing_path, error),
+              "TUM RGB-D folder '" << path << "' has no depth.txt and no associations file "
+                                   << "(associations.txt, associate.txt or assoc.txt)");
+  }
+  spec.entries = read_depth_listing(spec.listing_path, spec.folder);
+  spec.depth_scale_per_m = resolve_depth_scale(options.depth_scale_per_m, kPngDepthScalePerM);
+  spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal());
+  const fs::path groundtruth = fs::path(spec.folder) / "groundtruth.txt";
+  spec.ground_truth = load_ground_truth(
+      options, fs::is_regular_file(groundtruth, error) ? groundtruth.string() : "",
+      &spec.ground_truth_path);
+  return std::make_unique<PngSequenceReader>(std::move(spec));
+}
+
+}  // namespace kfx::io
