@@ -11,6 +11,8 @@ namespace kfx::cli {
 void add_run_command(CLI::App& app);
 /// `kfx eval EST GT ...`: ATE (aligned and checkPos-style) and RPE of a trajectory.
 void add_eval_command(CLI::App& app);
+/// `kfx bench INPUT ...`: per-stage time and frames/s of the pipeline on a sequence.
+void add_bench_command(CLI::App& app);
 /// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
 void add_convert_command(CLI::App& app);
 

@@ -299,8 +299,11 @@ struct VolumeFixture {
   int res = 64;
   float size_m = 3.2f;  // 5 cm voxels
   std::vector<Voxel> voxels;
-  VolumeFixture() : voxels(static_cast<size_t>(res) * res * res, Voxel{32766, 0}) {}
-  VolumeView view() { return VolumeView{voxels.data(), res, size_m}; }
+  std::vector<uint8_t> bricks;
+  VolumeFixture()
+      : voxels(static_cast<size_t>(res) * res * res, Voxel{32766, 0}),
+        bricks(static_cast<size_t>(bricks_per_side(res) * bricks_per_side(res) * bricks_per_side(res)), 0) {}
+  VolumeView view() { return VolumeView{voxels.data(), res, size_m, bricks.data()}; }
 };
 
 void integrate_all(VolumeFixture& vol, const HostImage<float>& depth, TrackingState& state,
@@ -390,6 +393,54 @@ TEST(Raycast, PlaneDepthAndNormalAreAnalytic) {
   for (const auto& [x, y] : {std::pair{40, 30}, std::pair{10, 10}, std::pair{70, 50}}) {
     EXPECT_NEAR(vertex(x, y).z, 2.0f, 0.01f) << x << "," << y;  // within a fifth of a voxel
     EXPECT_NEAR(normal(x, y).z, -1.0f, 0.01f);
+  }
+}
+
+TEST(Raycast, SkippingUntouchedBricksChangesNothing) {
+  // A box-and-plane scene seen from two poses; then raycasts from random poses with and
+  // without the brick map must agree bit for bit, and the map must have skipped something.
+  VolumeFixture vol;
+  HostImage<float> depth(80, 60);
+  for_each(80, 60, [&](int x, int y) {
+    depth(x, y) = (x > 30 && x < 50 && y > 20 && y < 40) ? 1.2f : 2.0f + 0.01f * y;
+  });
+  TrackingState state{};
+  state.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
+  for (int i = 0; i < 2; ++i) integrate_all(vol, depth, state, true);
+  int touched = 0;
+  for (uint8_t b : vol.bricks) touched += b;
+  EXPECT_GT(touched, 0);
+  EXPECT_LT(touched, static_cast<int>(vol.bricks.size()));
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int trial = 0; trial < 6; ++trial) {
+    const double twist[6] = {1.6 + 0.3 * u(rng), 1.6 + 0.3 * u(rng), 0.2 * u(rng),
+                             0.2 * u(rng),       0.2 * u(rng),       0.2 * u(rng)};
+    state.T_world_cam = se3_exp(twist);
+    set_reference_view(state, kK);
+    HostImage<Vec3f> v_skip(80, 60), n_skip(80, 60), v_full(80, 60), n_full(80, 60);
+    RaycastArgs a;
+    a.state = &state;
+    a.step_m = vol.size_m / vol.res;
+    a.large_step_m = 0.075f;
+    a.volume = vol.view();
+    a.vertex = v_skip.view();
+    a.normal = n_skip.view();
+    for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
+    a.volume.brick_touched = nullptr;
+    a.vertex = v_full.view();
+    a.normal = n_full.view();
+    for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
+    int hits = 0;
+    for_each(80, 60, [&](int x, int y) {
+      hits += v_full(x, y).z > 0;
+      ASSERT_EQ(v_skip(x, y).x, v_full(x, y).x);
+      ASSERT_EQ(v_skip(x, y).y, v_full(x, y).y);
+      ASSERT_EQ(v_skip(x, y).z, v_full(x, y).z);
+      ASSERT_EQ(n_skip(x, y).x, n_full(x, y).x);
+      ASSERT_EQ(n_skip(x, y).z, n_full(x, y).z);
+    });
+    EXPECT_GT(hits, 1000) << "trial " << trial;
   }
 }
 

@@ -104,7 +104,24 @@ KFX_HD KFX_INLINE Mat4f rigid_inverse(const Mat4f& a) {
   return r;
 }
 
-KFX_HD KFX_INLINE float clampf(float v, float lo, float hi) { return fminf(fmaxf(v, lo), hi); }
+/// Float min/max. NOTE: the host versions are the plain comparisons, which compile to one
+/// instruction; libm's fminf/fmaxf are out-of-line calls without -ffast-math. They differ from
+/// fminf/fmaxf only for NaN inputs, which the kernels never pass.
+KFX_HD KFX_INLINE float min_f(float a, float b) {
+#if defined(__CUDA_ARCH__)
+  return fminf(a, b);
+#else
+  return b < a ? b : a;
+#endif
+}
+KFX_HD KFX_INLINE float max_f(float a, float b) {
+#if defined(__CUDA_ARCH__)
+  return fmaxf(a, b);
+#else
+  return a < b ? b : a;
+#endif
+}
+KFX_HD KFX_INLINE float clampf(float v, float lo, float hi) { return min_f(max_f(v, lo), hi); }
 KFX_HD KFX_INLINE int clampi(int v, int lo, int hi) { return v < lo ? lo : (v > hi ? hi : v); }
 KFX_HD KFX_INLINE int mini(int a, int b) { return a < b ? a : b; }
 KFX_HD KFX_INLINE int maxi(int a, int b) { return a > b ? a : b; }

@@ -19,11 +19,33 @@ constexpr float kTsdfScale = 32766.0f;
 /// Reciprocal used when reading back, written as SLAMBench writes it.
 constexpr float kTsdfInvScale = 0.00003051944088f;
 
+/// Voxels per brick side (log2): bricks of 8³ voxels carry a "touched" flag.
+constexpr int kBrickShift = 3;
+
+/// Bricks per volume side for a resolution.
+KFX_HD inline int bricks_per_side(int res) { return (res + (1 << kBrickShift) - 1) >> kBrickShift; }
+
 /// A non-owning view of a cubic TSDF volume (host or device memory).
 struct VolumeView {
   Voxel* data = nullptr;
   int res = 0;          ///< voxels per side
   float size_m = 0.0f;  ///< side length in metres
+  /// One byte per 8³ brick: 0 while every voxel of the brick still stores tsdf +1 (kTsdfScale),
+  /// 1 once any may differ. Lets the raycast step over space it knows is empty without changing
+  /// its result. May be null (no skipping).
+  uint8_t* brick_touched = nullptr;
+
+  KFX_HD int brick_index(int x, int y, int z) const {
+    const int b = bricks_per_side(res);
+    return (x >> kBrickShift) + (y >> kBrickShift) * b + (z >> kBrickShift) * b * b;
+  }
+  /// Marks the brick of voxel (x, y, z) as touched.
+  KFX_HD void mark_touched(int x, int y, int z) const {
+    if (brick_touched) {
+      uint8_t& flag = brick_touched[brick_index(x, y, z)];
+      if (!flag) flag = 1;
+    }
+  }
 
   KFX_HD float voxel_m() const { return size_m / res; }
   KFX_HD Voxel& at(int x, int y, int z) const {

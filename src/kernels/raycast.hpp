@@ -67,6 +67,29 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
   return g;
 }
 
+/// True when every voxel a trilinear sample at p_m reads lies in an untouched brick, so the
+/// sample is (1 ± rounding) ≥ 0.8: the march would neither stop nor refine there.
+KFX_HD inline bool sample_in_untouched_space(const VolumeView& vol, Vec3f p_m) {
+  if (!vol.brick_touched) return false;
+  const float s[3] = {p_m.x * vol.res / vol.size_m - 0.5f, p_m.y * vol.res / vol.size_m - 0.5f,
+                      p_m.z * vol.res / vol.size_m - 0.5f};
+  int lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    const int base = static_cast<int>(floorf(s[i]));
+    lo[i] = maxi(base, 0) >> kBrickShift;
+    hi[i] = mini(base + 1, vol.res - 1) >> kBrickShift;
+  }
+  const int b = bricks_per_side(vol.res);
+  for (int z = lo[2]; z <= hi[2]; ++z) {
+    for (int y = lo[1]; y <= hi[1]; ++y) {
+      for (int x = lo[0]; x <= hi[0]; ++x) {
+        if (vol.brick_touched[x + y * b + z * b * b]) return false;
+      }
+    }
+  }
+  return true;
+}
+
 /// Arguments of raycast_pixel.
 struct RaycastArgs {
   VolumeView volume;
@@ -86,27 +109,39 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
   const Vec3f inv_dir{1.0f / direction.x, 1.0f / direction.y, 1.0f / direction.z};
   const Vec3f t_bottom = (-1.0f * inv_dir) * origin;
   const Vec3f t_top = inv_dir * (Vec3f{size, size, size} - origin);
-  const Vec3f t_min{fminf(t_top.x, t_bottom.x), fminf(t_top.y, t_bottom.y),
-                    fminf(t_top.z, t_bottom.z)};
-  const Vec3f t_max{fmaxf(t_top.x, t_bottom.x), fmaxf(t_top.y, t_bottom.y),
-                    fmaxf(t_top.z, t_bottom.z)};
-  const float largest_t_min = fmaxf(fmaxf(t_min.x, t_min.y), fmaxf(t_min.x, t_min.z));
-  const float smallest_t_max = fminf(fminf(t_max.x, t_max.y), fminf(t_max.x, t_max.z));
-  const float t_near = fmaxf(largest_t_min, a.near_m);
-  const float t_far = fminf(smallest_t_max, a.far_m);
+  const Vec3f t_min{min_f(t_top.x, t_bottom.x), min_f(t_top.y, t_bottom.y),
+                    min_f(t_top.z, t_bottom.z)};
+  const Vec3f t_max{max_f(t_top.x, t_bottom.x), max_f(t_top.y, t_bottom.y),
+                    max_f(t_top.z, t_bottom.z)};
+  const float largest_t_min = max_f(max_f(t_min.x, t_min.y), max_f(t_min.x, t_min.z));
+  const float smallest_t_max = min_f(min_f(t_max.x, t_max.y), min_f(t_max.x, t_max.z));
+  const float t_near = max_f(largest_t_min, a.near_m);
+  const float t_far = min_f(smallest_t_max, a.far_m);
   if (!(t_near < t_far)) return 0.0f;
   float t = t_near;
   float step = a.large_step_m;
   float f_t = volume_interp(a.volume, origin + direction * t);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
+  // Samples in untouched bricks are skipped: they are ≥ 0.8, so they would only have advanced
+  // t and set f_t. f_t is evaluated for real (at t_prev) only if the secant step needs it.
+  bool f_t_skipped = false;
+  float t_prev = t;
   for (; t < t_far; t += step) {
-    f_tt = volume_interp(a.volume, origin + direction * t);
+    const Vec3f p = origin + direction * t;
+    if (sample_in_untouched_space(a.volume, p)) {
+      f_t_skipped = true;
+      t_prev = t;
+      continue;
+    }
+    f_tt = volume_interp(a.volume, p);
     if (f_tt < 0.0f) break;
     if (f_tt < 0.8f) step = a.step_m;
     f_t = f_tt;
+    f_t_skipped = false;
   }
   if (!(f_tt < 0.0f)) return 0.0f;
+  if (f_t_skipped) f_t = volume_interp(a.volume, origin + direction * t_prev);
   t = t + step * f_tt / (f_t - f_tt);  // secant refinement
   hit = origin + direction * t;
   return t;

@@ -66,6 +66,12 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   backend_->reset(initial_pose_);
 }
 
+void Pipeline::reset() {
+  while (!in_flight_.empty()) collect();
+  backend_->reset(initial_pose_);
+  frame_ = 0;
+}
+
 FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm) {
   submit(depth_mm);
   return collect();

@@ -37,6 +37,8 @@ class Pipeline {
 
   /// Processes the next depth frame (input size, millimetres) and waits for its report.
   FrameReport process(const HostImage<uint16_t>& depth_mm);
+  /// Starts over: empty volume, initial pose, frame 0 (buffers and recorded graphs are kept).
+  void reset();
   /// Submits the next frame without waiting (the GPU computes while the host reads on).
   void submit(const HostImage<uint16_t>& depth_mm);
   /// Waits for the oldest submitted frame and returns its report.

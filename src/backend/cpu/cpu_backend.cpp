@@ -56,6 +56,8 @@ class CpuBackend final : public Backend {
     volume_.assign(static_cast<size_t>(setup.volume_res_vox) * setup.volume_res_vox *
                        setup.volume_res_vox,
                    Voxel{});
+    const size_t bricks = bricks_per_side(setup.volume_res_vox);
+    brick_touched_.assign(bricks * bricks * bricks, 0);
     state_ = TrackingState{};
   }
 
@@ -67,6 +69,7 @@ class CpuBackend final : public Backend {
   void reset(const Mat4f& T_world_cam) override {
     const Voxel empty{static_cast<int16_t>(kTsdfScale), 0};
     std::fill(volume_.begin(), volume_.end(), empty);
+    std::fill(brick_touched_.begin(), brick_touched_.end(), 0);
     state_ = TrackingState{};
     state_.T_world_cam = T_world_cam;
     state_.T_world_cam_before = T_world_cam;
@@ -141,13 +144,13 @@ class CpuBackend final : public Backend {
     const bool keep_outcome = level == 0;
 #pragma omp parallel for schedule(static)
     for (int y = 0; y < h; ++y) {
-      double* acc = &row_partials_[static_cast<size_t>(y) * kAccumulatorSize];
-      std::fill(acc, acc + kAccumulatorSize, 0.0);
+      double acc[kAccumulatorSize] = {};  // local: stays in registers, no aliasing
       for (int x = 0; x < w; ++x) {
         const TrackRow row = track_pixel(x, y, a);
         accumulate_row(acc, row);
         if (keep_outcome) track_outcome_(x, y) = static_cast<int8_t>(row.outcome);
       }
+      std::copy(acc, acc + kAccumulatorSize, &row_partials_[static_cast<size_t>(y) * kAccumulatorSize]);
     }
     double total[kAccumulatorSize] = {};
     for (int y = 0; y < h; ++y) {  // fixed order: repeatable
@@ -170,13 +173,14 @@ class CpuBackend final : public Backend {
     a.state = &state_;
     a.mu_m = p.mu_m;
     a.max_weight = p.max_weight;
+    // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
+    // take whole brick layers, so no two write the same brick flag.
     const int res = setup_.volume_res_vox;
-#pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < res; ++y) {
-      for (int x = 0; x < res; ++x) {
-        int z_begin, z_end;
-        integrate_column_bounds(x, y, a, z_begin, z_end);
-        integrate_column(x, y, z_begin, z_end, a);
+    const int brick = 1 << kBrickShift;
+#pragma omp parallel for schedule(dynamic, 1)
+    for (int z_brick = 0; z_brick < bricks_per_side(res); ++z_brick) {
+      for (int z = z_brick * brick; z < std::min(res, (z_brick + 1) * brick); ++z) {
+        for (int y = 0; y < res; ++y) integrate_row(y, z, a);
       }
     }
   }
@@ -223,7 +227,8 @@ class CpuBackend final : public Backend {
 
  private:
   VolumeView volume_view() {
-    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m};
+    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m,
+                      brick_touched_.data()};
   }
 
   BackendSetup setup_;
@@ -237,6 +242,7 @@ class CpuBackend final : public Backend {
   HostImage<int8_t> track_outcome_;
   std::vector<double> row_partials_;
   std::vector<Voxel> volume_;
+  std::vector<uint8_t> brick_touched_;
   TrackingState state_{};
   std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};

@@ -73,6 +73,8 @@ class CudaBackend final : public Backend {
     const long long voxels = static_cast<long long>(setup.volume_res_vox) *
                              setup.volume_res_vox * setup.volume_res_vox;
     volume_ = DeviceBuffer<Voxel>(static_cast<size_t>(voxels));
+    const size_t bricks = bricks_per_side(setup.volume_res_vox);
+    brick_touched_ = DeviceBuffer<uint8_t>(bricks * bricks * bricks);
     state_ = DeviceBuffer<TrackingState>(1);
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
@@ -98,6 +100,7 @@ class CudaBackend final : public Backend {
     init_volume_kernel<<<static_cast<unsigned>((voxels + 255) / 256), 256, 0, stream_.get()>>>(
         volume_.data(), voxels);
     KFX_CUDA_LAUNCH_CHECK();
+    KFX_CUDA_CHECK(cudaMemsetAsync(brick_touched_.data(), 0, brick_touched_.bytes(), stream_.get()));
     TrackingState initial{};
     initial.T_world_cam = T_world_cam;
     initial.T_world_cam_before = T_world_cam;
@@ -368,7 +371,8 @@ class CudaBackend final : public Backend {
     return {buffer.data(), w, h, w};
   }
   VolumeView volume_view() const {
-    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m};
+    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m,
+                      brick_touched_.data()};
   }
 
   BackendSetup setup_;
@@ -393,6 +397,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<double> partials_;
   DeviceBuffer<unsigned int> blocks_done_;
   DeviceBuffer<Voxel> volume_;
+  DeviceBuffer<uint8_t> brick_touched_;
   DeviceBuffer<TrackingState> state_;
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;
   std::array<double, kStages> last_stage_ms_{};

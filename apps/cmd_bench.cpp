@@ -1,0 +1,158 @@
+/// `kfx bench INPUT [run options] [--repeat N]`: the pipeline's speed on a sequence held in
+/// memory. A warm-up pass first (it also records the GPU's frame graphs), then N timed passes
+/// over all frames with one frame in flight. Reports per-stage time (CUDA events on the GPU,
+/// host clocks on the CPU; median and mean over frames and passes) and end-to-end frames/s
+/// (frames over wall time, median over passes), as a table and as JSON.
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <nlohmann/json.hpp>
+
+#include "commands.hpp"
+#include "eval/report.hpp"
+#include "io/atomic_file.hpp"
+#include "pipeline/pipeline.hpp"
+#include "run_options.hpp"
+#include "run_summary.hpp"
+
+namespace kfx::cli {
+namespace {
+
+struct BenchOptions {
+  RunOptions run;
+  int repeat = 3;
+  int warmup_frames = 30;
+  std::string json_path;
+};
+
+std::vector<io::Frame> load_frames(io::Reader& reader, const RunOptions& options) {
+  std::vector<io::Frame> frames;
+  io::Frame frame;
+  while (options.max_frames == 0 || static_cast<int>(frames.size()) < options.max_frames) {
+    const io::ReadResult result = reader.next(frame);
+    if (result.status == io::ReadStatus::kEnd) break;
+    KFX_CHECK(result.status == io::ReadStatus::kOk, result.message);
+    frames.push_back(frame);
+  }
+  KFX_CHECK(!frames.empty(), options.input << ": no frame could be read");
+  return frames;
+}
+
+void bench(const BenchOptions& options) {
+  PreparedRun prepared = prepare_run(options.run);
+  const std::vector<io::Frame> frames = load_frames(*prepared.reader, options.run);
+  Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
+                    prepared.reader->height_px(), prepared.backend);
+  std::cerr << "kfx bench: " << prepared.reader->description() << ", " << frames.size()
+            << " frames in memory, backend " << pipeline.backend().name() << " ("
+            << pipeline.backend().device_name() << ")\n";
+
+  // Warm-up: page in, record graphs for every frame shape the run uses.
+  for (size_t i = 0; i < frames.size() && static_cast<int>(i) < options.warmup_frames; ++i) {
+    pipeline.process(frames[i].depth_mm);
+  }
+
+  RunSummary all;
+  std::vector<double> pass_fps;
+  std::vector<io::StampedPose> trajectory;
+  for (int pass = 0; pass < options.repeat; ++pass) {
+    pipeline.reset();
+    RunSummary summary;
+    trajectory.clear();
+    const auto start = std::chrono::steady_clock::now();
+    // One frame in flight: the host prepares frame f+1 while the device computes frame f.
+    for (size_t i = 0; i < frames.size(); ++i) {
+      pipeline.submit(frames[i].depth_mm);
+      if (pipeline.frames_in_flight() > 1) {
+        const FrameReport r = pipeline.collect();
+        summary.add(r);
+        trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
+      }
+    }
+    while (pipeline.frames_in_flight() > 0) {
+      const FrameReport r = pipeline.collect();
+      summary.add(r);
+      trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
+    }
+    const double wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    pass_fps.push_back(frames.size() / wall_s);
+    for (size_t i = 0; i < summary.computation_ms.size(); ++i) {
+      all.computation_ms.push_back(summary.computation_ms[i]);
+      for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+        all.stage_ms[s].push_back(summary.stage_ms[s][i]);
+      }
+    }
+    all.frames = summary.frames;
+    all.tracked = summary.tracked;
+    all.integrated = summary.integrated;
+    std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": "
+              << frames.size() / wall_s << " frames/s end to end, " << summary.tracked
+              << " tracked\n";
+  }
+
+  nlohmann::json j;
+  j["input"] = options.run.input;
+  j["frames"] = frames.size();
+  j["repeat"] = options.repeat;
+  j["backend"] = pipeline.backend().name();
+  j["device"] = pipeline.backend().device_name();
+  j["preset"] = options.run.preset;
+  j["tracked"] = all.tracked;
+  j["end_to_end_frames_per_second_median"] = median_of(pass_fps);
+  j["end_to_end_frames_per_second_passes"] = pass_fps;
+  const double median_computation = median_of(all.computation_ms);
+  j["computation_ms"] = {{"median", median_computation},
+                         {"mean", mean_of(all.computation_ms)}};
+  j["computation_frames_per_second_median"] = median_computation > 0 ? 1000.0 / median_computation : 0;
+  for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+    j["stages_ms"][stage_name(static_cast<Stage>(s))] = {{"median", median_of(all.stage_ms[s])},
+                                                         {"mean", mean_of(all.stage_ms[s])}};
+  }
+  if (!prepared.ground_truth.empty()) {
+    eval::EvalOptions eval_options;
+    eval_options.flip_y = prepared.evaluate_flip_y;
+    const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth,
+                                                    eval_options);
+    j["ate_rmse_m"] = result.ate.stats_m.rmse;
+  }
+  nlohmann::json config_json;
+  for (const auto& field : config_fields()) config_json[field.key] = field.format(pipeline.config());
+  j["config"] = config_json;
+
+  std::printf("%-12s %10s %10s\n", "stage", "median ms", "mean ms");
+  for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+    std::printf("%-12s %10.4f %10.4f\n", stage_name(static_cast<Stage>(s)),
+                median_of(all.stage_ms[s]), mean_of(all.stage_ms[s]));
+  }
+  std::printf("%-12s %10.4f %10.4f\n", "computation", median_computation,
+              mean_of(all.computation_ms));
+  std::printf("end-to-end: %.1f frames/s (median of %d passes over %zu frames), %d tracked",
+              median_of(pass_fps), options.repeat, frames.size(), all.tracked);
+  if (j.contains("ate_rmse_m")) std::printf(", ATE RMSE %.3f cm", j["ate_rmse_m"].get<double>() * 100);
+  std::printf("\n");
+  if (!options.json_path.empty()) {
+    io::AtomicFile file(options.json_path);
+    file.stream() << j.dump(2) << "\n";
+    file.commit();
+  }
+}
+
+}  // namespace
+
+void add_bench_command(CLI::App& app) {
+  auto* command = app.add_subcommand("bench", "measure speed: per-stage time and frames/s");
+  auto options = std::make_shared<BenchOptions>();
+  add_run_options(*command, options->run);
+  command->add_option("--repeat", options->repeat, "timed passes over the sequence")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  command->add_option("--warmup", options->warmup_frames, "warm-up frames before timing")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->add_option("--json", options->json_path, "also write the results as JSON here");
+  command->callback([options] { bench(*options); });
+}
+
+}  // namespace kfx::cli

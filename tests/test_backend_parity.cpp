@@ -1,0 +1,203 @@
+/// Backend parity: the CUDA backend against the CPU backend, stage by stage on identical inputs
+/// and over a whole synthetic sequence, plus run-to-run repeatability of each backend. The CUDA
+/// tests skip (with the reason) where this build has no CUDA backend or no GPU is present.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "backend/backend.hpp"
+#include "io/reader.hpp"
+#include "kernels/preprocess.hpp"
+#include "sequence_runner.hpp"
+
+namespace kfx {
+namespace {
+
+// Tolerances, each with its reason:
+// - filtered depth: expf differs by an ulp or two between libm and CUDA → 1e-5 m.
+constexpr float kFilteredDepthTol_m = 1e-5f;
+// - volume: a voxel can round to the neighbouring int16 tsdf (1/32766), and where a projection
+//   lands exactly on a pixel boundary the two backends can pick neighbouring pixels; allow a
+//   tiny fraction of voxels to differ by more than 2 units.
+constexpr int kTsdfUnitTol = 2;
+constexpr double kMaxVoxelMismatchFraction = 1e-4;
+// - raycast: vertices within a millimetre, except a tiny fraction of silhouette pixels.
+constexpr float kVertexTol_m = 1e-3f;
+constexpr double kMaxPixelMismatchFraction = 2e-3;
+// - trajectories (issue: median ≤ 1 mm, 95th percentile ≤ 1 cm).
+constexpr double kTrajectoryMedianTol_m = 1e-3;
+constexpr double kTrajectoryP95Tol_m = 1e-2;
+
+bool cuda_or_skip_reason(std::string* why) { return cuda_available(why); }
+
+#define KFX_REQUIRE_CUDA()                                 \
+  do {                                                     \
+    std::string why_not;                                   \
+    if (!cuda_or_skip_reason(&why_not)) GTEST_SKIP() << why_not; \
+  } while (0)
+
+BackendSetup small_setup() {
+  BackendSetup s;
+  s.input_width_px = 320;
+  s.input_height_px = 240;
+  s.compute_ratio = 1;
+  s.pyramid_levels = 3;
+  s.volume_res_vox = 128;
+  s.volume_size_m = 4.0f;
+  return s;
+}
+
+const Intrinsics kK{262.5f, 262.5f, 159.5f, 119.5f};
+
+HostImage<uint16_t> scene_depth() {
+  HostImage<uint16_t> d(320, 240);
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) {
+      double z = 2.6 + 0.002 * (x - 160) + 0.001 * y;
+      if (x > 100 && x < 200 && y > 60 && y < 150) z = 1.6 + 0.0015 * x;
+      if ((x * 7 + y * 13) % 97 == 0) z = 0;  // holes
+      d(x, y) = static_cast<uint16_t>(z * 1000);
+    }
+  }
+  return d;
+}
+
+/// Drives one backend through a frame of a given kind by hand.
+TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track, bool always) {
+  PreprocessParams pre;
+  for (int i = 0; i < 5; ++i) pre.spatial_weight[i] = std::exp(-((i - 2) * (i - 2)) / 32.0f);
+  PyramidParams pyr;
+  for (int l = 0; l < 3; ++l) pyr.level_intrinsics[l] = kK.scaled_down(static_cast<float>(1 << l));
+  IntegrateParams integ;
+  integ.k = kK;
+  RaycastParams ray;
+  ray.k = kK;
+  ray.step_m = 4.0f / 128;
+  AcceptParams accept;
+  accept.compute_pixels = 320 * 240;
+  b.upload_depth(depth);
+  b.begin_frame((track ? 1 : 0) | 2 | (always ? 4 : 0) | 8);
+  b.preprocess(pre);
+  if (track) {
+    b.build_pyramid(pyr);
+    b.begin_tracking();
+    const int iterations[3] = {10, 5, 4};
+    for (int level = 2; level >= 0; --level) {
+      b.begin_level();
+      for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, IcpParams{});
+    }
+    b.accept_or_revert(accept);
+  } else {
+    b.skip_tracking();
+  }
+  b.integrate(integ, always);
+  b.raycast(ray);
+  b.end_frame();
+  return b.read_state();
+}
+
+TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
+  KFX_REQUIRE_CUDA();
+  auto cpu = make_backend(BackendKind::kCpu, small_setup());
+  auto gpu = make_backend(BackendKind::kCuda, small_setup());
+  const Mat4f start = Mat4f::translation(Vec3f{2.0f, 2.0f, 0.0f});
+  cpu->reset(start);
+  gpu->reset(start);
+  const HostImage<uint16_t> depth = scene_depth();
+  for (int f = 0; f < 4; ++f) {
+    run_frame(*cpu, depth, false, true);
+    run_frame(*gpu, depth, false, true);
+  }
+  const DebugMaps c = cpu->read_maps(), g = gpu->read_maps();
+  int depth_mismatch = 0, filtered_mismatch = 0;
+  for (int i = 0; i < 320 * 240; ++i) {
+    depth_mismatch += c.depth_m.pixels()[i] != g.depth_m.pixels()[i];
+    filtered_mismatch +=
+        std::fabs(c.filtered_m.pixels()[i] - g.filtered_m.pixels()[i]) > kFilteredDepthTol_m;
+  }
+  EXPECT_EQ(depth_mismatch, 0);
+  EXPECT_EQ(filtered_mismatch, 0);
+  const auto vc = cpu->read_volume(), vg = gpu->read_volume();
+  long long voxel_mismatch = 0, touched = 0;
+  for (size_t i = 0; i < vc.size(); ++i) {
+    touched += vc[i].weight > 0;
+    voxel_mismatch += std::abs(vc[i].tsdf - vg[i].tsdf) > kTsdfUnitTol || vc[i].weight != vg[i].weight;
+  }
+  EXPECT_GT(touched, 10000);
+  EXPECT_LE(voxel_mismatch, kMaxVoxelMismatchFraction * vc.size());
+  int pixel_mismatch = 0, hits = 0;
+  for (int i = 0; i < 320 * 240; ++i) {
+    const Vec3f a = c.ref_vertex.pixels()[i], b = g.ref_vertex.pixels()[i];
+    hits += a.z > 0;
+    pixel_mismatch += length(a - b) > kVertexTol_m;
+  }
+  EXPECT_GT(hits, 320 * 240 / 2);
+  EXPECT_LE(pixel_mismatch, kMaxPixelMismatchFraction * 320 * 240);
+  // A tracked frame from a slightly shifted depth: both converge to the same pose.
+  HostImage<uint16_t> moved = depth;
+  for (auto& v : moved.pixels()) v = v ? static_cast<uint16_t>(v + 8) : 0;  // 8 mm farther
+  const TrackingState sc = run_frame(*cpu, moved, true, false);
+  const TrackingState sg = run_frame(*gpu, moved, true, false);
+  EXPECT_EQ(sc.tracked, 1);
+  EXPECT_EQ(sg.tracked, 1);
+  for (int r = 0; r < 3; ++r) {
+    EXPECT_NEAR(sc.T_world_cam.m[r][3], sg.T_world_cam.m[r][3], 1e-4f) << r;
+  }
+}
+
+TEST(BackendParity, SyntheticTrajectoriesAgree) {
+  KFX_REQUIRE_CUDA();
+  PipelineConfig config;
+  set_config_value(config, "integration_rate", "1");
+  set_config_value(config, "compute_size_ratio", "1");
+  const std::string input = "synthetic:frames=60,width=320,height=240";
+  auto reader = io::open_reader(input);
+  for (const auto& [key, value] : reader->recommended_settings()) set_config_value(config, key, value);
+  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
+  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_EQ(cpu.tracked, gpu.tracked);
+  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
+  EXPECT_EQ(diff.pairs, 60);
+  EXPECT_LE(diff.median_m, kTrajectoryMedianTol_m);
+  EXPECT_LE(diff.p95_m, kTrajectoryP95Tol_m);
+}
+
+void expect_repeatable(BackendKind kind) {
+  PipelineConfig config;
+  set_config_value(config, "integration_rate", "1");
+  set_config_value(config, "compute_size_ratio", "1");
+  const std::string input = "synthetic:frames=25,width=320,height=240";
+  auto reader = io::open_reader(input);
+  for (const auto& [key, value] : reader->recommended_settings()) set_config_value(config, key, value);
+  const auto a = test::run_sequence(input, config, kind);
+  const auto b = test::run_sequence(input, config, kind);
+  ASSERT_EQ(a.trajectory.size(), b.trajectory.size());
+  EXPECT_GT(a.tracked, 15);
+  for (size_t i = 0; i < a.trajectory.size(); ++i) {
+    for (int k = 0; k < 3; ++k) ASSERT_EQ(a.trajectory[i].t[k], b.trajectory[i].t[k]) << i;
+    for (int k = 0; k < 4; ++k) ASSERT_EQ(a.trajectory[i].q[k], b.trajectory[i].q[k]) << i;
+  }
+}
+
+TEST(BackendParity, CpuRepeatsBitForBit) { expect_repeatable(BackendKind::kCpu); }
+
+TEST(BackendParity, CudaRepeatsBitForBit) {
+  KFX_REQUIRE_CUDA();
+  expect_repeatable(BackendKind::kCuda);
+}
+
+TEST(BackendSelection, CudaRequestWithoutGpuIsAClearError) {
+  std::string why_not;
+  if (cuda_available(&why_not)) GTEST_SKIP() << "a CUDA device is present";
+  try {
+    make_backend(BackendKind::kCuda, small_setup());
+    FAIL() << "expected an error";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("CUDA backend was requested"), std::string::npos);
+  }
+  EXPECT_EQ(make_backend(BackendKind::kAuto, small_setup())->name(), "cpu");
+}
+
+}  // namespace
+}  // namespace kfx
