@@ -128,44 +128,65 @@ void RoomGeometry::add_cylinder(int axis, double c0, double c1, double r, double
   prims_.push_back(p);
 }
 
+namespace {
+
+/// 1/a, with a huge finite value for a = 0: that keeps 0·inf NaNs out of the slab tests.
+inline double safe_reciprocal(double a) { return 1.0 / (a != 0 ? a : 1e-300); }
+
+/// The room's walls: the ray o + t·d leaves the room through the nearest inner face; writes its
+/// t and |n·d| (n the face's unit normal).
+inline void hit_room_walls(const double o[3], const double d[3], const double inv_d[3], double* t,
+                           double* n_dot_d) {
+  constexpr double kLo[3] = {kRoomMinX, kCeilingY, kRoomMinZ};
+  constexpr double kHi[3] = {kRoomMaxX, kFloorY, kRoomMaxZ};
+  // NOTE: d[a] = 0 gets a huge positive reciprocal, hence the far (hi) face and a huge t.
+  double best_t = ((inv_d[0] > 0 ? kHi[0] : kLo[0]) - o[0]) * inv_d[0];
+  double best_n = std::fabs(d[0]);
+  for (int a = 1; a < 3; ++a) {
+    const double ta = ((inv_d[a] > 0 ? kHi[a] : kLo[a]) - o[a]) * inv_d[a];
+    best_n = ta < best_t ? std::fabs(d[a]) : best_n;
+    best_t = ta < best_t ? ta : best_t;
+  }
+  *t = best_t;
+  *n_dot_d = best_n;
+}
+
+/// |cos| of the incidence from |n·d| and d (float precision is plenty for it).
+inline float incidence_cos(double n_dot_d, double dx, double dy, double dz) {
+  return static_cast<float>(n_dot_d) / std::sqrt(static_cast<float>(dx * dx + dy * dy + dz * dz));
+}
+
+}  // namespace
+
+/// One ray (its origin is kept apart: all rays of an image share it): direction, reciprocal
+/// direction, and its best hit so far.
 struct RoomGeometry::Ray {
-  double o[3];
   double d[3];
   double inv_d[3];
   double best_t;
-  /// |n·d| of the best hit (unit normal n); divided by |d| once at the end.
+  /// |n·d| of the best hit (n its unit normal); divided by |d| once at the end.
   double best_n_dot_d;
 
-  Ray(const Vec3d& origin, const Vec3d& dir)
-      : o{origin.x, origin.y, origin.z}, d{dir.x, dir.y, dir.z} {
-    for (int a = 0; a < 3; ++a) {
-      // NOTE: a huge finite reciprocal instead of ±inf keeps 0·inf NaNs out of slab tests.
-      inv_d[a] = std::fabs(d[a]) > 1e-300 ? 1.0 / d[a] : std::copysign(1e300, d[a]);
+  /// A ray along `dir` that starts at the wall it leaves the room through.
+  Ray(const double o[3], double dx, double dy, double dz) : d{dx, dy, dz} {
+    // NOTE: one division for the three reciprocals where no component is tiny (divisions are
+    // a large part of the per-ray set-up); exact enough (a few ulps) for the slab tests.
+    const double product = dx * dy * dz;
+    if (std::fabs(product) > 1e-200) {
+      const double r = 1.0 / product;
+      inv_d[0] = dy * dz * r;
+      inv_d[1] = dx * dz * r;
+      inv_d[2] = dx * dy * r;
+    } else {
+      for (int a = 0; a < 3; ++a) inv_d[a] = safe_reciprocal(d[a]);
     }
-    best_t = std::numeric_limits<double>::infinity();
-    best_n_dot_d = 0;
+    hit_room_walls(o, d, inv_d, &best_t, &best_n_dot_d);
   }
   /// The best hit so far, with |cos| of the incidence.
-  RayHit hit() const {
-    return {best_t, best_n_dot_d / std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])};
-  }
+  RayHit hit() const { return {best_t, incidence_cos(best_n_dot_d, d[0], d[1], d[2])}; }
 };
 
-inline void RoomGeometry::hit_room(Ray& ray) {
-  static constexpr double kRoomLo[3] = {kRoomMinX, kCeilingY, kRoomMinZ};
-  static constexpr double kRoomHi[3] = {kRoomMaxX, kFloorY, kRoomMaxZ};
-  for (int a = 0; a < 3; ++a) {
-    if (ray.d[a] == 0) continue;
-    const double t = ((ray.d[a] > 0 ? kRoomHi[a] : kRoomLo[a]) - ray.o[a]) * ray.inv_d[a];
-    if (t < ray.best_t) {
-      ray.best_t = t;
-      ray.best_n_dot_d = std::fabs(ray.d[a]);
-    }
-  }
-}
-
-inline void RoomGeometry::hit_prim(const Prim& p, Ray& ray) {
-  const double* o = ray.o;
+inline void RoomGeometry::hit_prim(const Prim& p, const double o[3], Ray& ray) {
   const double* d = ray.d;
   switch (p.kind) {
     case Kind::kBox: {
@@ -231,9 +252,9 @@ inline void RoomGeometry::hit_prim(const Prim& p, Ray& ray) {
 }
 
 RayHit RoomGeometry::cast(const Vec3d& origin, const Vec3d& dir) const {
-  Ray ray(origin, dir);
-  hit_room(ray);
-  for (const Prim& p : prims_) hit_prim(p, ray);
+  const double o[3] = {origin.x, origin.y, origin.z};
+  Ray ray(o, dir.x, dir.y, dir.z);
+  for (const Prim& p : prims_) hit_prim(p, o, ray);
   return ray.hit();
 }
 
@@ -286,7 +307,6 @@ void RoomGeometry::render(const double R[3][3], const double t[3], double f, dou
     return a.min_depth_m < b.min_depth_m || (a.min_depth_m == b.min_depth_m && a.prim < b.prim);
   });
 
-  const Vec3d origin{t[0], t[1], t[2]};
   // NOTE: small images stay on one thread: a parallel region's start-up and barrier cost more
   // than they save there (and much more on an oversubscribed machine).
   const bool parallel = static_cast<long long>(width) * height >= kMinParallelPixels;
@@ -297,16 +317,15 @@ void RoomGeometry::render(const double R[3][3], const double t[3], double f, dou
     rays.reserve(width);
 #pragma omp for schedule(static)
     for (int y = 0; y < height; ++y) {
-      // The row's rays, each starting at the wall it leaves the room through.
+      // The row's rays along R·(rx, ry, 1) (camera z component 1, so t is depth), each
+      // starting at the wall it leaves the room through.
       rays.clear();
       const double ry = (y - cy) / f;
+      const double c0 = R[0][1] * ry + R[0][2], c1 = R[1][1] * ry + R[1][2],
+                   c2 = R[2][1] * ry + R[2][2];
       for (int x = 0; x < width; ++x) {
         const double rx = (x - cx) / f;
-        // World direction R·(rx, ry, 1): its camera z component is 1, so t is depth.
-        rays.emplace_back(origin, Vec3d{R[0][0] * rx + R[0][1] * ry + R[0][2],
-                                        R[1][0] * rx + R[1][1] * ry + R[1][2],
-                                        R[2][0] * rx + R[2][1] * ry + R[2][2]});
-        hit_room(rays.back());
+        rays.emplace_back(t, R[0][0] * rx + c0, R[1][0] * rx + c1, R[2][0] * rx + c2);
       }
       // Each primitive whose rectangle spans this row, over its columns only, front to back:
       // a ray whose best hit is nearer than the primitive's nearest depth skips it.
@@ -314,14 +333,15 @@ void RoomGeometry::render(const double R[3][3], const double t[3], double f, dou
         if (y < c.y0 || y > c.y1) continue;
         const Prim& p = prims_[c.prim];
         for (int x = c.x0; x <= c.x1; ++x) {
-          if (c.min_depth_m < rays[x].best_t) hit_prim(p, rays[x]);
+          if (c.min_depth_m < rays[x].best_t) hit_prim(p, t, rays[x]);
         }
       }
+      double* const depth_row = depth_m + static_cast<size_t>(y) * width;
+      float* const cos_row = cos_incidence + static_cast<size_t>(y) * width;
       for (int x = 0; x < width; ++x) {
-        const size_t i = static_cast<size_t>(y) * width + x;
         const RayHit hit = rays[x].hit();
-        depth_m[i] = hit.t;
-        cos_incidence[i] = static_cast<float>(hit.cos_incidence);
+        depth_row[x] = hit.t;
+        cos_row[x] = static_cast<float>(hit.cos_incidence);
       }
     }
   }

@@ -73,16 +73,14 @@ class RoomGeometry {
     double radius = 0;
     int axis = 1;
   };
-  /// A ray with precomputed reciprocal direction and length, and its best hit so far.
+  /// A ray with its reciprocal direction and its best hit so far.
   struct Ray;
 
   void add_box(double x0, double x1, double y0, double y1, double z0, double z1);
   void add_sphere(double cx, double cy, double cz, double r);
   void add_cylinder(int axis, double c0, double c1, double r, double lo, double hi);
-  /// Starts `ray` at the room's walls (the nearest inner face it leaves through).
-  static void hit_room(Ray& ray);
-  /// Updates `ray`'s best hit with primitive `p` when it is hit nearer.
-  static void hit_prim(const Prim& p, Ray& ray);
+  /// Updates `ray`'s best hit with primitive `p` when it is hit nearer; `o` is its origin.
+  static void hit_prim(const Prim& p, const double o[3], Ray& ray);
 
   std::vector<Prim> prims_;
 };
