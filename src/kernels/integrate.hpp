@@ -89,7 +89,8 @@ KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateA
   if (end < begin) end = begin;
 }
 
-/// Updates voxel (x, y, z), whose centre is at camera-frame point p (REFERENCE.md step 4).
+/// Updates voxel (x, y, z), whose centre is at camera-frame point p (REFERENCE.md step 4), and
+/// marks its brick when its tsdf leaves +1.
 KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
   if (p.z < kIntegrateMinZ_m) return;
   const float u = (a.k.fx * p.x + a.k.cx * p.z) / p.z + 0.5f;

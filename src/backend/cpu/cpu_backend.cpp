@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <deque>
 #include <fstream>
 #include <thread>
 
@@ -71,6 +72,7 @@ class CpuBackend final : public Backend {
     std::fill(volume_.begin(), volume_.end(), empty);
     std::fill(brick_touched_.begin(), brick_touched_.end(), 0);
     state_ = TrackingState{};
+    finished_.clear();
     state_.T_world_cam = T_world_cam;
     state_.T_world_cam_before = T_world_cam;
     state_.T_world_raycast = T_world_cam;
@@ -85,9 +87,13 @@ class CpuBackend final : public Backend {
     input_mm_.pixels() = depth_mm.pixels();
   }
 
-  // The CPU runs each stage as it is called: nothing to record or submit.
+  // The CPU runs each stage as it is called; end_frame() keeps the frame's result until read,
+  // so a caller may submit the next frame first (as with the GPU).
   void begin_frame(int /*shape*/) override {}
-  void end_frame() override {}
+  void end_frame() override {
+    finished_.push_back(FinishedFrame{state_, stage_ms_});
+    stage_ms_.fill(0.0);
+  }
 
   void preprocess(const PreprocessParams& p) override {
     const MmToMArgs mm{input_mm_.view(), depth_m_.view(), setup_.compute_ratio};
@@ -203,7 +209,13 @@ class CpuBackend final : public Backend {
     }
   }
 
-  TrackingState read_state() override { return state_; }
+  TrackingState read_state() override {
+    KFX_CHECK(!finished_.empty(), "read_state() without a submitted frame");
+    const FinishedFrame frame = finished_.front();
+    finished_.pop_front();
+    last_stage_ms_ = frame.stage_ms;
+    return frame.state;
+  }
 
   void begin_stage(Stage stage) override {
     stage_start_[static_cast<int>(stage)] = std::chrono::steady_clock::now();
@@ -215,9 +227,7 @@ class CpuBackend final : public Backend {
                        .count();
   }
   std::array<double, static_cast<int>(Stage::kCount)> frame_stage_ms() override {
-    auto result = stage_ms_;
-    stage_ms_.fill(0.0);
-    return result;
+    return last_stage_ms_;
   }
 
   DebugMaps read_maps() override {
@@ -246,6 +256,13 @@ class CpuBackend final : public Backend {
   TrackingState state_{};
   std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};
+  std::array<double, static_cast<int>(Stage::kCount)> last_stage_ms_{};
+  /// A frame's state and stage times, kept from end_frame() until read_state().
+  struct FinishedFrame {
+    TrackingState state;
+    std::array<double, static_cast<int>(Stage::kCount)> stage_ms;
+  };
+  std::deque<FinishedFrame> finished_;
 };
 
 }  // namespace

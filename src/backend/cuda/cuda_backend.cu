@@ -292,8 +292,10 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaEventSynchronize(frame_done_[parity].get()));
     for (int s = 0; s < kStages; ++s) {
       float ms = 0.0f;
-      KFX_CUDA_CHECK(cudaEventElapsedTime(&ms, stage_events_[parity][s][0]->get(),
-                                          stage_events_[parity][s][1]->get()));
+      if (stage_timed_[s]) {  // a stage the pipeline never brackets has no recorded events
+        KFX_CUDA_CHECK(cudaEventElapsedTime(&ms, stage_events_[parity][s][0]->get(),
+                                            stage_events_[parity][s][1]->get()));
+      }
       last_stage_ms_[s] = ms;
     }
     return *state_readback_[parity].data();
@@ -339,6 +341,7 @@ class CudaBackend final : public Backend {
 
   void record_stage_event(Stage stage, int which) {
     if (replaying_) return;
+    stage_timed_[static_cast<int>(stage)] = true;
     cudaEvent_t event = stage_events_[parity_][static_cast<int>(stage)][which]->get();
     // Inside a capture the record becomes a graph node that records on every replay.
     KFX_CUDA_CHECK(cudaEventRecordWithFlags(event, stream_.get(),
@@ -401,6 +404,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<TrackingState> state_;
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;
   std::array<double, kStages> last_stage_ms_{};
+  std::array<bool, kStages> stage_timed_{};
   std::map<int, GraphExec> graphs_;
   std::deque<int> pending_;
   int frames_submitted_ = 0;

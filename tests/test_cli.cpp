@@ -1,0 +1,191 @@
+/// The kfx command line end to end: a good run writes complete outputs; every bad input gives a
+/// clear error (file, frame, problem), a non-zero exit and no finished-looking output.
+
+#include <gtest/gtest.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <string>
+
+#include "io/png.hpp"
+
+namespace kfx {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct CommandResult {
+  int exit_code;
+  std::string output;  // stdout and stderr together
+};
+
+CommandResult run_kfx(const std::string& arguments) {
+  const std::string command = std::string(KFX_CLI_PATH) + " " + arguments + " 2>&1";
+  FILE* pipe = popen(command.c_str(), "r");
+  CommandResult result{-1, ""};
+  if (!pipe) return result;
+  std::array<char, 4096> buffer;
+  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
+  const int status = pclose(pipe);
+  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+  return result;
+}
+
+class CliTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    dir_ = fs::temp_directory_path() /
+           ("kfx_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    fs::remove_all(dir_);
+    fs::create_directories(dir_);
+  }
+  void TearDown() override { fs::remove_all(dir_); }
+
+  /// A tiny TUM folder of `frames` 64×48 depth PNGs (a plane 1.5 m away), depth.txt listed.
+  fs::path make_tum_folder(int frames, uint16_t value = 7500) {
+    const fs::path folder = dir_ / "tum";
+    fs::create_directories(folder / "depth");
+    std::ofstream list(folder / "depth.txt");
+    for (int i = 0; i < frames; ++i) {
+      const std::string name = "depth/" + std::to_string(100 + i) + ".000000.png";
+      io::write_png_gray16((folder / name).string(), HostImage<uint16_t>(64, 48, value));
+      list << 100 + i << ".000000 " << name << "\n";
+    }
+    return folder;
+  }
+  bool has_outputs(const fs::path& out) {
+    return fs::exists(out / "trajectory.txt") || fs::exists(out / "stats.json") ||
+           fs::exists(out / "slambench.log");
+  }
+  std::string small_run_args() { return "-k 60,60,32,24 -c 1 -y 2,2 -q"; }
+
+  fs::path dir_;
+};
+
+TEST_F(CliTest, GoodRunWritesCompleteOutputs) {
+  const fs::path out = dir_ / "out";
+  const auto r = run_kfx("run synthetic:frames=12,width=160,height=120 --backend cpu -q --out " +
+                         out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("frames/s"), std::string::npos);
+  std::ifstream stats_file(out / "stats.json");
+  const auto stats = nlohmann::json::parse(stats_file);
+  EXPECT_EQ(stats["frames"], 12);
+  EXPECT_TRUE(stats.contains("ate"));
+  EXPECT_GT(stats["frames_per_second"].get<double>(), 0.0);
+  std::ifstream trajectory(out / "trajectory.txt");
+  int poses = 0;
+  for (std::string line; std::getline(trajectory, line);) poses += !line.empty() && line[0] != '#';
+  EXPECT_EQ(poses, 12);
+  std::ifstream log(out / "slambench.log");
+  std::string header;
+  std::getline(log, header);
+  EXPECT_EQ(header.rfind("frame\tacquisition\tpreprocessing", 0), 0u);
+  EXPECT_TRUE(fs::exists(out / "config.txt"));
+  for (const auto& entry : fs::directory_iterator(out)) {
+    EXPECT_EQ(entry.path().string().find(".partial"), std::string::npos) << entry.path();
+  }
+}
+
+TEST_F(CliTest, MissingInputIsAnError) {
+  const auto r = run_kfx("run " + (dir_ / "nope").string() + " --out " + (dir_ / "o").string());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("nope"), std::string::npos) << r.output;
+}
+
+TEST_F(CliTest, NonsenseSettingsAreErrors) {
+  const std::string base = "run synthetic:frames=2 --out " + (dir_ / "o").string() + " ";
+  const struct {
+    std::string args, expect;
+  } cases[] = {
+      {"--set volume_resolution=0", "volume_resolution"},
+      {"--set nonsense=1", "unknown setting 'nonsense'"},
+      {"-c 3", "compute_size_ratio must be 1, 2, 4 or 8"},
+      {"--set mu_m=abc", "not a number"},
+      {"-y 10,5,4,3,2", "pyramid_iterations"},
+      {"--preset fastest", "unknown preset"},
+      {"--backend gpu", "unknown backend"},
+  };
+  for (const auto& c : cases) {
+    const auto r = run_kfx(base + c.args);
+    EXPECT_NE(r.exit_code, 0) << c.args;
+    EXPECT_NE(r.output.find(c.expect), std::string::npos) << c.args << ": " << r.output;
+    EXPECT_FALSE(has_outputs(dir_ / "o")) << c.args;
+  }
+}
+
+TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
+  const fs::path folder = make_tum_folder(8);
+  const fs::path bad = folder / "depth" / "105.000000.png";
+  std::ofstream(bad, std::ios::binary | std::ios::trunc) << "\x89PNG\r\n\x1a\n garbage";
+  const fs::path out = dir_ / "out";
+  const auto r = run_kfx("run " + folder.string() + " --out " + out.string() + " " + small_run_args());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("105.000000.png"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("frame"), std::string::npos) << r.output;
+  EXPECT_FALSE(has_outputs(out));
+  // With the explicit option the bad frame becomes a warning and the run completes.
+  const auto skipped = run_kfx("run " + folder.string() + " --out " + out.string() + " " +
+                               small_run_args() + " --skip-bad-frames");
+  EXPECT_EQ(skipped.exit_code, 0) << skipped.output;
+  EXPECT_NE(skipped.output.find("warning"), std::string::npos);
+  std::ifstream stats_file(out / "stats.json");
+  EXPECT_EQ(nlohmann::json::parse(stats_file)["skipped_bad_frames"], 1);
+}
+
+TEST_F(CliTest, MissingListedFileAndWrongSizeAreErrors) {
+  const fs::path folder = make_tum_folder(5);
+  fs::remove(folder / "depth" / "102.000000.png");
+  auto r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("102.000000.png"), std::string::npos) << r.output;
+  io::write_png_gray16((folder / "depth" / "102.000000.png").string(), HostImage<uint16_t>(32, 24, 7500));
+  r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("102.000000.png"), std::string::npos) << r.output;
+  EXPECT_FALSE(has_outputs(dir_ / "o"));
+}
+
+TEST_F(CliTest, SequenceWithoutValidDepthIsAnError) {
+  const fs::path folder = make_tum_folder(6, 0);
+  const auto r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("valid depth"), std::string::npos) << r.output;
+  EXPECT_FALSE(has_outputs(dir_ / "o"));
+}
+
+TEST_F(CliTest, UnreadableGroundTruthIsAnError) {
+  const fs::path folder = make_tum_folder(4);
+  std::ofstream(dir_ / "gt.txt") << "1.0 0 0 0 0 0 0 1\nnot a pose line\n";
+  const auto r = run_kfx("run " + folder.string() + " --gt " + (dir_ / "gt.txt").string() +
+                         " --out " + (dir_ / "o").string() + " " + small_run_args());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("gt.txt"), std::string::npos) << r.output;
+  const auto e = run_kfx("eval " + (dir_ / "missing.txt").string() + " " + (dir_ / "gt.txt").string());
+  EXPECT_NE(e.exit_code, 0);
+  EXPECT_NE(e.output.find("missing.txt"), std::string::npos) << e.output;
+}
+
+TEST_F(CliTest, TruncatedRawIsAnError) {
+  const fs::path raw = dir_ / "seq.raw";
+  auto r = run_kfx("convert synthetic:frames=3,width=64,height=48 " + raw.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  fs::resize_file(raw, fs::file_size(raw) - 100);
+  r = run_kfx("run " + raw.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("seq.raw"), std::string::npos) << r.output;
+  EXPECT_FALSE(has_outputs(dir_ / "o"));
+}
+
+TEST_F(CliTest, CudaWithoutGpuIsAClearError) {
+  const auto probe = run_kfx("run synthetic:frames=1,width=160,height=120 --backend cuda -q --out " +
+                             (dir_ / "probe").string());
+  if (probe.exit_code == 0) GTEST_SKIP() << "a CUDA device is present";
+  EXPECT_NE(probe.output.find("CUDA backend was requested"), std::string::npos) << probe.output;
+}
+
+}  // namespace
+}  // namespace kfx
