@@ -13,6 +13,8 @@ void add_run_command(CLI::App& app);
 void add_eval_command(CLI::App& app);
 /// `kfx bench INPUT ...`: per-stage time and frames/s of the pipeline on a sequence.
 void add_bench_command(CLI::App& app);
+/// `kfx settings`: every setting, its value in a preset, its SLAMBench flag and meaning.
+void add_settings_command(CLI::App& app);
 /// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
 void add_convert_command(CLI::App& app);
 

@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   kfx::cli::add_eval_command(app);
   kfx::cli::add_convert_command(app);
   kfx::cli::add_bench_command(app);
+  kfx::cli::add_settings_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

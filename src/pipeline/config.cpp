@@ -58,9 +58,17 @@ std::array<float, N> parse_floats(const std::string& key, const std::string& tex
   return out;
 }
 
-std::string format_number(double v) {
+/// Shortest text that parses back to the same value of type T (0.1f prints as 0.1).
+template <class T>
+std::string format_number(T v) {
+  for (int precision = 6; precision < 17; ++precision) {
+    std::ostringstream s;
+    s.precision(precision);
+    s << v;
+    if (static_cast<T>(std::strtod(s.str().c_str(), nullptr)) == v) return s.str();
+  }
   std::ostringstream s;
-  s.precision(9);
+  s.precision(17);
   s << v;
   return s.str();
 }
