@@ -71,17 +71,39 @@ TEST(PipelineReference, TumFr1XyzMatchesSlambench) {
   expect_reference_parity("tum_fr1_xyz", tum_xyz_config(), false, 0.0217);
 }
 
+TEST(PipelineReference, IclOfficeKt0NegativeFyIsSlambenchsRunMirrored) {
+  // fy = −480 (image y up, as ICL-NUIM's camera) with SLAMBench's principal point: the same
+  // computation as SLAMBench's +480 run in a world mirrored in y, so the trajectory is the
+  // reference's mirrored about the first camera, and it evaluates without any y flip.
+  if (!shared_exists("data/icl_office_kt0")) GTEST_SKIP() << "needs ../shared/data";
+  PipelineConfig c = icl_office_config();
+  set_config_value(c, "camera", "481.2,-480,320,240");
+  const SequenceRun run = run_sequence(shared_path("data/icl_office_kt0"), c);
+  auto mirrored = io::read_tum_trajectory(shared_path("reference/icl_office_kt0.openmp-2threads.tum.txt"));
+  const double y0 = 0.5 * 5.0;  // first camera y in the volume frame
+  for (auto& p : mirrored) p.t[1] = 2 * y0 - p.t[1];
+  const PositionDifference diff = compare_positions(run.trajectory, mirrored);
+  EXPECT_LE(diff.median_m, kMaxMedianDifference_m);
+  EXPECT_LE(diff.p95_m, kMaxP95Difference_m);
+  const auto ate = eval::evaluate_trajectories(run.trajectory, run.ground_truth, {});
+  EXPECT_NEAR(ate.ate.stats_m.rmse, 0.0084, kAteRelativeTolerance * 0.0084);
+  std::cout << "icl_office_kt0, fy = -480: ATE RMSE " << ate.ate.stats_m.rmse * 100
+            << " cm without flip; vs mirrored SLAMBench median " << diff.median_m * 1000
+            << " mm, p95 " << diff.p95_m * 1000 << " mm\n";
+}
+
 TEST(PipelineReference, IclOfficeKt0TrueIntrinsicsNeedNoFlip) {
-  // ICL-NUIM's true camera (fy = −480, image y up): the world is not mirrored, so the
-  // trajectory evaluates against the ground truth without any y flip, about as well as
-  // SLAMBench's mirrored run does with one.
+  // ICL-NUIM's true camera (fy = −480, cx, cy = 319.5, 239.5): the world is not mirrored, so
+  // the trajectory evaluates against the ground truth without a y flip, and a flip would be
+  // wrong. NOTE: measured here, the half-pixel principal point costs ATE on this sequence
+  // (1.4–1.6 cm with either sign of fy, against 0.86 cm with 320, 240), hence the 2 cm bound.
   if (!shared_exists("data/icl_office_kt0")) GTEST_SKIP() << "needs ../shared/data";
   PipelineConfig c = icl_office_config();
   set_config_value(c, "camera", "481.2,-480,319.5,239.5");
   const SequenceRun run = run_sequence(shared_path("data/icl_office_kt0"), c);
   EXPECT_GE(run.tracked, run.frames - 10);
   const auto ate = eval::evaluate_trajectories(run.trajectory, run.ground_truth, {});
-  EXPECT_LT(ate.ate.stats_m.rmse, 0.0084 * 1.5);
+  EXPECT_LT(ate.ate.stats_m.rmse, 0.02);
   eval::EvalOptions flipped;
   flipped.flip_y = true;
   const auto ate_flipped = eval::evaluate_trajectories(run.trajectory, run.ground_truth, flipped);

@@ -47,6 +47,7 @@ struct PreprocessParams {
   float spatial_weight[9] = {};          ///< per-axis Gaussian weights, 2r+1 of them
   float range_denominator_m2 = 0.02f;    ///< 2σ_r²
   bool use_range_term = true;
+  bool zero_padded = false;              ///< neighbours outside the image read as 0
 };
 
 /// Parameters of the pyramid (half-sampling, vertices, normals).
@@ -60,6 +61,7 @@ struct IcpParams {
   float dist_threshold_m = 0.1f;
   float normal_threshold = 0.8f;
   float icp_threshold = 1e-5f;
+  int stride_px = 1;  ///< track one pixel per stride × stride block, weighted by stride²
 };
 
 /// Parameters of integration.
@@ -67,6 +69,9 @@ struct IntegrateParams {
   Intrinsics k;  ///< compute-size intrinsics
   float mu_m = 0.1f;
   int max_weight = 100;
+  int z_stride = 1;             ///< update every z_stride-th slice, rotating with the frame
+  int ray_factor_mode = 0;      ///< RayFactorMode
+  bool zero_depth_test = true;
 };
 
 /// Parameters of the raycast.
@@ -76,6 +81,10 @@ struct RaycastParams {
   float far_m = 4.0f;
   float step_m = 0.0f;
   float large_step_m = 0.075f;
+  float constant_step_m = 0.0f;  ///< > 0: constant march step
+  bool two_value_interp = false;
+  int block_x_px = 1;            ///< one ray per block, copied into it
+  int block_y_px = 1;
 };
 
 /// Host copies of the maps a renderer or a test wants to look at.

@@ -13,6 +13,9 @@
 
 namespace kfx {
 
+/// Start of every frame (run once, before any other stage reads the state): count it.
+KFX_HD inline void begin_frame_state(TrackingState& s) { s.frame_index += 1; }
+
 /// Start of a tracked frame: remember the pose for a revert, clear the frame's flags.
 KFX_HD inline void begin_tracking(TrackingState& s) {
   s.T_world_cam_before = s.T_world_cam;

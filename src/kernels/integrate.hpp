@@ -20,7 +20,14 @@ struct IntegrateArgs {
   const TrackingState* state;      ///< T_cam_world, integrate_now, max_depth_m
   float mu_m = 0.1f;               ///< truncation distance
   int max_weight = 100;            ///< weight cap
+  /// Approximations (exact values first):
+  int z_stride = 1;             ///< update z ≡ frame mod z_stride only (slices rotate per frame)
+  int ray_factor_mode = 0;      ///< 0 exact sqrt, 1 first-order approximation, 2 none (1)
+  bool zero_depth_test = true;  ///< skip pixels without depth
 };
+
+/// Ray-factor modes of IntegrateArgs.
+enum RayFactorMode : int { kRayFactorExact = 0, kRayFactorApprox = 1, kRayFactorNone = 2 };
 
 /// Smallest camera z at which a voxel is considered (SLAMBench's 0.0001 m).
 constexpr float kIntegrateMinZ_m = 0.0001f;
@@ -97,8 +104,13 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
   const float v = (a.k.fy * p.y + a.k.cy * p.z) / p.z + 0.5f;
   if (u < 0.0f || u > a.depth_m.width - 1 || v < 0.0f || v > a.depth_m.height - 1) return;
   const float depth = a.depth_m(static_cast<int>(u), static_cast<int>(v));
-  if (depth == 0.0f) return;
-  const float ray_factor = sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
+  if (a.zero_depth_test && depth == 0.0f) return;
+  float ray_factor = 1.0f;  // distance along the ray per unit of z
+  if (a.ray_factor_mode == kRayFactorExact) {
+    ray_factor = sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
+  } else if (a.ray_factor_mode == kRayFactorApprox) {
+    ray_factor = 1.0f + 0.5f * (p.x * p.x + p.y * p.y) / (p.z * p.z);  // sqrt(1+r²) ≈ 1 + r²/2
+  }
   const float diff = (depth - p.z) * ray_factor;
   if (diff > -a.mu_m) {
     const float sdf = min_f(1.0f, diff / a.mu_m);
@@ -118,16 +130,26 @@ KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgs& a,
   integrate_line_bounds(z_line(x, y, a), a, z_begin, z_end);
 }
 
-/// Integrates voxels z_begin ≤ z < z_end of column (x, y).
+/// The z-slice offset this frame updates when slices are perforated (z_stride > 1).
+KFX_HD inline int z_slice_offset(const IntegrateArgs& a) {
+  return a.z_stride > 1 ? a.state->frame_index % a.z_stride : 0;
+}
+
+/// Integrates voxels z_begin ≤ z < z_end of column (x, y) (only this frame's slices).
 KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const IntegrateArgs& a) {
   const VoxelLine line = z_line(x, y, a);
-  for (int z = z_begin; z < z_end; ++z) {
+  if (a.z_stride > 1) {  // first z ≥ z_begin with z ≡ offset (mod stride)
+    const int offset = z_slice_offset(a);
+    z_begin += ((offset - z_begin) % a.z_stride + a.z_stride) % a.z_stride;
+  }
+  for (int z = z_begin; z < z_end; z += a.z_stride) {
     integrate_voxel(line.base + line.delta * static_cast<float>(z), x, y, z, a);
   }
 }
 
 /// Integrates the whole updatable part of row (y, z) (voxels contiguous in memory).
 KFX_HD inline void integrate_row(int y, int z, const IntegrateArgs& a) {
+  if (a.z_stride > 1 && z % a.z_stride != z_slice_offset(a)) return;
   const VoxelLine line = x_line(y, z, a);
   int x_begin, x_end;
   integrate_line_bounds(line, a, x_begin, x_end);

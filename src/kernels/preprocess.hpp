@@ -41,6 +41,8 @@ struct BilateralArgs {
   float range_denominator_m2 = 0.02f;
   /// false: spatial weights only and no zero test on neighbours (the thesis's variant).
   bool use_range_term = true;
+  /// true: neighbours outside the image read as 0 (zero padding, no clamping).
+  bool zero_padded = false;
 };
 
 /// Edge-preserving bilateral filter of one pixel (coordinates clamped at the borders;
@@ -57,9 +59,12 @@ KFX_HD inline void bilateral_pixel(int x, int y, const BilateralArgs& a) {
   // NOTE: outer loop over the x offset, inner over y, as SLAMBench sums them.
   for (int i = -r; i <= r; ++i) {
     for (int j = -r; j <= r; ++j) {
-      const int cx = clampi(x + i, 0, a.in_m.width - 1);
-      const int cy = clampi(y + j, 0, a.in_m.height - 1);
-      const float pixel = a.in_m(cx, cy);
+      float pixel;
+      if (a.zero_padded) {
+        pixel = a.in_m.contains(x + i, y + j) ? a.in_m(x + i, y + j) : 0.0f;
+      } else {
+        pixel = a.in_m(clampi(x + i, 0, a.in_m.width - 1), clampi(y + j, 0, a.in_m.height - 1));
+      }
       if (a.use_range_term) {
         if (pixel > 0.0f) {
           const float mod = (pixel - centre) * (pixel - centre);

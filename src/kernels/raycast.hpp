@@ -100,7 +100,30 @@ struct RaycastArgs {
   float far_m = 4.0f;
   float step_m = 0.0f;          ///< one voxel
   float large_step_m = 0.075f;  ///< 0.75 · mu
+  /// Approximations (exact values first):
+  float constant_step_m = 0.0f;  ///< > 0: march with this step only (no switch to fine steps)
+  bool two_value_interp = false; ///< sample 2 voxels (nearest x, y; linear in z) instead of 8
+  int block_x_px = 1;            ///< one ray per block_x × block_y pixels, copied into the block
+  int block_y_px = 1;
 };
+
+/// Two-value tsdf sample: nearest voxel in x and y, linear between the two z neighbours.
+KFX_HD inline float volume_interp_two_value(const VolumeView& vol, Vec3f p_m) {
+  const float sx = p_m.x * vol.res / vol.size_m, sy = p_m.y * vol.res / vol.size_m;
+  const float sz = p_m.z * vol.res / vol.size_m - 0.5f;
+  const int last = vol.res - 1;
+  const int x = clampi(static_cast<int>(floorf(sx)), 0, last);
+  const int y = clampi(static_cast<int>(floorf(sy)), 0, last);
+  const int bz = static_cast<int>(floorf(sz));
+  const float fz = sz - floorf(sz);
+  const float lo = vol.at(x, y, maxi(bz, 0)).tsdf, hi = vol.at(x, y, mini(bz + 1, last)).tsdf;
+  return (lo * (1 - fz) + hi * fz) * kTsdfInvScale;
+}
+
+/// The sample the march uses: trilinear (exact) or two-value.
+KFX_HD inline float raycast_sample(const RaycastArgs& a, Vec3f p_m) {
+  return a.two_value_interp ? volume_interp_two_value(a.volume, p_m) : volume_interp(a.volume, p_m);
+}
 
 /// Marches one ray; returns t of the hit (> 0) or 0 on a miss, and the hit point.
 KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Vec3f& hit) {
@@ -119,8 +142,9 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
   const float t_far = min_f(smallest_t_max, a.far_m);
   if (!(t_near < t_far)) return 0.0f;
   float t = t_near;
-  float step = a.large_step_m;
-  float f_t = volume_interp(a.volume, origin + direction * t);
+  const bool constant_step = a.constant_step_m > 0.0f;
+  float step = constant_step ? a.constant_step_m : a.large_step_m;
+  float f_t = raycast_sample(a, origin + direction * t);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
   // Samples in untouched bricks are skipped: they are ≥ 0.8, so they would only have advanced
@@ -134,14 +158,14 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
       t_prev = t;
       continue;
     }
-    f_tt = volume_interp(a.volume, p);
+    f_tt = raycast_sample(a, p);
     if (f_tt < 0.0f) break;
-    if (f_tt < 0.8f) step = a.step_m;
+    if (f_tt < 0.8f && !constant_step) step = a.step_m;
     f_t = f_tt;
     f_t_skipped = false;
   }
   if (!(f_tt < 0.0f)) return 0.0f;
-  if (f_t_skipped) f_t = volume_interp(a.volume, origin + direction * t_prev);
+  if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev);
   t = t + step * f_tt / (f_t - f_tt);  // secant refinement
   hit = origin + direction * t;
   return t;
@@ -161,6 +185,25 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgs& a) {
   } else {
     a.vertex(x, y) = Vec3f{0.0f, 0.0f, 0.0f};
     a.normal(x, y) = Vec3f{kInvalidNormal, 0.0f, 0.0f};
+  }
+}
+
+}  // namespace kfx
+
+namespace kfx {
+
+/// One ray per block_x × block_y pixel block (raycast perforation): the ray of the block's
+/// top-left pixel, copied into the whole block. With 1 × 1 blocks this is raycast_pixel.
+KFX_HD inline void raycast_block(int block_x, int block_y, const RaycastArgs& a) {
+  const int x0 = block_x * a.block_x_px, y0 = block_y * a.block_y_px;
+  raycast_pixel(x0, y0, a);
+  if (a.block_x_px == 1 && a.block_y_px == 1) return;
+  const Vec3f v = a.vertex(x0, y0), n = a.normal(x0, y0);
+  for (int y = y0; y < mini(y0 + a.block_y_px, a.vertex.height); ++y) {
+    for (int x = x0; x < mini(x0 + a.block_x_px, a.vertex.width); ++x) {
+      a.vertex(x, y) = v;
+      a.normal(x, y) = n;
+    }
   }
 }
 

@@ -35,6 +35,7 @@ struct TrackArgs {
   const TrackingState* state;         ///< T_world_cam and project_reference
   float dist_threshold_m = 0.1f;      ///< |ref_v − p| above this → −4
   float normal_threshold = 0.8f;      ///< dot(R·n, ref_n) below this → −5
+  int stride_px = 1;                  ///< track one pixel per stride × stride block (perforation)
 };
 
 /// Projective data association and point-to-plane residual of one pixel.

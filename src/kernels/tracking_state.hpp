@@ -34,6 +34,7 @@ struct TrackingState {
   int tracked;               ///< outcome of this frame's accept test
   int integrate_now;         ///< 1 when this frame is integrated
   int iterations_run;        ///< ICP iterations actually run this frame (all levels)
+  int frame_index;           ///< frame number f, counted on the device (−1 before frame 0)
 };
 
 }  // namespace kfx

@@ -52,6 +52,20 @@ struct PipelineConfig {
   struct Render {
     int rate = 4;  ///< render the volume every N frames when rendering is on
   } render;
+  /// The seed thesis's techniques and more, each defaulting to exact (REFERENCE.md, last
+  /// section). `kfx settings` lists them with their effect and range.
+  struct Approximations {
+    std::string bilateral_mode = "exact";  ///< exact (5×5 with range) | spatial3x3
+    bool zero_padded_depth = false;        ///< bilateral reads outside the image as 0
+    int icp_stride_px = 1;                 ///< track one pixel per s × s block, weighted s²
+    int integration_z_stride = 1;          ///< integrate every s-th z slice, rotating per frame
+    std::string ray_factor = "exact";      ///< exact sqrt | approx (1 + r²/2) | none (1)
+    bool integrate_zero_depth_test = true; ///< skip pixels without depth when integrating
+    int raycast_rate = 1;                  ///< raycast every N-th frame (ICP reuses the last)
+    std::array<int, 2> raycast_block_px{1, 1};  ///< one ray per bx × by block, copied into it
+    float raycast_constant_step_m = 0.0f;  ///< > 0: constant march step (no fine steps)
+    std::string raycast_interp = "trilinear";   ///< trilinear (8 voxels) | two_value (2)
+  } approx;
 
   /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.
   void validate() const;

@@ -4,6 +4,8 @@
 
 #include <cmath>
 
+#include "kernels/integrate.hpp"
+
 namespace kfx {
 
 Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics,
@@ -33,15 +35,18 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
 
   // Bilateral: g[k] = exp(−(k−r)²/(2σ²)) and the range denominator 2σ_r², as SLAMBench.
   const auto& pre = config_.preprocess;
-  preprocess_.bilateral_radius_px = pre.bilateral_radius_px;
-  for (int i = 0; i <= 2 * pre.bilateral_radius_px; ++i) {
-    const int x = i - pre.bilateral_radius_px;
+  const auto& approx = config_.approx;
+  const bool spatial_only = approx.bilateral_mode == "spatial3x3";
+  preprocess_.bilateral_radius_px = spatial_only ? 1 : pre.bilateral_radius_px;
+  for (int i = 0; i <= 2 * preprocess_.bilateral_radius_px; ++i) {
+    const int x = i - preprocess_.bilateral_radius_px;
     const float sigma = pre.bilateral_spatial_sigma_px;
     preprocess_.spatial_weight[i] = expf(-(x * x) / (2 * sigma * sigma));
   }
   preprocess_.range_denominator_m2 =
       2 * pre.bilateral_range_sigma_m * pre.bilateral_range_sigma_m;
-  preprocess_.use_range_term = true;
+  preprocess_.use_range_term = !spatial_only;
+  preprocess_.zero_padded = approx.zero_padded_depth;
 
   pyramid_.half_sample_range_m = config_.tracking.half_sample_range_m;
   for (int l = 0; l < levels; ++l) {
@@ -50,17 +55,27 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   icp_.dist_threshold_m = config_.tracking.dist_threshold_m;
   icp_.normal_threshold = config_.tracking.normal_threshold;
   icp_.icp_threshold = config_.tracking.icp_threshold;
+  icp_.stride_px = approx.icp_stride_px;
   accept_.max_rms_error_m = config_.tracking.max_rms_error_m;
   accept_.min_inlier_fraction = config_.tracking.min_inlier_fraction;
   accept_.compute_pixels = cw * ch;
   integrate_.k = compute_k_;
   integrate_.mu_m = config_.volume.mu_m;
   integrate_.max_weight = config_.volume.max_weight;
+  integrate_.z_stride = approx.integration_z_stride;
+  integrate_.ray_factor_mode = approx.ray_factor == "approx"  ? kRayFactorApprox
+                               : approx.ray_factor == "none" ? kRayFactorNone
+                                                             : kRayFactorExact;
+  integrate_.zero_depth_test = approx.integrate_zero_depth_test;
   raycast_.k = compute_k_;
   raycast_.near_m = config_.raycast.near_m;
   raycast_.far_m = config_.raycast.far_m;
   raycast_.step_m = size / static_cast<float>(config_.volume.resolution_vox);
   raycast_.large_step_m = config_.raycast.large_step_mu * config_.volume.mu_m;
+  raycast_.constant_step_m = approx.raycast_constant_step_m;
+  raycast_.two_value_interp = approx.raycast_interp == "two_value";
+  raycast_.block_x_px = approx.raycast_block_px[0];
+  raycast_.block_y_px = approx.raycast_block_px[1];
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
@@ -70,6 +85,7 @@ void Pipeline::reset() {
   while (!in_flight_.empty()) collect();
   backend_->reset(initial_pose_);
   frame_ = 0;
+  have_reference_ = false;
 }
 
 FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm) {
@@ -83,10 +99,12 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   report.index = f;
   Backend& b = *backend_;
   b.upload_depth(depth_mm);
-  const bool track = f > 3 && f % config_.tracking.rate == 0;
+  // The reference view exists only after the first raycast (end of frame 3 when exact).
+  const bool track = have_reference_ && f % config_.tracking.rate == 0;
   const bool always = f <= 3;
   const bool may_integrate = always || f % config_.integration.rate == 0;
-  report.raycast = f > 2;
+  report.raycast = f > 2 && f % config_.approx.raycast_rate == 0;
+  if (report.raycast) have_reference_ = true;
   // Which stages run depends on the frame number only: the shape names the sequence.
   const int shape = (track ? 1 : 0) | (may_integrate ? 2 : 0) | (always ? 4 : 0) |
                     (report.raycast ? 8 : 0);
@@ -96,7 +114,6 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   b.preprocess(preprocess_);
   b.end_stage(Stage::kPreprocess);
 
-  // The reference view exists only after the first raycast (end of frame 3).
   b.begin_stage(Stage::kTrack);
   if (track) {
     b.build_pyramid(pyramid_);

@@ -74,6 +74,7 @@ class Pipeline {
   };
   std::deque<PendingFrame> in_flight_;  ///< submitted, not yet collected
   int frame_ = 0;
+  bool have_reference_ = false;  ///< a raycast has run: frames can be tracked
 };
 
 }  // namespace kfx

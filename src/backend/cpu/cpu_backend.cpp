@@ -73,6 +73,7 @@ class CpuBackend final : public Backend {
     std::fill(brick_touched_.begin(), brick_touched_.end(), 0);
     state_ = TrackingState{};
     finished_.clear();
+    state_.frame_index = -1;
     state_.T_world_cam = T_world_cam;
     state_.T_world_cam_before = T_world_cam;
     state_.T_world_raycast = T_world_cam;
@@ -96,6 +97,7 @@ class CpuBackend final : public Backend {
   }
 
   void preprocess(const PreprocessParams& p) override {
+    begin_frame_state(state_);
     const MmToMArgs mm{input_mm_.view(), depth_m_.view(), setup_.compute_ratio};
     const int w = depth_m_.width(), h = depth_m_.height();
     float max_depth_m = 0.0f;
@@ -111,6 +113,7 @@ class CpuBackend final : public Backend {
     std::copy(std::begin(p.spatial_weight), std::end(p.spatial_weight), b.spatial_weight);
     b.range_denominator_m2 = p.range_denominator_m2;
     b.use_range_term = p.use_range_term;
+    b.zero_padded = p.zero_padded;
     for_each_pixel(w, h, [&](int x, int y) { bilateral_pixel(x, y, b); });
   }
 
@@ -146,20 +149,22 @@ class CpuBackend final : public Backend {
     a.state = &state_;
     a.dist_threshold_m = p.dist_threshold_m;
     a.normal_threshold = p.normal_threshold;
-    const int w = a.in_vertex.width, h = a.in_vertex.height;
+    a.stride_px = p.stride_px;
+    const int w = a.in_vertex.width, h = a.in_vertex.height, s = p.stride_px;
+    const double weight = static_cast<double>(s) * s;  // each tracked pixel stands for its block
     const bool keep_outcome = level == 0;
 #pragma omp parallel for schedule(static)
-    for (int y = 0; y < h; ++y) {
+    for (int y = 0; y < h; y += s) {
       double acc[kAccumulatorSize] = {};  // local: stays in registers, no aliasing
-      for (int x = 0; x < w; ++x) {
+      for (int x = 0; x < w; x += s) {
         const TrackRow row = track_pixel(x, y, a);
-        accumulate_row(acc, row);
+        accumulate_row(acc, row, weight);
         if (keep_outcome) track_outcome_(x, y) = static_cast<int8_t>(row.outcome);
       }
       std::copy(acc, acc + kAccumulatorSize, &row_partials_[static_cast<size_t>(y) * kAccumulatorSize]);
     }
     double total[kAccumulatorSize] = {};
-    for (int y = 0; y < h; ++y) {  // fixed order: repeatable
+    for (int y = 0; y < h; y += s) {  // fixed order: repeatable
       const double* acc = &row_partials_[static_cast<size_t>(y) * kAccumulatorSize];
       for (int i = 0; i < kAccumulatorSize; ++i) total[i] += acc[i];
     }
@@ -179,6 +184,9 @@ class CpuBackend final : public Backend {
     a.state = &state_;
     a.mu_m = p.mu_m;
     a.max_weight = p.max_weight;
+    a.z_stride = p.z_stride;
+    a.ray_factor_mode = p.ray_factor_mode;
+    a.zero_depth_test = p.zero_depth_test;
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag.
     const int res = setup_.volume_res_vox;
@@ -202,10 +210,15 @@ class CpuBackend final : public Backend {
     a.far_m = p.far_m;
     a.step_m = p.step_m;
     a.large_step_m = p.large_step_m;
-    const int w = ref_vertex_.width(), h = ref_vertex_.height();
+    a.constant_step_m = p.constant_step_m;
+    a.two_value_interp = p.two_value_interp;
+    a.block_x_px = p.block_x_px;
+    a.block_y_px = p.block_y_px;
+    const int blocks_x = (ref_vertex_.width() + p.block_x_px - 1) / p.block_x_px;
+    const int blocks_y = (ref_vertex_.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) raycast_pixel(x, y, a);
+    for (int y = 0; y < blocks_y; ++y) {
+      for (int x = 0; x < blocks_x; ++x) raycast_block(x, y, a);
     }
   }
 

@@ -102,6 +102,7 @@ class CudaBackend final : public Backend {
     KFX_CUDA_LAUNCH_CHECK();
     KFX_CUDA_CHECK(cudaMemsetAsync(brick_touched_.data(), 0, brick_touched_.bytes(), stream_.get()));
     TrackingState initial{};
+    initial.frame_index = -1;
     initial.T_world_cam = T_world_cam;
     initial.T_world_cam_before = T_world_cam;
     initial.T_world_raycast = T_world_cam;
@@ -177,6 +178,7 @@ class CudaBackend final : public Backend {
     std::copy(std::begin(p.spatial_weight), std::end(p.spatial_weight), b.spatial_weight);
     b.range_denominator_m2 = p.range_denominator_m2;
     b.use_range_term = p.use_range_term;
+    b.zero_padded = p.zero_padded;
     pixel_kernel<BilateralBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(b, w, h);
     launched();
   }
@@ -226,7 +228,9 @@ class CudaBackend final : public Backend {
     a.state = state_.data();
     a.dist_threshold_m = p.dist_threshold_m;
     a.normal_threshold = p.normal_threshold;
-    const int pixels = a.in_vertex.width * a.in_vertex.height;
+    a.stride_px = p.stride_px;
+    const int pixels = ((a.in_vertex.width + p.stride_px - 1) / p.stride_px) *
+                       ((a.in_vertex.height + p.stride_px - 1) / p.stride_px);
     const int blocks = std::min(reduce_blocks_, (pixels + kReduceBlock - 1) / kReduceBlock);
     icp_iteration_kernel<<<blocks, kReduceBlock, 0, stream_.get()>>>(
         a, state_.data(), partials_.data(), blocks_done_.data(), p.icp_threshold,
@@ -257,6 +261,9 @@ class CudaBackend final : public Backend {
     a.state = state_.data();
     a.mu_m = p.mu_m;
     a.max_weight = p.max_weight;
+    a.z_stride = p.z_stride;
+    a.ray_factor_mode = p.ray_factor_mode;
+    a.zero_depth_test = p.zero_depth_test;
     const int res = setup_.volume_res_vox;
     const int z_chunks = 4;
     const dim3 block(32, 4);
@@ -279,9 +286,14 @@ class CudaBackend final : public Backend {
     a.far_m = p.far_m;
     a.step_m = p.step_m;
     a.large_step_m = p.large_step_m;
+    a.constant_step_m = p.constant_step_m;
+    a.two_value_interp = p.two_value_interp;
+    a.block_x_px = p.block_x_px;
+    a.block_y_px = p.block_y_px;
     const dim3 block(16, 8);
-    const int w = a.vertex.width, h = a.vertex.height;
-    pixel_kernel<RaycastBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(a, w, h);
+    const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
+    const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
+    pixel_kernel<RaycastBlockBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(a, w, h);
     launched();
   }
 

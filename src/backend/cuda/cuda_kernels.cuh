@@ -42,8 +42,8 @@ struct VertexToNormalBody {
     vertex_to_normal_pixel(x, y, a);
   }
 };
-struct RaycastBody {
-  __device__ void operator()(int x, int y, const RaycastArgs& a) const { raycast_pixel(x, y, a); }
+struct RaycastBlockBody {
+  __device__ void operator()(int x, int y, const RaycastArgs& a) const { raycast_block(x, y, a); }
 };
 
 /// mm → metres, and the frame's largest depth (block max, then one atomic per block; a max is
@@ -53,6 +53,7 @@ __global__ void mm_to_m_kernel(MmToMArgs args, TrackingState* state) {
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   float d = 0.0f;
   if (x < args.out_m.width && y < args.out_m.height) d = mm_to_m_pixel(x, y, args);
+  if (x == 0 && y == 0) begin_frame_state(*state);  // once per frame, first thing
   for (int offset = 16; offset > 0; offset /= 2) {
     d = fmaxf(d, __shfl_down_sync(0xffffffffu, d, offset));
   }
@@ -117,16 +118,19 @@ __global__ void __launch_bounds__(kReduceBlock)
     icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
                          unsigned int* blocks_done, float icp_threshold, int8_t* outcome) {
   if (state->level_converged) return;  // uniform: set by an earlier launch
-  const int width = args.in_vertex.width;
-  const int pixels = width * args.in_vertex.height;
+  // With a stride s, pixel (i mod ws, i div ws)·s stands for its s × s block.
+  const int s = args.stride_px;
+  const int ws = (args.in_vertex.width + s - 1) / s, hs = (args.in_vertex.height + s - 1) / s;
+  const int pixels = ws * hs;
+  const double weight = static_cast<double>(s) * s;
   double acc[kAccumulatorSize];
 #pragma unroll
   for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0.0;
   for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < pixels; i += gridDim.x * kReduceBlock) {
-    const int x = i % width, y = i / width;
+    const int x = (i % ws) * s, y = (i / ws) * s;
     const TrackRow row = track_pixel(x, y, args);
-    accumulate_row(acc, row);
-    if (outcome) outcome[i] = static_cast<int8_t>(row.outcome);
+    accumulate_row(acc, row, weight);
+    if (outcome) outcome[x + y * args.in_vertex.width] = static_cast<int8_t>(row.outcome);
   }
   const double block_total = block_sum_accumulator(acc);
   __shared__ bool is_last;
@@ -142,11 +146,11 @@ __global__ void __launch_bounds__(kReduceBlock)
   __shared__ double group_sums[kReduceBlock / 32][kAccumulatorSize];
   __shared__ double total[kAccumulatorSize];
   const int value = threadIdx.x % kAccumulatorSize, group = threadIdx.x / kAccumulatorSize;
-  double s = 0.0;
+  double group_sum = 0.0;
   for (int b = group; b < gridDim.x; b += kReduceBlock / kAccumulatorSize) {
-    s += __ldcg(&partials[b * kAccumulatorSize + value]);
+    group_sum += __ldcg(&partials[b * kAccumulatorSize + value]);
   }
-  group_sums[group][value] = s;
+  group_sums[group][value] = group_sum;
   __syncthreads();
   if (threadIdx.x < kAccumulatorSize) {
     double t = 0.0;
