@@ -84,7 +84,6 @@ TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track
     b.begin_tracking();
     const int iterations[3] = {10, 5, 4};
     for (int level = 2; level >= 0; --level) {
-      b.begin_level();
       for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, IcpParams{});
     }
     b.accept_or_revert(accept);

@@ -120,8 +120,6 @@ class Backend {
   virtual void build_pyramid(const PyramidParams& params) = 0;
   /// Marks the start of a tracked frame (pose saved for a revert).
   virtual void begin_tracking() = 0;
-  /// Clears the convergence flag at the start of a pyramid level.
-  virtual void begin_level() = 0;
   /// One ICP iteration at `level`: track, reduce, solve, update; a no-op once converged.
   virtual void icp_iteration(int level, const IcpParams& params) = 0;
   /// Accept test on the last iteration; reverts the pose on reject.

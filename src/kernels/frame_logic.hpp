@@ -21,14 +21,18 @@ KFX_HD inline void begin_tracking(TrackingState& s) {
   s.T_world_cam_before = s.T_world_cam;
   s.tracked = 0;
   s.iterations_run = 0;
+  s.converged_level = -1;
 }
 
-/// Start of a pyramid level: its iterations run until convergence or their cap.
-KFX_HD inline void begin_level(TrackingState& s) { s.level_converged = 0; }
+/// True once the ICP of `level` has converged this frame: its remaining iterations are no-ops.
+/// (The flag names the level, so a new level starts unconverged without a reset step.)
+KFX_HD inline bool level_converged(const TrackingState& s, int level) {
+  return s.converged_level == level;
+}
 
-/// ICP update from the reduction of one iteration: solve, T ← exp(x)·T, convergence test.
-/// `acc` is kept as the frame's last accumulator for the accept test.
-KFX_HD inline void icp_update(TrackingState& s, const double* acc, float icp_threshold) {
+/// ICP update from the reduction of one iteration at `level`: solve, T ← exp(x)·T, convergence
+/// test. `acc` is kept as the frame's last accumulator for the accept test.
+KFX_HD inline void icp_update(TrackingState& s, const double* acc, float icp_threshold, int level) {
   for (int i = 0; i < kAccumulatorSize; ++i) s.accumulator[i] = acc[i];
   double x[6];
   solve_6x6(acc, x);
@@ -37,7 +41,7 @@ KFX_HD inline void icp_update(TrackingState& s, const double* acc, float icp_thr
   for (int i = 0; i < 6; ++i) norm_sq += x[i] * x[i];
   s.last_step_norm = sqrt(norm_sq);
   s.iterations_run += 1;
-  if (s.last_step_norm < icp_threshold) s.level_converged = 1;
+  if (s.last_step_norm < icp_threshold) s.converged_level = level;
 }
 
 /// Thresholds of the accept test.

@@ -29,21 +29,24 @@ KFX_HD inline void unpack_jtj(const double* acc, double a[6][6]) {
 /// when the pseudo-inverse would drop nothing and equals the plain inverse.
 /// cond₂(A) ≤ ‖A‖_F · ‖A⁻¹‖_F ≤ ‖A‖_F · ‖L⁻¹‖_F². Returns false when the bound is not met.
 KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
-  double a[6][6], l[6][6] = {};
+  double a[6][6], l[6][6] = {}, inv_diag[6];
   unpack_jtj(acc, a);
   double norm_a_sq = 0.0;
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) norm_a_sq += a[r][c] * a[r][c];
   }
+  // NOTE: one reciprocal per pivot instead of a division per element: the GPU runs this in a
+  // single thread between ICP iterations, where double divisions are the latency.
   for (int j = 0; j < 6; ++j) {
     double d = a[j][j];
     for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
     if (!(d > 0.0)) return false;
     l[j][j] = sqrt(d);
+    inv_diag[j] = 1.0 / l[j][j];
     for (int i = j + 1; i < 6; ++i) {
       double s = a[i][j];
       for (int k = 0; k < j; ++k) s -= l[i][k] * l[j][k];
-      l[i][j] = s / l[j][j];
+      l[i][j] = s * inv_diag[j];
     }
   }
   // ‖L⁻¹‖_F² by forward substitution on the identity's columns.
@@ -53,7 +56,7 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
     for (int i = 0; i < 6; ++i) {
       double s = (i == c) ? 1.0 : 0.0;
       for (int k = 0; k < i; ++k) s -= l[i][k] * col[k];
-      col[i] = s / l[i][i];
+      col[i] = s * inv_diag[i];
       norm_inv_sq += col[i] * col[i];
     }
   }
@@ -62,12 +65,12 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
   for (int i = 0; i < 6; ++i) {
     double s = acc[kAccJtE + i];
     for (int k = 0; k < i; ++k) s -= l[i][k] * y[k];
-    y[i] = s / l[i][i];
+    y[i] = s * inv_diag[i];
   }
   for (int i = 5; i >= 0; --i) {
     double s = y[i];
     for (int k = i + 1; k < 6; ++k) s -= l[k][i] * x[k];
-    x[i] = s / l[i][i];
+    x[i] = s * inv_diag[i];
   }
   return true;
 }

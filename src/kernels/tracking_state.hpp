@@ -30,7 +30,7 @@ struct TrackingState {
   double accumulator[kAccumulatorSize];  ///< reduction of the last ICP iteration run
   double last_step_norm;     ///< |x| of the last ICP update
   float max_depth_m;         ///< largest depth of the current frame (bounds integration)
-  int level_converged;       ///< 1 once |x| < icp_threshold at the current level
+  int converged_level;       ///< pyramid level whose ICP has converged this frame, else −1
   int tracked;               ///< outcome of this frame's accept test
   int integrate_now;         ///< 1 when this frame is integrated
   int iterations_run;        ///< ICP iterations actually run this frame (all levels)

@@ -120,7 +120,6 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
     b.begin_tracking();
     const auto& iterations = config_.tracking.iterations_per_level;
     for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
-      b.begin_level();
       for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, icp_);
     }
     b.accept_or_revert(accept_);

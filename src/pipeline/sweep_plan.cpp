@@ -60,8 +60,7 @@ std::string value_text(const ojson& value, const std::string& where) {
       return out;
     }
     default:
-      KFX_FAIL(where << ": expected a string, number, boolean or list, got "
-                     << value.type_name());
+      KFX_FAIL(where << ": expected a string, number, boolean or list, got " << value.type_name());
   }
 }
 
@@ -116,9 +115,9 @@ std::string substitute_name(std::string name, const Settings& point, const std::
     }
   }
   const auto open = name.find('{');
-  KFX_CHECK(open == std::string::npos,
-            where << ": name '" << name << "' refers to " << name.substr(open)
-                  << ", which is not a key of the grid");
+  KFX_CHECK(open == std::string::npos, where << ": name '" << name << "' refers to "
+                                             << name.substr(open)
+                                             << ", which is not a key of the grid");
   return name;
 }
 
@@ -210,9 +209,9 @@ SweepSequence parse_sequence(const ojson& entry, const std::string& where) {
   check_fields(entry, where, {"name", "input", "settings", "variants"});
   SweepSequence sequence;
   sequence.name = string_field(entry, "name", where);
-  KFX_CHECK(valid_sequence_name(sequence.name),
-            where << ": 'name' must be letters, digits, '_', '-' or '.', got '" << sequence.name
-                  << "'");
+  KFX_CHECK(
+      valid_sequence_name(sequence.name),
+      where << ": 'name' must be letters, digits, '_', '-' or '.', got '" << sequence.name << "'");
   const std::string named = where + " (" + sequence.name + ")";
   sequence.input = string_field(entry, "input", named);
   KFX_CHECK(!sequence.input.empty(), named << ": 'input' is missing");
@@ -306,8 +305,8 @@ std::vector<std::pair<std::string, std::vector<std::string>>> csv_layout() {
     layout.push_back({stage + "_ms_mean", {"stages_ms", stage, "mean"}});
     layout.push_back({stage + "_ms_median", {"stages_ms", stage, "median"}});
   }
-  for (const char* key : {"preset", "settings", "before", "baseline", "table", "mark", "input", "device", "repeat", "commit",
-                          "date", "error"}) {
+  for (const char* key : {"preset", "settings", "before", "baseline", "table", "mark", "input",
+                          "device", "repeat", "commit", "date", "error"}) {
     layout.push_back({key, {key}});
   }
   return layout;
@@ -325,8 +324,7 @@ SweepPlan parse_sweep_plan(const std::string& text, const std::string& origin,
     const size_t end = std::min<size_t>(e.byte > 0 ? e.byte - 1 : 0, text.size());
     const size_t line = std::count(text.begin(), text.begin() + end, '\n') + 1;
     const size_t line_start = text.rfind('\n', end > 0 ? end - 1 : 0);
-    const size_t column = line_start == std::string::npos || end == 0 ? end + 1
-                                                                      : end - line_start;
+    const size_t column = line_start == std::string::npos || end == 0 ? end + 1 : end - line_start;
     KFX_FAIL(origin << ":" << line << ":" << column << ": malformed JSON: " << e.what());
   }
   check_fields(root, origin,
@@ -367,12 +365,11 @@ SweepPlan parse_sweep_plan(const std::string& text, const std::string& origin,
     for (const auto& item : entry.items()) comments_only &= is_comment_field(item.key());
     if (comments_only) continue;
     for (auto& run : parse_run_entry(root["runs"][i], where, plan.preset)) {
-      KFX_CHECK(run.name.find('|') == std::string::npos &&
-                    run.name.find('\n') == std::string::npos,
+      KFX_CHECK(run.name.find('|') == std::string::npos && run.name.find('\n') == std::string::npos,
                 where << ": run name '" << run.name << "' must not hold '|' or a line break");
       const auto [it, fresh] = entry_of.emplace(run.name, where);
-      KFX_CHECK(fresh, where << ": run name '" << run.name << "' is already used by "
-                             << it->second << "; give the entry a distinct 'name'");
+      KFX_CHECK(fresh, where << ": run name '" << run.name << "' is already used by " << it->second
+                             << "; give the entry a distinct 'name'");
       plan.runs.push_back(run);
     }
   }
@@ -449,10 +446,10 @@ std::vector<ResolvedSequence> resolve_sequences(const SweepPlan& plan,
       const std::string path = eq == std::string::npos ? "" : item.substr(eq + 1);
       KFX_CHECK(valid_sequence_name(name),
                 "--sequences: '" << name << "' is not a sequence name (name or name=path)");
-      KFX_CHECK(find(name) || !path.empty(),
-                "--sequences: the plan has no sequence '"
-                    << name << "' (it has: " << known << "); give a path with " << name
-                    << "=PATH to add one");
+      KFX_CHECK(find(name) || !path.empty(), "--sequences: the plan has no sequence '"
+                                                 << name << "' (it has: " << known
+                                                 << "); give a path with " << name
+                                                 << "=PATH to add one");
       for (const auto& c : chosen) {
         KFX_CHECK(c.first != name, "--sequences: '" << name << "' is listed twice");
       }
@@ -468,12 +465,12 @@ std::vector<ResolvedSequence> resolve_sequences(const SweepPlan& plan,
   std::vector<std::pair<std::string, Settings>> extra;
   for (const auto& text : options.sequence_settings) {
     auto parsed = parse_sequence_settings(text);
-    const bool known_name =
-        parsed.first == "*" || find(parsed.first) ||
-        std::any_of(chosen.begin(), chosen.end(),
-                    [&parsed](const auto& c) { return c.first == parsed.first; });
-    KFX_CHECK(known_name, "--sequence-settings: no sequence '" << parsed.first << "' (known: "
-                                                               << known << ", or * for all)");
+    const bool known_name = parsed.first == "*" || find(parsed.first) ||
+                            std::any_of(chosen.begin(), chosen.end(), [&parsed](const auto& c) {
+                              return c.first == parsed.first;
+                            });
+    KFX_CHECK(known_name, "--sequence-settings: no sequence '"
+                              << parsed.first << "' (known: " << known << ", or * for all)");
     extra.push_back(std::move(parsed));
   }
 
@@ -490,7 +487,8 @@ std::vector<ResolvedSequence> resolve_sequences(const SweepPlan& plan,
       if (!options.variant.empty()) {
         const auto it = sequence->variants.find(options.variant);
         std::string variants;
-        for (const auto& v : sequence->variants) variants += (variants.empty() ? "" : ", ") + v.first;
+        for (const auto& v : sequence->variants)
+          variants += (variants.empty() ? "" : ", ") + v.first;
         KFX_CHECK(it != sequence->variants.end(),
                   "sequence '" << name << "' has no input variant '" << options.variant
                                << "' (it has: " << (variants.empty() ? "none" : variants) << ")");
@@ -584,7 +582,8 @@ std::vector<const SweepRun*> select_runs(const SweepPlan& plan,
     KFX_CHECK(matches, "--only: no run or group named '" << item << "' (groups: " << known << ")");
   }
   for (const auto& run : plan.runs) {
-    const bool chosen = only.empty() || std::find(only.begin(), only.end(), run.name) != only.end() ||
+    const bool chosen = only.empty() ||
+                        std::find(only.begin(), only.end(), run.name) != only.end() ||
                         std::find(only.begin(), only.end(), run.group) != only.end();
     if (chosen) wanted.insert(run.name);
   }
@@ -634,8 +633,8 @@ std::vector<nlohmann::json> read_results_log(const std::string& path, int* dropp
     } catch (const std::exception& e) {
       // Only the last line can be cut short by an interrupted write.
       const bool last = i + 1 == lines.size();
-      KFX_CHECK(last, "results log '" << path << "' line " << i + 1 << " is malformed ("
-                                      << e.what() << "); fix or delete that line to resume");
+      KFX_CHECK(last, "results log '" << path << "' line " << i + 1 << " is malformed (" << e.what()
+                                      << "); fix or delete that line to resume");
       if (dropped_lines) ++*dropped_lines;
       continue;
     }

@@ -21,30 +21,30 @@ using Settings = std::vector<std::pair<std::string, std::string>>;
 
 /// One named configuration of a sweep.
 struct SweepRun {
-  std::string name;         ///< unique within the plan; names the run in results and plots
-  std::string group;        ///< technique or sweep it belongs to ("integrate", "presets", ...)
-  std::string preset;       ///< preset it starts from
-  Settings settings;        ///< applied over the preset, the plan's and the sequence's settings
-  std::string step_key;     ///< the setting a step sweep varies ("" = not part of a step sweep)
-  std::string step;         ///< that setting's value in this run ("" = not part of a step sweep)
-  std::string before;       ///< run this one is compared against in before/after tables ("")
-  bool baseline = false;    ///< a reference run (the plan's default `before`)
-  bool table = false;       ///< a row of the per-technique before/after tables
-  bool mark = false;        ///< marked and labelled in the Pareto plot (presets)
-  std::string entry;        ///< where in the plan it came from, for messages: "runs[3]"
+  std::string name;       ///< unique within the plan; names the run in results and plots
+  std::string group;      ///< technique or sweep it belongs to ("integrate", "presets", ...)
+  std::string preset;     ///< preset it starts from
+  Settings settings;      ///< applied over the preset, the plan's and the sequence's settings
+  std::string step_key;   ///< the setting a step sweep varies ("" = not part of a step sweep)
+  std::string step;       ///< that setting's value in this run ("" = not part of a step sweep)
+  std::string before;     ///< run this one is compared against in before/after tables ("")
+  bool baseline = false;  ///< a reference run (the plan's default `before`)
+  bool table = false;     ///< a row of the per-technique before/after tables
+  bool mark = false;      ///< marked and labelled in the Pareto plot (presets)
+  std::string entry;      ///< where in the plan it came from, for messages: "runs[3]"
 };
 
 /// Where a sequence's frames come from, and the settings that go with that form of the data.
 struct SweepInput {
-  std::string input;   ///< path (relative paths resolve against the data root) or synthetic:...
-  Settings settings;   ///< applied after the sequence's own settings
+  std::string input;  ///< path (relative paths resolve against the data root) or synthetic:...
+  Settings settings;  ///< applied after the sequence's own settings
 };
 
 /// A sequence of a plan.
 struct SweepSequence {
-  std::string name;      ///< unique, [A-Za-z0-9_.-]+
-  std::string input;     ///< default input (see SweepInput::input)
-  Settings settings;     ///< settings every run on this sequence gets (intrinsics, volume, ...)
+  std::string name;   ///< unique, [A-Za-z0-9_.-]+
+  std::string input;  ///< default input (see SweepInput::input)
+  Settings settings;  ///< settings every run on this sequence gets (intrinsics, volume, ...)
   std::map<std::string, SweepInput> variants;  ///< other forms of the data, by variant name
 };
 

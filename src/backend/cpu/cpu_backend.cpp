@@ -137,10 +137,9 @@ class CpuBackend final : public Backend {
   }
 
   void begin_tracking() override { kfx::begin_tracking(state_); }
-  void begin_level() override { kfx::begin_level(state_); }
 
   void icp_iteration(int level, const IcpParams& p) override {
-    if (state_.level_converged) return;
+    if (level_converged(state_, level)) return;
     TrackArgs a;
     a.in_vertex = level_vertex_[level].view();
     a.in_normal = level_normal_[level].view();
@@ -168,7 +167,7 @@ class CpuBackend final : public Backend {
       const double* acc = &row_partials_[static_cast<size_t>(y) * kAccumulatorSize];
       for (int i = 0; i < kAccumulatorSize; ++i) total[i] += acc[i];
     }
-    icp_update(state_, total, p.icp_threshold);
+    icp_update(state_, total, p.icp_threshold, level);
   }
 
   void accept_or_revert(const AcceptParams& p) override { kfx::accept_or_revert(state_, p); }

@@ -65,8 +65,13 @@ class CudaBackend final : public Backend {
     ref_vertex_ = DeviceBuffer<Vec3f>(static_cast<size_t>(w) * h);
     ref_normal_ = DeviceBuffer<Vec3f>(static_cast<size_t>(w) * h);
     track_outcome_ = DeviceBuffer<int8_t>(static_cast<size_t>(w) * h);
-    reduce_blocks_ = std::min((w * h + kReduceBlock - 1) / kReduceBlock,
-                              4 * properties_.multiProcessorCount);
+    // Tuning (bench only): KFX_CUDA_REDUCE_BLOCKS caps the ICP reduction grid,
+    // KFX_CUDA_Z_CHUNKS splits each integration column into that many z-ranges.
+    const char* blocks_env = std::getenv("KFX_CUDA_REDUCE_BLOCKS");
+    const int max_blocks = blocks_env ? std::atoi(blocks_env) : 4 * properties_.multiProcessorCount;
+    reduce_blocks_ = std::max(1, std::min((w * h + kReduceBlock - 1) / kReduceBlock, max_blocks));
+    const char* chunks_env = std::getenv("KFX_CUDA_Z_CHUNKS");
+    z_chunks_ = chunks_env ? std::max(1, std::atoi(chunks_env)) : 4;
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
@@ -212,12 +217,6 @@ class CudaBackend final : public Backend {
     launched();
   }
 
-  void begin_level() override {
-    if (replaying_) return;
-    begin_level_kernel<<<1, 1, 0, stream_.get()>>>(state_.data());
-    launched();
-  }
-
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
     TrackArgs a;
@@ -233,7 +232,7 @@ class CudaBackend final : public Backend {
                        ((a.in_vertex.height + p.stride_px - 1) / p.stride_px);
     const int blocks = std::min(reduce_blocks_, (pixels + kReduceBlock - 1) / kReduceBlock);
     icp_iteration_kernel<<<blocks, kReduceBlock, 0, stream_.get()>>>(
-        a, state_.data(), partials_.data(), blocks_done_.data(), p.icp_threshold,
+        a, state_.data(), partials_.data(), blocks_done_.data(), p.icp_threshold, level,
         level == 0 ? track_outcome_.data() : nullptr);
     launched();
   }
@@ -265,11 +264,10 @@ class CudaBackend final : public Backend {
     a.ray_factor_mode = p.ray_factor_mode;
     a.zero_depth_test = p.zero_depth_test;
     const int res = setup_.volume_res_vox;
-    const int z_chunks = 4;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
-    grid.z = z_chunks;
-    integrate_kernel<<<grid, block, 0, stream_.get()>>>(a, z_chunks);
+    grid.z = z_chunks_;
+    integrate_kernel<<<grid, block, 0, stream_.get()>>>(a, z_chunks_);
     launched();
   }
 
@@ -409,6 +407,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<Vec3f> ref_normal_;
   DeviceBuffer<int8_t> track_outcome_;
   int reduce_blocks_ = 1;
+  int z_chunks_ = 4;
   DeviceBuffer<double> partials_;
   DeviceBuffer<unsigned int> blocks_done_;
   DeviceBuffer<Voxel> volume_;

@@ -80,7 +80,6 @@ __global__ void init_volume_kernel(Voxel* voxels, long long count) {
 }
 
 __global__ void begin_tracking_kernel(TrackingState* state) { begin_tracking(*state); }
-__global__ void begin_level_kernel(TrackingState* state) { begin_level(*state); }
 __global__ void accept_kernel(TrackingState* state, AcceptParams params) {
   accept_or_revert(*state, params);
 }
@@ -116,8 +115,9 @@ __device__ inline double block_sum_accumulator(const double (&acc)[kAccumulatorS
 /// 6×6 system and updates the pose. A no-op once the level has converged.
 __global__ void __launch_bounds__(kReduceBlock)
     icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
-                         unsigned int* blocks_done, float icp_threshold, int8_t* outcome) {
-  if (state->level_converged) return;  // uniform: set by an earlier launch
+                         unsigned int* blocks_done, float icp_threshold, int level,
+                         int8_t* outcome) {
+  if (level_converged(*state, level)) return;  // uniform: set by an earlier launch
   // With a stride s, pixel (i mod ws, i div ws)·s stands for its s × s block.
   const int s = args.stride_px;
   const int ws = (args.in_vertex.width + s - 1) / s, hs = (args.in_vertex.height + s - 1) / s;
@@ -159,7 +159,7 @@ __global__ void __launch_bounds__(kReduceBlock)
   }
   __syncthreads();
   if (threadIdx.x == 0) {
-    icp_update(*state, total, icp_threshold);
+    icp_update(*state, total, icp_threshold, level);
     *blocks_done = 0;  // ready for the next launch
   }
 }
