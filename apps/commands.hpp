@@ -15,6 +15,8 @@ void add_eval_command(CLI::App& app);
 void add_bench_command(CLI::App& app);
 /// `kfx settings`: every setting, its value in a preset, its SLAMBench flag and meaning.
 void add_settings_command(CLI::App& app);
+/// `kfx sweep PLAN.json --out DIR`: a plan of configurations over sequences, resumable; CSV/JSON.
+void add_sweep_command(CLI::App& app);
 /// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
 void add_convert_command(CLI::App& app);
 

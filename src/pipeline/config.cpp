@@ -274,7 +274,8 @@ std::vector<ConfigField> build_fields() {
           "track: one pixel per s x s block, its contribution weighted s^2 (1 = exact, 1..16)",
           [](C& c) -> int& { return c.approx.icp_stride_px; });
   integer("integration_z_stride", "approximations", "", "",
-          "integrate: update z = f mod s, f mod s + s, ... (slices rotate per frame; 1 = exact)",
+          "integrate: update z = f mod s, f mod s + s, ... (slices rotate per frame; frames 0-3 "
+          "fill all slices; 1 = exact)",
           [](C& c) -> int& { return c.approx.integration_z_stride; });
   choice("ray_factor",
          "integrate: sdf ray factor sqrt(1+(x/z)^2+(y/z)^2) exact | approx (1 + r^2/2) | none",

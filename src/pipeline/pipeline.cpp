@@ -130,7 +130,14 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
 
   // Integrate tracked frames on the integration rate, and always the first four.
   b.begin_stage(Stage::kIntegrate);
-  if (may_integrate) b.integrate(integrate_, always);
+  if (may_integrate) {
+    // The bootstrap frames (0–3, integrated untracked) fill every z slice: with perforated
+    // slices the first raycast would see a half-empty volume, tracking would fail at frame 4
+    // and, as later frames integrate only when tracked, the map would never fill in.
+    IntegrateParams params = integrate_;
+    if (always) params.z_stride = 1;
+    b.integrate(params, always);
+  }
   b.end_stage(Stage::kIntegrate);
 
   b.begin_stage(Stage::kRaycast);

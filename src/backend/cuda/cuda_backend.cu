@@ -68,10 +68,11 @@ class CudaBackend final : public Backend {
     // Tuning (bench only): KFX_CUDA_REDUCE_BLOCKS caps the ICP reduction grid,
     // KFX_CUDA_Z_CHUNKS splits each integration column into that many z-ranges.
     const char* blocks_env = std::getenv("KFX_CUDA_REDUCE_BLOCKS");
-    const int max_blocks = blocks_env ? std::atoi(blocks_env) : 4 * properties_.multiProcessorCount;
+    // Defaults measured on an H200 (bench/RESULTS.md): one reduction block per SM, 16 z-chunks.
+    const int max_blocks = blocks_env ? std::atoi(blocks_env) : properties_.multiProcessorCount;
     reduce_blocks_ = std::max(1, std::min((w * h + kReduceBlock - 1) / kReduceBlock, max_blocks));
     const char* chunks_env = std::getenv("KFX_CUDA_Z_CHUNKS");
-    z_chunks_ = chunks_env ? std::max(1, std::atoi(chunks_env)) : 4;
+    z_chunks_ = chunks_env ? std::max(1, std::atoi(chunks_env)) : 16;
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
@@ -407,7 +408,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<Vec3f> ref_normal_;
   DeviceBuffer<int8_t> track_outcome_;
   int reduce_blocks_ = 1;
-  int z_chunks_ = 4;
+  int z_chunks_ = 16;
   DeviceBuffer<double> partials_;
   DeviceBuffer<unsigned int> blocks_done_;
   DeviceBuffer<Voxel> volume_;

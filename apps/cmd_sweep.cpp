@@ -1,0 +1,514 @@
+/// `kfx sweep PLAN.json --out DIR ...`: every configuration of a sweep plan on every sequence
+/// (docs/sweep.md). Per run: frames held in memory (loaded once per sequence), a warm-up, then
+/// timed passes with one frame in flight as in `kfx bench`; per-stage times, frames/s, tracked
+/// frames and ATE. Results go out after every run (DIR/results.jsonl appended; results.csv and
+/// results.json rewritten atomically), so an interrupted sweep resumes where it stopped: runs
+/// whose (name, sequence, backend) already succeeded with the same settings are skipped.
+
+#include <algorithm>
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iostream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "commands.hpp"
+#include "core/platform.hpp"
+#include "eval/report.hpp"
+#include "io/atomic_file.hpp"
+#include "pipeline/pipeline.hpp"
+#include "pipeline/sweep_plan.hpp"
+#include "run_options.hpp"
+#include "run_summary.hpp"
+
+namespace kfx::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using Clock = std::chrono::steady_clock;
+
+struct SweepOptions {
+  std::string plan_path;
+  std::string out_dir;
+  std::string backend = "auto";
+  std::string data_root;
+  std::string variant;
+  std::vector<std::string> sequences;          ///< name or name=path
+  std::vector<std::string> sequence_settings;  ///< name:key=value,...
+  std::vector<std::string> assignments;        ///< --set key=value
+  std::vector<std::string> only;               ///< run names or groups
+  int max_frames = 0;                          ///< 0 = all
+  int repeat = 0;                              ///< 0 = the plan's
+  int warmup_frames = -1;                      ///< -1 = the plan's
+  std::string commit;                          ///< "" = ask git
+  double max_minutes = 0;                      ///< 0 = no limit; else start no run after it
+  bool dry_run = false;
+};
+
+/// One (run, sequence) of the sweep.
+struct Task {
+  const sweep::SweepRun* run;
+  const sweep::ResolvedSequence* sequence;
+  std::string key;
+  std::vector<std::string> assignments;
+  bool done = false;
+  std::string redo_reason;  ///< why an existing result is not reused ("" = none existed)
+};
+
+std::string utc_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm tm{};
+  gmtime_r(&now, &tm);
+  char buffer[32];
+  std::strftime(buffer, sizeof(buffer), "%Y-%m-%dT%H:%M:%SZ", &tm);
+  return buffer;
+}
+
+/// `git rev-parse --short HEAD` in `dir`, or "unknown".
+std::string git_commit(const std::string& dir) {
+  const std::string command =
+      "git -C '" + (dir.empty() ? std::string(".") : dir) + "' rev-parse --short HEAD 2>/dev/null";
+  FILE* pipe = popen(command.c_str(), "r");
+  if (!pipe) return "unknown";
+  char buffer[128] = {};
+  std::string out;
+  while (fgets(buffer, sizeof(buffer), pipe)) out += buffer;
+  const int status = pclose(pipe);
+  while (!out.empty() && (out.back() == '\n' || out.back() == '\r')) out.pop_back();
+  return status == 0 && !out.empty() ? out : "unknown";
+}
+
+/// "45s", "3m12s", "1h02m".
+std::string format_duration(double seconds) {
+  const long s = static_cast<long>(seconds + 0.5);
+  char buffer[32];
+  if (s < 60) {
+    std::snprintf(buffer, sizeof(buffer), "%lds", s);
+  } else if (s < 3600) {
+    std::snprintf(buffer, sizeof(buffer), "%ldm%02lds", s / 60, s % 60);
+  } else {
+    std::snprintf(buffer, sizeof(buffer), "%ldh%02ldm", s / 3600, (s % 3600) / 60);
+  }
+  return buffer;
+}
+
+std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input, int max_frames) {
+  std::vector<io::Frame> frames;
+  io::Frame frame;
+  while (max_frames == 0 || static_cast<int>(frames.size()) < max_frames) {
+    const io::ReadResult result = reader.next(frame);
+    if (result.status == io::ReadStatus::kEnd) break;
+    KFX_CHECK(result.status == io::ReadStatus::kOk, result.message);
+    frames.push_back(frame);
+  }
+  KFX_CHECK(!frames.empty(), input << ": no frame could be read");
+  return frames;
+}
+
+/// The frames of the sequence being swept, loaded once and reused by every run that reads the
+/// same input with the same depth scale.
+struct FrameCache {
+  std::string key;
+  std::vector<io::Frame> frames;
+};
+
+/// Warm-up, then `repeat` timed passes with one frame in flight; fills the measurement fields.
+void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, int repeat,
+             int warmup_frames, json& record) {
+  Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
+                    prepared.reader->height_px(), prepared.backend);
+  record["backend"] = pipeline.backend().name();
+  record["device"] = pipeline.backend().device_name();
+  json config_json;
+  for (const auto& field : config_fields()) {
+    config_json[field.key] = field.format(pipeline.config());
+  }
+  record["config"] = config_json;
+
+  // Warm-up: page in, and on the GPU record the frame graphs, untimed.
+  for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
+    pipeline.process(frames[i].depth_mm);
+  }
+  RunSummary all;
+  std::vector<double> pass_fps;
+  std::vector<io::StampedPose> trajectory;
+  for (int pass = 0; pass < repeat; ++pass) {
+    pipeline.reset();
+    RunSummary summary;
+    trajectory.clear();
+    auto take = [&](const FrameReport& r) {
+      summary.add(r);
+      trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
+    };
+    const auto start = Clock::now();
+    // One frame in flight: the host prepares frame f+1 while the device computes frame f.
+    for (const auto& frame : frames) {
+      pipeline.submit(frame.depth_mm);
+      if (pipeline.frames_in_flight() > 1) take(pipeline.collect());
+    }
+    while (pipeline.frames_in_flight() > 0) take(pipeline.collect());
+    const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
+    pass_fps.push_back(wall_s > 0 ? frames.size() / wall_s : 0.0);
+    for (size_t i = 0; i < summary.computation_ms.size(); ++i) {
+      all.computation_ms.push_back(summary.computation_ms[i]);
+      for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+        all.stage_ms[s].push_back(summary.stage_ms[s][i]);
+      }
+    }
+    // Counts of the last pass (every pass computes the same frames).
+    all.frames = summary.frames;
+    all.tracked = summary.tracked;
+    all.integrated = summary.integrated;
+  }
+
+  const json stats = all.to_json();
+  record["frames"] = all.frames;
+  record["tracked"] = all.tracked;
+  record["integrated"] = all.integrated;
+  record["stages_ms"] = stats["stages_ms"];
+  record["computation_ms"] = stats["computation_ms"];
+  record["frames_per_second"] = all.frames_per_second();
+  record["frames_per_second_definition"] = stats["frames_per_second_definition"];
+  record["end_to_end_frames_per_second"] = median_of(pass_fps);
+  record["end_to_end_frames_per_second_passes"] = pass_fps;
+  record["flip_y"] = prepared.evaluate_flip_y;
+  if (prepared.ground_truth.empty()) {
+    record["ate_note"] = "no ground truth";
+    return;
+  }
+  try {
+    eval::EvalOptions options;
+    options.flip_y = prepared.evaluate_flip_y;
+    const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth, options);
+    record["ate_rmse_m"] = result.ate.stats_m.rmse;
+    record["ate_pairs"] = result.ate.stats_m.count;
+    record["checkpos_mean_m"] = result.checkpos.stats_m.mean;
+  } catch (const Error& e) {
+    // The run itself succeeded; only its evaluation did not (e.g. too few stamps pair).
+    record["ate_note"] = std::string("evaluation failed: ") + e.what();
+  }
+}
+
+/// Writes results.csv and results.json from the latest record of every key, the sweep's own
+/// tasks first in plan order, then any other records of the log (other backends, old runs).
+void write_tables(const fs::path& out, const std::vector<json>& log, const std::vector<Task>& tasks,
+                  const json& meta) {
+  std::vector<json> latest = sweep::latest_results(log);
+  std::map<std::string, size_t> order;
+  for (size_t i = 0; i < tasks.size(); ++i) order.emplace(tasks[i].key, i);
+  std::vector<std::pair<size_t, size_t>> rank;  // (plan order or after it, log order)
+  for (size_t i = 0; i < latest.size(); ++i) {
+    const auto it = order.find(sweep::result_key(latest[i]));
+    rank.emplace_back(it != order.end() ? it->second : tasks.size() + i, i);
+  }
+  std::sort(rank.begin(), rank.end());
+  std::vector<json> sorted;
+  for (const auto& r : rank) sorted.push_back(latest[r.second]);
+
+  io::AtomicFile csv((out / "results.csv").string());
+  csv.stream() << sweep::results_csv(sorted);
+  csv.commit();
+  json all = meta;
+  all["updated"] = utc_now();
+  all["runs"] = sorted;
+  io::AtomicFile json_file((out / "results.json").string());
+  json_file.stream() << all.dump(1) << "\n";
+  json_file.commit();
+}
+
+void append_log(const fs::path& path, const json& record) {
+  std::ofstream log(path, std::ios::app);
+  KFX_CHECK(log.good(), "cannot append to '" << path.string() << "'");
+  log << record.dump() << "\n";
+  log.flush();
+  KFX_CHECK(log.good(), "error while appending to '" << path.string() << "'");
+}
+
+void run_sweep(const SweepOptions& o) {
+  const auto sweep_start = Clock::now();
+  const sweep::SweepPlan plan = sweep::read_sweep_plan(o.plan_path);
+  sweep::SequenceOptions sequence_options;
+  sequence_options.data_root = o.data_root;
+  sequence_options.variant = o.variant;
+  sequence_options.sequences = o.sequences;
+  // One --sequence-settings may carry several sequences separated by ';'.
+  for (const auto& item : o.sequence_settings) {
+    std::stringstream stream(item);
+    for (std::string part; std::getline(stream, part, ';');) {
+      if (!part.empty()) sequence_options.sequence_settings.push_back(part);
+    }
+  }
+  for (const auto& a : o.assignments) {
+    const auto eq = a.find('=');
+    KFX_CHECK(eq != std::string::npos && eq > 0, "--set '" << a << "' is not key=value");
+    sequence_options.overrides.emplace_back(a.substr(0, eq), a.substr(eq + 1));
+  }
+  const auto sequences = sweep::resolve_sequences(plan, sequence_options);
+  const auto runs = sweep::select_runs(plan, o.only);
+  // Every configuration is checked before the first frame is read.
+  for (const auto& warning : sweep::validate_sweep(runs, sequences, sequence_options.overrides)) {
+    std::cerr << "kfx sweep: warning: " << warning << "\n";
+  }
+  const int repeat = o.repeat > 0 ? o.repeat : plan.repeat;
+  const int warmup_frames = o.warmup_frames >= 0 ? o.warmup_frames : plan.warmup_frames;
+
+  // The backend, resolved now: it is part of every result's key.
+  const BackendKind kind = parse_backend_kind(o.backend);
+  std::string why_not;
+  const bool have_cuda = kind != BackendKind::kCpu && cuda_available(&why_not);
+  KFX_CHECK(kind != BackendKind::kCuda || have_cuda,
+            "--backend cuda was requested but " << why_not);
+  const std::string backend = have_cuda ? "cuda" : "cpu";
+
+  const fs::path out = o.out_dir;
+  const fs::path log_path = out / "results.jsonl";
+  if (!o.dry_run) fs::create_directories(out);
+  int dropped = 0;
+  std::vector<json> log = sweep::read_results_log(log_path.string(), &dropped);
+  if (dropped > 0 && !o.dry_run) {
+    std::cerr << "kfx sweep: dropping the cut-off last line of " << log_path.string()
+              << " (an interrupted write)\n";
+    io::AtomicFile rewrite(log_path.string());
+    for (const auto& record : log) rewrite.stream() << record.dump() << "\n";
+    rewrite.commit();
+  }
+  std::map<std::string, json> previous;
+  for (const auto& record : sweep::latest_results(log)) {
+    previous[sweep::result_key(record)] = record;
+  }
+
+  // Tasks, sequence by sequence (frames are loaded once per sequence).
+  std::vector<Task> tasks;
+  for (const auto& sequence : sequences) {
+    for (const sweep::SweepRun* run : runs) {
+      Task task{run, &sequence, sweep::result_key(run->name, sequence.name, backend),
+                sweep::run_assignments(*run, sequence, sequence_options.overrides)};
+      const auto it = previous.find(task.key);
+      if (it != previous.end()) {
+        task.done =
+            sweep::result_is_current(it->second, run->preset, task.assignments, o.max_frames);
+        if (!task.done) {
+          task.redo_reason = it->second.value("status", "") != "ok"
+                                 ? "failed before"
+                                 : "settings or --frames changed since";
+        }
+      }
+      tasks.push_back(std::move(task));
+    }
+  }
+  int to_run = 0;
+  for (const auto& t : tasks) to_run += t.done ? 0 : 1;
+  std::cerr << "kfx sweep: plan '" << plan.name << "': " << runs.size() << " configurations x "
+            << sequences.size() << " sequences = " << tasks.size() << " runs on " << backend << "; "
+            << tasks.size() - to_run << " already done, " << to_run << " to run\n";
+  if (o.dry_run) {
+    for (const auto& t : tasks) {
+      std::printf("%-8s %-40s %-16s %s\n", t.done ? "done" : "to run", t.run->name.c_str(),
+                  t.sequence->name.c_str(), t.sequence->input.c_str());
+    }
+    return;
+  }
+  {
+    // The plan used, beside its results.
+    std::ifstream in(o.plan_path, std::ios::binary);
+    io::AtomicFile copy((out / "plan.json").string());
+    copy.stream() << in.rdbuf();
+    copy.commit();
+  }
+
+  // The commit: given, else the plan's checkout, else the kfx binary's.
+  std::string commit = o.commit;
+  if (commit.empty()) commit = git_commit(fs::path(o.plan_path).parent_path().string());
+  if (commit == "unknown") {
+    std::error_code error;
+    const fs::path self = fs::read_symlink("/proc/self/exe", error);
+    if (!error) commit = git_commit(self.parent_path().string());
+  }
+  json meta;
+  meta["plan"] = {{"name", plan.name},
+                  {"path", o.plan_path},
+                  {"description", plan.description},
+                  {"baseline", plan.baseline}};
+  meta["commit"] = commit;
+  meta["sequences"] = json::array();
+  for (const auto& s : sequences) {
+    json settings = json::array();
+    for (const auto& [k, v] : s.settings) settings.push_back(k + "=" + v);
+    meta["sequences"].push_back({{"name", s.name}, {"input", s.input}, {"settings", settings}});
+  }
+  write_tables(out, log, tasks, meta);
+
+  int index = 0;
+  int failed = 0;
+  bool out_of_time = false;
+  std::string first_failure;
+  const auto run_start = Clock::now();
+  for (const auto& sequence : sequences) {
+    if (out_of_time) break;
+    FrameCache cache;
+    for (const auto& task : tasks) {
+      if (task.sequence != &sequence || task.done) continue;
+      if (o.max_minutes > 0 &&
+          std::chrono::duration<double>(Clock::now() - sweep_start).count() > 60 * o.max_minutes) {
+        out_of_time = true;
+        break;
+      }
+      ++index;
+      const sweep::SweepRun& run = *task.run;
+      if (!task.redo_reason.empty()) {
+        std::cerr << "kfx sweep: running " << run.name << " on " << sequence.name << " again ("
+                  << task.redo_reason << ")\n";
+      }
+      json record;
+      record["name"] = run.name;
+      record["group"] = run.group;
+      record["step_key"] = run.step_key;
+      record["step"] = run.step;
+      record["before"] = run.before;
+      record["baseline"] = run.baseline;
+      record["table"] = run.table;
+      record["mark"] = run.mark;
+      record["sequence"] = sequence.name;
+      record["input"] = sequence.input;
+      record["backend"] = backend;
+      record["device"] = "";
+      record["preset"] = run.preset;
+      json settings = json::array();
+      for (const auto& [k, v] : run.settings) settings.push_back(k + "=" + v);
+      record["settings"] = settings;
+      record["assignments"] = task.assignments;
+      record["max_frames"] = o.max_frames;
+      record["repeat"] = repeat;
+      record["warmup_frames"] = warmup_frames;
+      record["plan"] = plan.name;
+      record["commit"] = commit;
+      const auto start = Clock::now();
+      try {
+        RunOptions run_options;
+        run_options.input = sequence.input;
+        run_options.backend = backend;
+        run_options.preset = run.preset;
+        run_options.assignments = task.assignments;
+        run_options.max_frames = o.max_frames;
+        run_options.quiet = true;
+        const PreparedRun prepared = prepare_run(run_options);
+        const std::string cache_key =
+            sequence.input + "|" + std::to_string(prepared.config.input.depth_scale_per_m);
+        if (cache.key != cache_key) {
+          cache.frames.clear();
+          cache.key.clear();
+          cache.frames = load_frames(*prepared.reader, sequence.input, o.max_frames);
+          cache.key = cache_key;
+          std::cerr << "kfx sweep: " << sequence.name << ": " << cache.frames.size()
+                    << " frames in memory (" << prepared.reader->description() << ")\n";
+        }
+        measure(prepared, cache.frames, repeat, warmup_frames, record);
+        record["status"] = "ok";
+      } catch (const std::exception& e) {
+        record["status"] = "failed";
+        record["error"] = e.what();
+        ++failed;
+        if (first_failure.empty()) {
+          first_failure = run.name + " on " + sequence.name + ": " + e.what();
+        }
+      }
+      record["elapsed_s"] = std::chrono::duration<double>(Clock::now() - start).count();
+      record["date"] = utc_now();
+      append_log(log_path, record);
+      log.push_back(record);
+      write_tables(out, log, tasks, meta);
+
+      // "[12/87] icp_stride_px=4 on tum_fr1_xyz: 3120 frames/s, ATE 2.31 cm (3m12s, ETA 20m)"
+      const double elapsed_s = std::chrono::duration<double>(Clock::now() - run_start).count();
+      const double eta_s = elapsed_s / index * (to_run - index);
+      char line[512];
+      if (record["status"] == "ok") {
+        std::string ate = "no ATE";
+        if (record.contains("ate_rmse_m")) {
+          char buffer[64];
+          std::snprintf(buffer, sizeof(buffer), "ATE %.2f cm",
+                        record["ate_rmse_m"].get<double>() * 100.0);
+          ate = buffer;
+        }
+        std::snprintf(line, sizeof(line), "%.0f frames/s, %d/%d tracked, %s",
+                      record["frames_per_second"].get<double>(), record["tracked"].get<int>(),
+                      record["frames"].get<int>(), ate.c_str());
+      } else {
+        std::snprintf(line, sizeof(line), "FAILED: %s", record["error"].get<std::string>().c_str());
+      }
+      std::cerr << "[" << index << "/" << to_run << "] " << run.name << " on " << sequence.name
+                << ": " << line << " (" << format_duration(elapsed_s) << " elapsed, ETA "
+                << format_duration(eta_s) << ")\n";
+    }
+  }
+
+  const double total_s = std::chrono::duration<double>(Clock::now() - sweep_start).count();
+  std::printf(
+      "kfx sweep: %d run%s in %s (%d failed, %d reused); results: %s/results.{csv,json,jsonl}\n",
+      index, index == 1 ? "" : "s", format_duration(total_s).c_str(), failed,
+      static_cast<int>(tasks.size()) - to_run, out.string().c_str());
+  KFX_CHECK(!out_of_time, "stopped after --max-minutes " << o.max_minutes << " with "
+                                                         << to_run - index
+                                                         << " runs left; run the same command "
+                                                            "again to resume");
+  KFX_CHECK(failed == 0, failed << " of " << index << " runs failed (their errors are in "
+                                << (out / "results.csv").string() << "); first: " << first_failure);
+}
+
+}  // namespace
+
+void add_sweep_command(CLI::App& app) {
+  auto* command = app.add_subcommand(
+      "sweep", "run a plan of configurations over sequences; CSV/JSON of time, frames/s, ATE");
+  auto o = std::make_shared<SweepOptions>();
+  command->add_option("plan", o->plan_path, "sweep plan (JSON; see docs/sweep.md)")
+      ->required()
+      ->check(CLI::ExistingFile);
+  command->add_option("--out", o->out_dir, "results folder (results.jsonl/.csv/.json, plan.json)")
+      ->required();
+  command->add_option("--backend", o->backend, "cpu, cuda or auto (CUDA when a GPU is present)")
+      ->capture_default_str();
+  command
+      ->add_option("--sequences", o->sequences,
+                   "which sequences, in order: name or name=path (path overrides the plan's "
+                   "input; a new name with a path adds a sequence); default all")
+      ->delimiter(',');
+  command->add_option("--data-root", o->data_root,
+                      "folder that the plan's relative inputs are in (default: the plan's "
+                      "data_root, relative to the plan file)");
+  command->add_option("--variant", o->variant,
+                      "use each sequence's input variant of this name (e.g. raw320 for .raw "
+                      "files converted at ratio 2)");
+  command->add_option("--sequence-settings", o->sequence_settings,
+                      "extra settings of a sequence, name:key=value,key=value (values may hold "
+                      "commas; ';' separates sequences; * = every sequence); repeatable");
+  command->add_option("--set", o->assignments,
+                      "key=value applied last to every run (see `kfx settings`); repeatable");
+  command->add_option("--only", o->only, "run only these run names or groups (and their baselines)")
+      ->delimiter(',');
+  command->add_option("--frames", o->max_frames, "at most N frames per sequence (0 = all)")
+      ->check(CLI::NonNegativeNumber);
+  command->add_option("--repeat", o->repeat, "timed passes per run (default: the plan's, else 1)")
+      ->check(CLI::PositiveNumber);
+  command
+      ->add_option("--warmup", o->warmup_frames,
+                   "untimed warm-up frames per run (default: the plan's, else 10)")
+      ->check(CLI::NonNegativeNumber);
+  command->add_option("--commit", o->commit,
+                      "commit to record (default: git rev-parse --short HEAD, else unknown)");
+  command
+      ->add_option("--max-minutes", o->max_minutes,
+                   "start no new run after this many minutes (exit non-zero; run again to "
+                   "resume); 0 = no limit")
+      ->check(CLI::NonNegativeNumber);
+  command->add_flag("--dry-run", o->dry_run,
+                    "validate the plan and list the runs (done or to run); run nothing");
+  command->callback([o] { run_sweep(*o); });
+}
+
+}  // namespace kfx::cli
