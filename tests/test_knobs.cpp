@@ -197,6 +197,40 @@ TEST(Knobs, IntegrationZStrideUpdatesRotatingSlices) {
   }
 }
 
+TEST(Knobs, CheckerPerforationUpdatesOneVoxelInSInEveryDirection) {
+  HostImage<float> depth(40, 30, 2.0f);
+  TrackingState s{};
+  s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
+  s.frame_index = 6;
+  SmallVolume columns, rows;
+  IntegrateArgs c = integrate_args(columns, depth, s);
+  c.z_stride = 4;
+  c.checker_pattern = true;
+  IntegrateArgs r = integrate_args(rows, depth, s);
+  r.z_stride = 4;
+  r.checker_pattern = true;
+  for (int y = 0; y < 32; ++y) {
+    for (int x = 0; x < 32; ++x) integrate_column(x, y, 0, 32, c);
+  }
+  for (int z = 0; z < 32; ++z) {
+    for (int y = 0; y < 32; ++y) integrate_row(y, z, r);
+  }
+  int updated = 0;
+  for (int z = 0; z < 32; ++z) {
+    for (int y = 0; y < 32; ++y) {
+      for (int x = 0; x < 32; ++x) {
+        const size_t i = x + 32 * (y + 32 * z);
+        ASSERT_EQ(columns.voxels[i].weight, rows.voxels[i].weight) << x << "," << y << "," << z;
+        if (columns.voxels[i].weight > 0) {
+          ++updated;
+          EXPECT_EQ((x + y + z) % 4, 6 % 4);  // only this frame's residue
+        }
+      }
+    }
+  }
+  EXPECT_GT(updated, 500);  // a quarter of the ~2,900 voxels an unperforated pass updates
+}
+
 TEST(Knobs, RayFactorModesAndZeroDepthTest) {
   HostImage<float> depth(40, 30, 2.0f);
   depth(35, 15) = 0.0f;

@@ -69,7 +69,8 @@ struct IntegrateParams {
   Intrinsics k;  ///< compute-size intrinsics
   float mu_m = 0.1f;
   int max_weight = 100;
-  int z_stride = 1;             ///< update every z_stride-th slice, rotating with the frame
+  int z_stride = 1;             ///< update 1 voxel in z_stride, rotating with the frame
+  bool checker_pattern = false; ///< perforate x + y + z instead of whole z slices
   int ray_factor_mode = 0;      ///< RayFactorMode
   bool zero_depth_test = true;
 };

@@ -21,7 +21,8 @@ struct IntegrateArgs {
   float mu_m = 0.1f;               ///< truncation distance
   int max_weight = 100;            ///< weight cap
   /// Approximations (exact values first):
-  int z_stride = 1;             ///< update z ≡ frame mod z_stride only (slices rotate per frame)
+  int z_stride = 1;             ///< update 1 voxel in z_stride, rotating with the frame
+  bool checker_pattern = false; ///< false: whole z slices (z ≡ f); true: x + y + z ≡ f (mod s)
   int ray_factor_mode = 0;      ///< 0 exact sqrt, 1 first-order approximation, 2 none (1)
   bool zero_depth_test = true;  ///< skip pixels without depth
 };
@@ -98,6 +99,8 @@ KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateA
 
 /// Updates voxel (x, y, z), whose centre is at camera-frame point p (REFERENCE.md step 4), and
 /// marks its brick when its tsdf leaves +1.
+/// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
+/// the GPU pass 18 % faster but moved icl_office_kt0's ATE from 0.84 to 0.93 cm (measured).
 KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
   if (p.z < kIntegrateMinZ_m) return;
   const float u = (a.k.fx * p.x + a.k.cx * p.z) / p.z + 0.5f;
@@ -130,17 +133,22 @@ KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgs& a,
   integrate_line_bounds(z_line(x, y, a), a, z_begin, z_end);
 }
 
-/// The z-slice offset this frame updates when slices are perforated (z_stride > 1).
-KFX_HD inline int z_slice_offset(const IntegrateArgs& a) {
-  return a.z_stride > 1 ? a.state->frame_index % a.z_stride : 0;
+/// Perforation (z_stride > 1): this frame updates the voxels with z ≡ f (mod s) (whole slices,
+/// the thesis's pattern) or x + y + z ≡ f (mod s) (a 3-D checkerboard that spreads the stale
+/// voxels evenly instead of in sheets across the viewing direction). Returns the residue that
+/// the line's own coordinate must have: `other` is the sum of the line's two fixed coordinates.
+KFX_HD inline int perforation_residue(const IntegrateArgs& a, int other) {
+  const int f = a.state->frame_index % a.z_stride;
+  if (!a.checker_pattern) return f;
+  return ((f - other) % a.z_stride + a.z_stride) % a.z_stride;
 }
 
 /// Integrates voxels z_begin ≤ z < z_end of column (x, y) (only this frame's slices).
 KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const IntegrateArgs& a) {
   const VoxelLine line = z_line(x, y, a);
-  if (a.z_stride > 1) {  // first z ≥ z_begin with z ≡ offset (mod stride)
-    const int offset = z_slice_offset(a);
-    z_begin += ((offset - z_begin) % a.z_stride + a.z_stride) % a.z_stride;
+  if (a.z_stride > 1) {  // first z ≥ z_begin with the residue this frame updates
+    const int residue = perforation_residue(a, x + y);
+    z_begin += ((residue - z_begin) % a.z_stride + a.z_stride) % a.z_stride;
   }
   for (int z = z_begin; z < z_end; z += a.z_stride) {
     integrate_voxel(line.base + line.delta * static_cast<float>(z), x, y, z, a);
@@ -149,11 +157,17 @@ KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const 
 
 /// Integrates the whole updatable part of row (y, z) (voxels contiguous in memory).
 KFX_HD inline void integrate_row(int y, int z, const IntegrateArgs& a) {
-  if (a.z_stride > 1 && z % a.z_stride != z_slice_offset(a)) return;
+  int step = 1;
+  if (a.z_stride > 1 && !a.checker_pattern && z % a.z_stride != perforation_residue(a, 0)) return;
   const VoxelLine line = x_line(y, z, a);
   int x_begin, x_end;
   integrate_line_bounds(line, a, x_begin, x_end);
-  for (int x = x_begin; x < x_end; ++x) {
+  if (a.z_stride > 1 && a.checker_pattern) {  // x ≡ residue (mod s) along this row
+    step = a.z_stride;
+    const int residue = perforation_residue(a, y + z);
+    x_begin += ((residue - x_begin) % step + step) % step;
+  }
+  for (int x = x_begin; x < x_end; x += step) {
     integrate_voxel(line.base + line.delta * static_cast<float>(x), x, y, z, a);
   }
 }

@@ -277,6 +277,10 @@ std::vector<ConfigField> build_fields() {
           "integrate: update z = f mod s, f mod s + s, ... (slices rotate per frame; frames 0-3 "
           "fill all slices; 1 = exact)",
           [](C& c) -> int& { return c.approx.integration_z_stride; });
+  choice("integration_pattern",
+         "integrate: which voxels a perforated frame updates: slices (z = f mod s, the thesis's) "
+         "| checker (x+y+z = f mod s, spread in 3-D)",
+         {"slices", "checker"}, &C::Approximations::integration_pattern);
   choice("ray_factor",
          "integrate: sdf ray factor sqrt(1+(x/z)^2+(y/z)^2) exact | approx (1 + r^2/2) | none",
          {"exact", "approx", "none"}, &C::Approximations::ray_factor);
@@ -418,12 +422,10 @@ PipelineConfig make_preset(const std::string& name) {
     return c;
   }
   if (name == "fast") {
-    // The fastest configuration found by `kfx sweep` whose ATE stays within 10 % of exact on
-    // both sequences of ../shared/data (docs/thesis-study.md, bench/RESULTS.md).
-    for (const char* a : {"integration_z_stride=2", "icp_stride_px=2", "pyramid_iterations=4,3,2",
-                          "integrate_zero_depth_test=off", "ray_factor=approx"}) {
-      set_config_assignment(c, a);
-    }
+    // The fastest configuration found by `kfx sweep` (bench/sweeps/fast_search.json, on an
+    // H200) whose ATE stays within 10 % of exact on both sequences of ../shared/data: two
+    // pyramid levels of two ICP iterations, raycast every 4th frame. See docs/thesis-study.md.
+    for (const char* a : {"pyramid_iterations=2,2", "raycast_rate=4"}) set_config_assignment(c, a);
     return c;
   }
   std::string known;

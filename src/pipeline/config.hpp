@@ -58,7 +58,8 @@ struct PipelineConfig {
     std::string bilateral_mode = "exact";  ///< exact (5×5 with range) | spatial3x3
     bool zero_padded_depth = false;        ///< bilateral reads outside the image as 0
     int icp_stride_px = 1;                 ///< track one pixel per s × s block, weighted s²
-    int integration_z_stride = 1;          ///< integrate every s-th z slice, rotating per frame
+    int integration_z_stride = 1;          ///< integrate 1 voxel in s, rotating per frame
+    std::string integration_pattern = "slices";  ///< slices (z ≡ f) | checker (x+y+z ≡ f)
     std::string ray_factor = "exact";      ///< exact sqrt | approx (1 + r²/2) | none (1)
     bool integrate_zero_depth_test = true; ///< skip pixels without depth when integrating
     int raycast_rate = 1;                  ///< raycast every N-th frame (ICP reuses the last)

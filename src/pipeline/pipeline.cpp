@@ -63,6 +63,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   integrate_.mu_m = config_.volume.mu_m;
   integrate_.max_weight = config_.volume.max_weight;
   integrate_.z_stride = approx.integration_z_stride;
+  integrate_.checker_pattern = approx.integration_pattern == "checker";
   integrate_.ray_factor_mode = approx.ray_factor == "approx"  ? kRayFactorApprox
                                : approx.ray_factor == "none" ? kRayFactorNone
                                                              : kRayFactorExact;

@@ -184,6 +184,7 @@ class CpuBackend final : public Backend {
     a.mu_m = p.mu_m;
     a.max_weight = p.max_weight;
     a.z_stride = p.z_stride;
+    a.checker_pattern = p.checker_pattern;
     a.ray_factor_mode = p.ray_factor_mode;
     a.zero_depth_test = p.zero_depth_test;
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
