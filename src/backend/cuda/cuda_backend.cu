@@ -48,6 +48,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaGetDeviceProperties(&properties_, device_));
     const char* sync = std::getenv("KFX_CUDA_SYNC");
     debug_sync_ = sync && std::string(sync) == "1";
+    const char* pdl = std::getenv("KFX_CUDA_PDL");
+    programmatic_launch_ = pdl && std::string(pdl) == "1" && properties_.major >= 9;
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     const size_t input_pixels = static_cast<size_t>(setup.input_width_px) * setup.input_height_px;
     for (int p = 0; p < 2; ++p) {
@@ -103,9 +105,8 @@ class CudaBackend final : public Backend {
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     const long long voxels = static_cast<long long>(volume_.size());
-    init_volume_kernel<<<static_cast<unsigned>((voxels + 255) / 256), 256, 0, stream_.get()>>>(
-        volume_.data(), voxels);
-    KFX_CUDA_LAUNCH_CHECK();
+    launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
+           volume_.data(), voxels);
     KFX_CUDA_CHECK(cudaMemsetAsync(brick_touched_.data(), 0, brick_touched_.bytes(), stream_.get()));
     TrackingState initial{};
     initial.frame_index = -1;
@@ -175,8 +176,7 @@ class CudaBackend final : public Backend {
         cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
     const MmToMArgs mm{input_view(), depth_view(), setup_.compute_ratio};
     const dim3 block(32, 8);
-    mm_to_m_kernel<<<grid_for(w, h, block), block, 0, stream_.get()>>>(mm, state_.data());
-    launched();
+    launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
     BilateralArgs b;
     b.in_m = depth_view();
     b.out_m = level_depth_view(0);
@@ -185,8 +185,7 @@ class CudaBackend final : public Backend {
     b.range_denominator_m2 = p.range_denominator_m2;
     b.use_range_term = p.use_range_term;
     b.zero_padded = p.zero_padded;
-    pixel_kernel<BilateralBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(b, w, h);
-    launched();
+    launch(pixel_kernel<BilateralBody, BilateralArgs>, grid_for(w, h, block), block, b, w, h);
   }
 
   void build_pyramid(const PyramidParams& p) override {
@@ -194,28 +193,23 @@ class CudaBackend final : public Backend {
     const dim3 block(32, 8);
     for (int l = 1; l < setup_.pyramid_levels; ++l) {
       const HalfSampleArgs a{level_depth_view(l - 1), level_depth_view(l), p.half_sample_range_m};
-      pixel_kernel<HalfSampleBody><<<grid_for(a.out_m.width, a.out_m.height, block), block, 0,
-                                     stream_.get()>>>(a, a.out_m.width, a.out_m.height);
-      launched();
+      launch(pixel_kernel<HalfSampleBody, HalfSampleArgs>, grid_for(a.out_m.width, a.out_m.height, block), block,
+             a, a.out_m.width, a.out_m.height);
     }
     for (int l = 0; l < setup_.pyramid_levels; ++l) {
       const DepthToVertexArgs v{level_depth_view(l), level_vertex_view(l),
                                 p.level_intrinsics[l].inverse_matrix()};
       const int w = v.vertex.width, h = v.vertex.height;
-      pixel_kernel<DepthToVertexBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(v, w, h);
-      launched();
+      launch(pixel_kernel<DepthToVertexBody, DepthToVertexArgs>, grid_for(w, h, block), block, v, w, h);
       const VertexToNormalArgs n{level_vertex_view(l), level_normal_view(l),
                                  p.level_intrinsics[l].handedness()};
-      pixel_kernel<VertexToNormalBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(n, w,
-                                                                                          h);
-      launched();
+      launch(pixel_kernel<VertexToNormalBody, VertexToNormalArgs>, grid_for(w, h, block), block, n, w, h);
     }
   }
 
   void begin_tracking() override {
     if (replaying_) return;
-    begin_tracking_kernel<<<1, 1, 0, stream_.get()>>>(state_.data());
-    launched();
+    launch(begin_tracking_kernel, dim3(1), dim3(1), state_.data());
   }
 
   void icp_iteration(int level, const IcpParams& p) override {
@@ -232,28 +226,24 @@ class CudaBackend final : public Backend {
     const int pixels = ((a.in_vertex.width + p.stride_px - 1) / p.stride_px) *
                        ((a.in_vertex.height + p.stride_px - 1) / p.stride_px);
     const int blocks = std::min(reduce_blocks_, (pixels + kReduceBlock - 1) / kReduceBlock);
-    icp_iteration_kernel<<<blocks, kReduceBlock, 0, stream_.get()>>>(
+    launch(icp_iteration_kernel, dim3(blocks), dim3(kReduceBlock),
         a, state_.data(), partials_.data(), blocks_done_.data(), p.icp_threshold, level,
         level == 0 ? track_outcome_.data() : nullptr);
-    launched();
   }
 
   void accept_or_revert(const AcceptParams& p) override {
     if (replaying_) return;
-    accept_kernel<<<1, 1, 0, stream_.get()>>>(state_.data(), p);
-    launched();
+    launch(accept_kernel, dim3(1), dim3(1), state_.data(), p);
   }
 
   void skip_tracking() override {
     if (replaying_) return;
-    skip_tracking_kernel<<<1, 1, 0, stream_.get()>>>(state_.data());
-    launched();
+    launch(skip_tracking_kernel, dim3(1), dim3(1), state_.data());
   }
 
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
-    prepare_integration_kernel<<<1, 1, 0, stream_.get()>>>(state_.data(), always);
-    launched();
+    launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
     IntegrateArgs a;
     a.volume = volume_view();
     a.depth_m = depth_view();
@@ -269,14 +259,12 @@ class CudaBackend final : public Backend {
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
     grid.z = z_chunks_;
-    integrate_kernel<<<grid, block, 0, stream_.get()>>>(a, z_chunks_);
-    launched();
+    launch(integrate_kernel, grid, block, a, z_chunks_);
   }
 
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
-    set_reference_kernel<<<1, 1, 0, stream_.get()>>>(state_.data(), p.k);
-    launched();
+    launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
     RaycastArgs a;
     a.volume = volume_view();
     a.vertex = ref_view(ref_vertex_);
@@ -293,8 +281,7 @@ class CudaBackend final : public Backend {
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
-    pixel_kernel<RaycastBlockBody><<<grid_for(w, h, block), block, 0, stream_.get()>>>(a, w, h);
-    launched();
+    launch(pixel_kernel<RaycastBlockBody, RaycastArgs>, grid_for(w, h, block), block, a, w, h);
   }
 
   TrackingState read_state() override {
@@ -346,6 +333,23 @@ class CudaBackend final : public Backend {
     return image;
   }
 
+  /// Launches `kernel` on the pipeline's stream; with programmatic dependent launch enabled it
+  /// may start while the previous kernel finishes (each kernel waits for it first thing).
+  template <class... KernelArgs, class... Args>
+  void launch(void (*kernel)(KernelArgs...), dim3 grid, dim3 block, Args&&... args) {
+    cudaLaunchConfig_t config{};
+    config.gridDim = grid;
+    config.blockDim = block;
+    config.stream = stream_.get();
+    cudaLaunchAttribute attribute{};
+    attribute.id = cudaLaunchAttributeProgrammaticStreamSerialization;
+    attribute.val.programmaticStreamSerializationAllowed = programmatic_launch_ ? 1 : 0;
+    config.attrs = &attribute;
+    config.numAttrs = 1;
+    KFX_CUDA_CHECK(cudaLaunchKernelEx(&config, kernel, std::forward<Args>(args)...));
+    launched();
+  }
+
   void launched() {
     KFX_CUDA_LAUNCH_CHECK();
     if (debug_sync_) KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
@@ -394,6 +398,7 @@ class CudaBackend final : public Backend {
   int device_ = 0;
   cudaDeviceProp properties_{};
   bool debug_sync_ = false;
+  bool programmatic_launch_ = false;  ///< KFX_CUDA_PDL=1: programmatic dependent launch
   Stream stream_;
   Stream copy_stream_;
   std::array<DeviceBuffer<uint16_t>, 2> input_mm_;

@@ -16,9 +16,19 @@ namespace kfx::cuda {
 /// Threads per block of the reduction kernels.
 constexpr int kReduceBlock = 256;
 
+/// First statement of every kernel: wait until the previous kernel in the stream has finished
+/// and its writes are visible. A no-op for an ordinary launch; with programmatic dependent
+/// launch (KFX_CUDA_PDL) it lets a kernel be launched while its predecessor still runs.
+__device__ __forceinline__ void wait_for_previous_kernel() {
+#if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
+  asm volatile("griddepcontrol.wait;" ::: "memory");
+#endif
+}
+
 /// One thread per pixel of a width × height grid, calling Body{}(x, y, args).
 template <class Body, class Args>
 __global__ void pixel_kernel(Args args, int width, int height) {
+  wait_for_previous_kernel();
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   if (x < width && y < height) Body{}(x, y, args);
@@ -49,6 +59,7 @@ struct RaycastBlockBody {
 /// mm → metres, and the frame's largest depth (block max, then one atomic per block; a max is
 /// exact whatever the order, so this stays repeatable).
 __global__ void mm_to_m_kernel(MmToMArgs args, TrackingState* state) {
+  wait_for_previous_kernel();
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
   float d = 0.0f;
@@ -75,19 +86,29 @@ __global__ void mm_to_m_kernel(MmToMArgs args, TrackingState* state) {
 
 /// Fills the volume with empty voxels (tsdf +1, weight 0).
 __global__ void init_volume_kernel(Voxel* voxels, long long count) {
+  wait_for_previous_kernel();
   const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
   if (i < count) voxels[i] = Voxel{static_cast<int16_t>(kTsdfScale), 0};
 }
 
-__global__ void begin_tracking_kernel(TrackingState* state) { begin_tracking(*state); }
+__global__ void begin_tracking_kernel(TrackingState* state) {
+  wait_for_previous_kernel();
+  begin_tracking(*state);
+}
 __global__ void accept_kernel(TrackingState* state, AcceptParams params) {
+  wait_for_previous_kernel();
   accept_or_revert(*state, params);
 }
-__global__ void skip_tracking_kernel(TrackingState* state) { state->tracked = 0; }
+__global__ void skip_tracking_kernel(TrackingState* state) {
+  wait_for_previous_kernel();
+  state->tracked = 0;
+}
 __global__ void prepare_integration_kernel(TrackingState* state, bool always) {
+  wait_for_previous_kernel();
   prepare_integration(*state, always);
 }
 __global__ void set_reference_kernel(TrackingState* state, Intrinsics k) {
+  wait_for_previous_kernel();
   set_reference_view(*state, k);
 }
 
@@ -117,6 +138,7 @@ __global__ void __launch_bounds__(kReduceBlock)
     icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
                          unsigned int* blocks_done, float icp_threshold, int level,
                          int8_t* outcome) {
+  wait_for_previous_kernel();
   if (level_converged(*state, level)) return;  // uniform: set by an earlier launch
   // With a stride s, pixel (i mod ws, i div ws)·s stands for its s × s block.
   const int s = args.stride_px;
@@ -167,6 +189,7 @@ __global__ void __launch_bounds__(kReduceBlock)
 /// Integration: one thread per voxel column (x, y) and z-chunk; early-out unless this frame
 /// integrates.
 __global__ void integrate_kernel(IntegrateArgs args, int z_chunks) {
+  wait_for_previous_kernel();
   if (!args.state->integrate_now) return;
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
   const int y = blockIdx.y * blockDim.y + threadIdx.y;
