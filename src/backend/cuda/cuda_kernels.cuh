@@ -18,7 +18,7 @@ constexpr int kReduceBlock = 256;
 
 /// First statement of every kernel: wait until the previous kernel in the stream has finished
 /// and its writes are visible. A no-op for an ordinary launch; with programmatic dependent
-/// launch (KFX_CUDA_PDL) it lets a kernel be launched while its predecessor still runs.
+/// launch (the default on Hopper) it lets a kernel be launched while its predecessor runs.
 __device__ __forceinline__ void wait_for_previous_kernel() {
 #if defined(__CUDA_ARCH__) && __CUDA_ARCH__ >= 900
   asm volatile("griddepcontrol.wait;" ::: "memory");
