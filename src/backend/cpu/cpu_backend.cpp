@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "backend/backend.hpp"
+#include "backend/stage_args.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
@@ -106,14 +107,7 @@ class CpuBackend final : public Backend {
       for (int x = 0; x < w; ++x) max_depth_m = std::max(max_depth_m, mm_to_m_pixel(x, y, mm));
     }
     state_.max_depth_m = max_depth_m;
-    BilateralArgs b;
-    b.in_m = depth_m_.view();
-    b.out_m = level_depth_[0].view();
-    b.radius_px = p.bilateral_radius_px;
-    std::copy(std::begin(p.spatial_weight), std::end(p.spatial_weight), b.spatial_weight);
-    b.range_denominator_m2 = p.range_denominator_m2;
-    b.use_range_term = p.use_range_term;
-    b.zero_padded = p.zero_padded;
+    const BilateralArgs b = make_bilateral_args(depth_m_.view(), level_depth_[0].view(), p);
     for_each_pixel(w, h, [&](int x, int y) { bilateral_pixel(x, y, b); });
   }
 
@@ -140,15 +134,8 @@ class CpuBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (level_converged(state_, level)) return;
-    TrackArgs a;
-    a.in_vertex = level_vertex_[level].view();
-    a.in_normal = level_normal_[level].view();
-    a.ref_vertex = ref_vertex_.view();
-    a.ref_normal = ref_normal_.view();
-    a.state = &state_;
-    a.dist_threshold_m = p.dist_threshold_m;
-    a.normal_threshold = p.normal_threshold;
-    a.stride_px = p.stride_px;
+    const TrackArgs a = make_track_args(level_vertex_[level].view(), level_normal_[level].view(),
+                                        ref_vertex_.view(), ref_normal_.view(), &state_, p);
     const int w = a.in_vertex.width, h = a.in_vertex.height, s = p.stride_px;
     const double weight = static_cast<double>(s) * s;  // each tracked pixel stands for its block
     const bool keep_outcome = level == 0;
@@ -176,17 +163,7 @@ class CpuBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    IntegrateArgs a;
-    a.volume = volume_view();
-    a.depth_m = depth_m_.view();
-    a.k = p.k;
-    a.state = &state_;
-    a.mu_m = p.mu_m;
-    a.max_weight = p.max_weight;
-    a.z_stride = p.z_stride;
-    a.checker_pattern = p.checker_pattern;
-    a.ray_factor_mode = p.ray_factor_mode;
-    a.zero_depth_test = p.zero_depth_test;
+    const IntegrateArgs a = make_integrate_args(volume_view(), depth_m_.view(), &state_, p);
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag.
     const int res = setup_.volume_res_vox;
@@ -201,19 +178,8 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
-    RaycastArgs a;
-    a.volume = volume_view();
-    a.vertex = ref_vertex_.view();
-    a.normal = ref_normal_.view();
-    a.state = &state_;
-    a.near_m = p.near_m;
-    a.far_m = p.far_m;
-    a.step_m = p.step_m;
-    a.large_step_m = p.large_step_m;
-    a.constant_step_m = p.constant_step_m;
-    a.two_value_interp = p.two_value_interp;
-    a.block_x_px = p.block_x_px;
-    a.block_y_px = p.block_y_px;
+    const RaycastArgs a =
+        make_raycast_args(volume_view(), ref_vertex_.view(), ref_normal_.view(), &state_, p);
     const int blocks_x = (ref_vertex_.width() + p.block_x_px - 1) / p.block_x_px;
     const int blocks_y = (ref_vertex_.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)

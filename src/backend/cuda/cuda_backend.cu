@@ -12,6 +12,7 @@
 #include <map>
 
 #include "backend/backend.hpp"
+#include "backend/stage_args.hpp"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
 
@@ -179,14 +180,7 @@ class CudaBackend final : public Backend {
     const MmToMArgs mm{input_view(), depth_view(), setup_.compute_ratio};
     const dim3 block(32, 8);
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
-    BilateralArgs b;
-    b.in_m = depth_view();
-    b.out_m = level_depth_view(0);
-    b.radius_px = p.bilateral_radius_px;
-    std::copy(std::begin(p.spatial_weight), std::end(p.spatial_weight), b.spatial_weight);
-    b.range_denominator_m2 = p.range_denominator_m2;
-    b.use_range_term = p.use_range_term;
-    b.zero_padded = p.zero_padded;
+    const BilateralArgs b = make_bilateral_args(depth_view(), level_depth_view(0), p);
     launch(pixel_kernel<BilateralBody, BilateralArgs>, grid_for(w, h, block), block, b, w, h);
   }
 
@@ -216,15 +210,8 @@ class CudaBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
-    TrackArgs a;
-    a.in_vertex = level_vertex_view(level);
-    a.in_normal = level_normal_view(level);
-    a.ref_vertex = ref_view(ref_vertex_);
-    a.ref_normal = ref_view(ref_normal_);
-    a.state = state_.data();
-    a.dist_threshold_m = p.dist_threshold_m;
-    a.normal_threshold = p.normal_threshold;
-    a.stride_px = p.stride_px;
+    const TrackArgs a = make_track_args(level_vertex_view(level), level_normal_view(level),
+                                        ref_view(ref_vertex_), ref_view(ref_normal_), state_.data(), p);
     const int pixels = ((a.in_vertex.width + p.stride_px - 1) / p.stride_px) *
                        ((a.in_vertex.height + p.stride_px - 1) / p.stride_px);
     const int blocks = std::min(reduce_blocks_, (pixels + kReduceBlock - 1) / kReduceBlock);
@@ -246,17 +233,7 @@ class CudaBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
-    IntegrateArgs a;
-    a.volume = volume_view();
-    a.depth_m = depth_view();
-    a.k = p.k;
-    a.state = state_.data();
-    a.mu_m = p.mu_m;
-    a.max_weight = p.max_weight;
-    a.z_stride = p.z_stride;
-    a.checker_pattern = p.checker_pattern;
-    a.ray_factor_mode = p.ray_factor_mode;
-    a.zero_depth_test = p.zero_depth_test;
+    const IntegrateArgs a = make_integrate_args(volume_view(), depth_view(), state_.data(), p);
     const int res = setup_.volume_res_vox;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
@@ -267,19 +244,8 @@ class CudaBackend final : public Backend {
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
     launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
-    RaycastArgs a;
-    a.volume = volume_view();
-    a.vertex = ref_view(ref_vertex_);
-    a.normal = ref_view(ref_normal_);
-    a.state = state_.data();
-    a.near_m = p.near_m;
-    a.far_m = p.far_m;
-    a.step_m = p.step_m;
-    a.large_step_m = p.large_step_m;
-    a.constant_step_m = p.constant_step_m;
-    a.two_value_interp = p.two_value_interp;
-    a.block_x_px = p.block_x_px;
-    a.block_y_px = p.block_y_px;
+    const RaycastArgs a = make_raycast_args(volume_view(), ref_view(ref_vertex_),
+                                            ref_view(ref_normal_), state_.data(), p);
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
