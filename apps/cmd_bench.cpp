@@ -15,6 +15,7 @@
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
+#include "timed_passes.hpp"
 
 namespace kfx::cli {
 namespace {
@@ -26,71 +27,26 @@ struct BenchOptions {
   std::string json_path;
 };
 
-std::vector<io::Frame> load_frames(io::Reader& reader, const RunOptions& options) {
-  std::vector<io::Frame> frames;
-  io::Frame frame;
-  while (options.max_frames == 0 || static_cast<int>(frames.size()) < options.max_frames) {
-    const io::ReadResult result = reader.next(frame);
-    if (result.status == io::ReadStatus::kEnd) break;
-    KFX_CHECK(result.status == io::ReadStatus::kOk, result.message);
-    frames.push_back(frame);
-  }
-  KFX_CHECK(!frames.empty(), options.input << ": no frame could be read");
-  return frames;
-}
-
 void bench(const BenchOptions& options) {
   PreparedRun prepared = prepare_run(options.run);
-  const std::vector<io::Frame> frames = load_frames(*prepared.reader, options.run);
+  const std::vector<io::Frame> frames =
+      load_frames(*prepared.reader, options.run.input, options.run.max_frames);
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
                     prepared.reader->height_px(), prepared.backend);
   std::cerr << "kfx bench: " << prepared.reader->description() << ", " << frames.size()
             << " frames in memory, backend " << pipeline.backend().name() << " ("
             << pipeline.backend().device_name() << ")\n";
 
-  // Warm-up: page in, record graphs for every frame shape the run uses.
-  for (size_t i = 0; i < frames.size() && static_cast<int>(i) < options.warmup_frames; ++i) {
-    pipeline.process(frames[i].depth_mm);
-  }
-
-  RunSummary all;
-  std::vector<double> pass_fps;
-  std::vector<io::StampedPose> trajectory;
-  for (int pass = 0; pass < options.repeat; ++pass) {
-    pipeline.reset();
-    RunSummary summary;
-    trajectory.clear();
-    const auto start = std::chrono::steady_clock::now();
-    // One frame in flight: the host prepares frame f+1 while the device computes frame f.
-    for (size_t i = 0; i < frames.size(); ++i) {
-      pipeline.submit(frames[i].depth_mm);
-      if (pipeline.frames_in_flight() > 1) {
-        const FrameReport r = pipeline.collect();
-        summary.add(r);
-        trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
-      }
-    }
-    while (pipeline.frames_in_flight() > 0) {
-      const FrameReport r = pipeline.collect();
-      summary.add(r);
-      trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
-    }
-    const double wall_s =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    pass_fps.push_back(frames.size() / wall_s);
-    for (size_t i = 0; i < summary.computation_ms.size(); ++i) {
-      all.computation_ms.push_back(summary.computation_ms[i]);
-      for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
-        all.stage_ms[s].push_back(summary.stage_ms[s][i]);
-      }
-    }
-    all.frames = summary.frames;
-    all.tracked = summary.tracked;
-    all.integrated = summary.integrated;
-    std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": "
-              << frames.size() / wall_s << " frames/s end to end, " << summary.tracked
-              << " tracked\n";
-  }
+  // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
+  const TimedPasses timed = run_timed_passes(
+      pipeline, frames, options.repeat, options.warmup_frames,
+      [&](int pass, double fps, const RunSummary& summary) {
+        std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": " << fps
+                  << " frames/s end to end, " << summary.tracked << " tracked\n";
+      });
+  const RunSummary& all = timed.all;
+  const std::vector<double>& pass_fps = timed.pass_fps;
+  const std::vector<io::StampedPose>& trajectory = timed.trajectory;
 
   nlohmann::json j;
   j["input"] = options.run.input;

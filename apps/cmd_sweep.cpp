@@ -24,6 +24,7 @@
 #include "pipeline/sweep_plan.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
+#include "timed_passes.hpp"
 
 namespace kfx::cli {
 namespace {
@@ -97,19 +98,6 @@ std::string format_duration(double seconds) {
   return buffer;
 }
 
-std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input, int max_frames) {
-  std::vector<io::Frame> frames;
-  io::Frame frame;
-  while (max_frames == 0 || static_cast<int>(frames.size()) < max_frames) {
-    const io::ReadResult result = reader.next(frame);
-    if (result.status == io::ReadStatus::kEnd) break;
-    KFX_CHECK(result.status == io::ReadStatus::kOk, result.message);
-    frames.push_back(frame);
-  }
-  KFX_CHECK(!frames.empty(), input << ": no frame could be read");
-  return frames;
-}
-
 /// The frames of the sequence being swept, loaded once and reused by every run that reads the
 /// same input with the same depth scale.
 struct FrameCache {
@@ -130,41 +118,11 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
   }
   record["config"] = config_json;
 
-  // Warm-up: page in, and on the GPU record the frame graphs, untimed.
-  for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
-    pipeline.process(frames[i].depth_mm);
-  }
-  RunSummary all;
-  std::vector<double> pass_fps;
-  std::vector<io::StampedPose> trajectory;
-  for (int pass = 0; pass < repeat; ++pass) {
-    pipeline.reset();
-    RunSummary summary;
-    trajectory.clear();
-    auto take = [&](const FrameReport& r) {
-      summary.add(r);
-      trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
-    };
-    const auto start = Clock::now();
-    // One frame in flight: the host prepares frame f+1 while the device computes frame f.
-    for (const auto& frame : frames) {
-      pipeline.submit(frame.depth_mm);
-      if (pipeline.frames_in_flight() > 1) take(pipeline.collect());
-    }
-    while (pipeline.frames_in_flight() > 0) take(pipeline.collect());
-    const double wall_s = std::chrono::duration<double>(Clock::now() - start).count();
-    pass_fps.push_back(wall_s > 0 ? frames.size() / wall_s : 0.0);
-    for (size_t i = 0; i < summary.computation_ms.size(); ++i) {
-      all.computation_ms.push_back(summary.computation_ms[i]);
-      for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
-        all.stage_ms[s].push_back(summary.stage_ms[s][i]);
-      }
-    }
-    // Counts of the last pass (every pass computes the same frames).
-    all.frames = summary.frames;
-    all.tracked = summary.tracked;
-    all.integrated = summary.integrated;
-  }
+  // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
+  const TimedPasses timed = run_timed_passes(pipeline, frames, repeat, warmup_frames);
+  const RunSummary& all = timed.all;
+  const std::vector<double>& pass_fps = timed.pass_fps;
+  const std::vector<io::StampedPose>& trajectory = timed.trajectory;
 
   const json stats = all.to_json();
   record["frames"] = all.frames;

@@ -1,0 +1,61 @@
+#include "timed_passes.hpp"
+
+#include <chrono>
+
+namespace kfx::cli {
+
+std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input, int max_frames) {
+  std::vector<io::Frame> frames;
+  io::Frame frame;
+  while (max_frames == 0 || static_cast<int>(frames.size()) < max_frames) {
+    const io::ReadResult result = reader.next(frame);
+    if (result.status == io::ReadStatus::kEnd) break;
+    KFX_CHECK(result.status == io::ReadStatus::kOk, result.message);
+    frames.push_back(frame);
+  }
+  KFX_CHECK(!frames.empty(), input << ": no frame could be read");
+  return frames;
+}
+
+TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& frames,
+                             int repeat, int warmup_frames,
+                             const std::function<void(int, double, const RunSummary&)>& on_pass) {
+  for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
+    pipeline.process(frames[i].depth_mm);
+  }
+  TimedPasses result;
+  for (int pass = 0; pass < repeat; ++pass) {
+    pipeline.reset();
+    RunSummary summary;
+    result.trajectory.clear();
+    auto take = [&](const FrameReport& r) {
+      summary.add(r);
+      result.trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
+    };
+    const auto start = std::chrono::steady_clock::now();
+    // One frame in flight: the host prepares frame f+1 while the device computes frame f.
+    for (const auto& frame : frames) {
+      pipeline.submit(frame.depth_mm);
+      if (pipeline.frames_in_flight() > 1) take(pipeline.collect());
+    }
+    while (pipeline.frames_in_flight() > 0) take(pipeline.collect());
+    const double wall_s =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    const double fps = wall_s > 0 ? frames.size() / wall_s : 0.0;
+    result.pass_fps.push_back(fps);
+    for (size_t i = 0; i < summary.computation_ms.size(); ++i) {
+      result.all.computation_ms.push_back(summary.computation_ms[i]);
+      for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+        result.all.stage_ms[s].push_back(summary.stage_ms[s][i]);
+      }
+    }
+    // Counts of the last pass (every pass computes the same frames).
+    result.all.frames = summary.frames;
+    result.all.tracked = summary.tracked;
+    result.all.integrated = summary.integrated;
+    if (on_pass) on_pass(pass, fps, summary);
+  }
+  return result;
+}
+
+}  // namespace kfx::cli

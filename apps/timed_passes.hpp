@@ -1,0 +1,33 @@
+#pragma once
+/// Timing a pipeline on a sequence held in memory, shared by `kfx bench` and `kfx sweep`:
+/// a warm-up, then timed passes over all frames with one frame in flight.
+
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "io/reader.hpp"
+#include "pipeline/pipeline.hpp"
+#include "run_summary.hpp"
+
+namespace kfx::cli {
+
+/// Reads up to `max_frames` frames (0 = all) into memory; a bad frame or no frame at all
+/// throws kfx::Error naming `input`.
+std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input, int max_frames);
+
+/// What the timed passes measured.
+struct TimedPasses {
+  RunSummary all;                           ///< stage times of every frame of every pass
+  std::vector<double> pass_fps;             ///< end-to-end frames/s of each pass (wall clock)
+  std::vector<io::StampedPose> trajectory;  ///< poses of the last pass
+};
+
+/// Processes the first `warmup_frames` frames untimed (on the GPU this also records the frame
+/// graphs), then runs `repeat` passes, each from a reset pipeline, submitting frame f+1 before
+/// collecting frame f. `on_pass(pass, fps, summary)` is called after each pass if given.
+TimedPasses run_timed_passes(
+    Pipeline& pipeline, const std::vector<io::Frame>& frames, int repeat, int warmup_frames,
+    const std::function<void(int, double, const RunSummary&)>& on_pass = {});
+
+}  // namespace kfx::cli
