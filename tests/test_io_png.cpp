@@ -3,51 +3,30 @@
 
 #include <gtest/gtest.h>
 #include <png.h>
-#include <stdlib.h>
 
 #include <cstring>
 #include <filesystem>
-#include <fstream>
-#include <iterator>
 #include <string>
 #include <vector>
 
 #include "core/platform.hpp"
 #include "io/png.hpp"
+#include "io_test_support.hpp"
 
 namespace kfx::io {
 namespace {
 
 namespace fs = std::filesystem;
 
-/// A fresh temporary folder, removed with everything in it at the end of the test.
-class TempDir {
+using test::expect_error;
+using test::read_bytes;
+using test::write_bytes;
+
+/// A fresh temporary folder kfx_png_test_XXXXXX, removed at the end of the test.
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "kfx_png_test_XXXXXX").string();
-    EXPECT_NE(mkdtemp(pattern.data()), nullptr);
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code error;
-    fs::remove_all(path_, error);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("kfx_png_test") {}
 };
-
-std::vector<char> read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-void write_bytes(const std::string& path, const std::vector<char>& bytes) {
-  std::ofstream out(path, std::ios::binary | std::ios::trunc);
-  out.write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-}
 
 /// An 8×6 image using the whole 16-bit range, with a distinct value per pixel.
 HostImage<uint16_t> test_image() {
@@ -59,20 +38,6 @@ HostImage<uint16_t> test_image() {
   image(7, 5) = 65535;
   image(3, 2) = 256;  // high byte 1, low byte 0: catches a missing byte swap
   return image;
-}
-
-/// Expects `call` to throw kfx::Error whose message contains every string in `parts`.
-template <class F>
-void expect_error(F call, const std::vector<std::string>& parts) {
-  try {
-    call();
-    ADD_FAILURE() << "no kfx::Error thrown";
-  } catch (const Error& e) {
-    for (const std::string& part : parts) {
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << part << "'";
-    }
-  }
 }
 
 TEST(IoPng, Gray16RoundTripIsExactAndLeavesNoTemporaryFile) {

@@ -3,13 +3,11 @@
 /// conversion of any input to .raw (subsampling, sidecar contents, bad frames).
 
 #include <gtest/gtest.h>
-#include <stdlib.h>
 
 #include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
-#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -19,6 +17,7 @@
 #include "io/png.hpp"
 #include "io/reader.hpp"
 #include "io/slambench_raw.hpp"
+#include "io_test_support.hpp"
 
 #ifndef KFX_SHARED_DIR
 #define KFX_SHARED_DIR "../shared"
@@ -29,67 +28,18 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+using test::expect_bad_frame;
+using test::expect_end;
+using test::expect_error;
+using test::expect_ok_frame;
+using test::read_bytes;
+using test::write_text;
+
+/// A fresh temporary folder kfx_raw_test_XXXXXX, removed at the end of the test.
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "kfx_raw_test_XXXXXX").string();
-    EXPECT_NE(mkdtemp(pattern.data()), nullptr);
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code error;
-    fs::remove_all(path_, error);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("kfx_raw_test") {}
 };
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
-}
-
-std::vector<char> read_bytes(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
-template <class F>
-void expect_error(F call, const std::vector<std::string>& parts) {
-  try {
-    call();
-    ADD_FAILURE() << "no kfx::Error thrown";
-  } catch (const Error& e) {
-    for (const std::string& part : parts) {
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << part << "'";
-    }
-  }
-}
-
-void expect_bad_frame(Reader& reader, const std::vector<std::string>& parts) {
-  Frame frame;
-  const ReadResult result = reader.next(frame);
-  ASSERT_EQ(result.status, ReadStatus::kBadFrame) << result.message;
-  for (const std::string& part : parts) {
-    EXPECT_NE(result.message.find(part), std::string::npos)
-        << "message '" << result.message << "' lacks '" << part << "'";
-  }
-}
-
-Frame expect_ok_frame(Reader& reader) {
-  Frame frame;
-  const ReadResult result = reader.next(frame);
-  EXPECT_EQ(result.status, ReadStatus::kOk) << result.message;
-  return frame;
-}
-
-void expect_end(Reader& reader) {
-  Frame frame;
-  EXPECT_EQ(reader.next(frame).status, ReadStatus::kEnd);
-}
 
 constexpr int kW = 8;
 constexpr int kH = 6;

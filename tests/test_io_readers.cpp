@@ -3,7 +3,6 @@
 /// present, the first frames of the real sequences.
 
 #include <gtest/gtest.h>
-#include <stdlib.h>
 
 #include <cmath>
 #include <cstdio>
@@ -16,6 +15,7 @@
 #include "core/platform.hpp"
 #include "io/png.hpp"
 #include "io/reader.hpp"
+#include "io_test_support.hpp"
 
 #ifndef KFX_SHARED_DIR
 #define KFX_SHARED_DIR "../shared"
@@ -26,67 +26,17 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class TempDir {
+using test::expect_bad_frame;
+using test::expect_end;
+using test::expect_error;
+using test::expect_ok_frame;
+using test::write_text;
+
+/// A fresh temporary folder kfx_readers_test_XXXXXX, removed at the end of the test.
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "kfx_readers_test_XXXXXX").string();
-    EXPECT_NE(mkdtemp(pattern.data()), nullptr);
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code error;
-    fs::remove_all(path_, error);
-  }
-  /// A sub-folder (created) of the temporary folder.
-  std::string folder(const std::string& name) const {
-    fs::create_directories(path_ / name);
-    return (path_ / name).string();
-  }
-  const fs::path& path() const { return path_; }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("kfx_readers_test") {}
 };
-
-void write_text(const fs::path& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
-}
-
-template <class F>
-void expect_error(F call, const std::vector<std::string>& parts) {
-  try {
-    call();
-    ADD_FAILURE() << "no kfx::Error thrown";
-  } catch (const Error& e) {
-    for (const std::string& part : parts) {
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << part << "'";
-    }
-  }
-}
-
-/// Expects the next frame to be bad with a message containing every string in `parts`.
-void expect_bad_frame(Reader& reader, const std::vector<std::string>& parts) {
-  Frame frame;
-  const ReadResult result = reader.next(frame);
-  ASSERT_EQ(result.status, ReadStatus::kBadFrame) << result.message;
-  for (const std::string& part : parts) {
-    EXPECT_NE(result.message.find(part), std::string::npos)
-        << "message '" << result.message << "' lacks '" << part << "'";
-  }
-}
-
-Frame expect_ok_frame(Reader& reader) {
-  Frame frame;
-  const ReadResult result = reader.next(frame);
-  EXPECT_EQ(result.status, ReadStatus::kOk) << result.message;
-  return frame;
-}
-
-void expect_end(Reader& reader) {
-  Frame frame;
-  EXPECT_EQ(reader.next(frame).status, ReadStatus::kEnd);
-}
 
 // ---------------------------------------------------------------------------------------------
 // PNG folders

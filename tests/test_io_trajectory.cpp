@@ -2,17 +2,15 @@
 /// malformed input, and the matrix → quaternion conversion.
 
 #include <gtest/gtest.h>
-#include <stdlib.h>
 
 #include <cmath>
 #include <filesystem>
-#include <fstream>
-#include <sstream>
 #include <string>
 #include <vector>
 
 #include "core/platform.hpp"
 #include "io/trajectory.hpp"
+#include "io_test_support.hpp"
 
 namespace kfx::io {
 namespace {
@@ -25,46 +23,15 @@ constexpr double kWrittenTol = 5e-10;
 constexpr double kFloatTol = 1e-6;
 constexpr double kPi = 3.14159265358979323846;
 
-class TempDir {
+using test::expect_error;
+using test::read_text;
+using test::write_text;
+
+/// A fresh temporary folder kfx_traj_test_XXXXXX, removed at the end of the test.
+class TempDir : public test::TempDir {
  public:
-  TempDir() {
-    std::string pattern = (fs::temp_directory_path() / "kfx_traj_test_XXXXXX").string();
-    EXPECT_NE(mkdtemp(pattern.data()), nullptr);
-    path_ = pattern;
-  }
-  ~TempDir() {
-    std::error_code error;
-    fs::remove_all(path_, error);
-  }
-  std::string file(const std::string& name) const { return (path_ / name).string(); }
-
- private:
-  fs::path path_;
+  TempDir() : test::TempDir("kfx_traj_test") {}
 };
-
-void write_text(const std::string& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
-}
-
-std::string read_text(const std::string& path) {
-  std::ifstream in(path);
-  std::stringstream buffer;
-  buffer << in.rdbuf();
-  return buffer.str();
-}
-
-template <class F>
-void expect_error(F call, const std::vector<std::string>& parts) {
-  try {
-    call();
-    ADD_FAILURE() << "no kfx::Error thrown";
-  } catch (const Error& e) {
-    for (const std::string& part : parts) {
-      EXPECT_NE(std::string(e.what()).find(part), std::string::npos)
-          << "message '" << e.what() << "' lacks '" << part << "'";
-    }
-  }
-}
 
 StampedPose make_pose(double stamp, double tx, double ty, double tz, double qx, double qy,
                       double qz, double qw) {
