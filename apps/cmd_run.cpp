@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <deque>
 #include <ctime>
 #include <filesystem>
 #include <iostream>
@@ -61,6 +62,42 @@ void run(const RunOptions& options, const std::string& out_dir) {
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
+  // What the host knows of each submitted frame until its report comes back.
+  struct Submitted {
+    double stamp_s;
+    double acquisition_s;
+  };
+  std::deque<Submitted> submitted;
+  // Writes one finished frame's log line and pose (frames finish in order).
+  auto finish = [&](const FrameReport& report) {
+    const Submitted s = submitted.front();
+    submitted.pop_front();
+    io::SlambenchLogLine line;
+    line.frame = report.index;
+    line.acquisition_s = s.acquisition_s;
+    line.preprocessing_s = report.stage_ms[static_cast<int>(Stage::kPreprocess)] / 1000.0;
+    line.tracking_s = report.stage_ms[static_cast<int>(Stage::kTrack)] / 1000.0;
+    line.integration_s = report.stage_ms[static_cast<int>(Stage::kIntegrate)] / 1000.0;
+    line.raycasting_s = report.stage_ms[static_cast<int>(Stage::kRaycast)] / 1000.0;
+    line.rendering_s = report.stage_ms[static_cast<int>(Stage::kRender)] / 1000.0;
+    const Vec3f p = pose_before.translation_part();  // SLAMBench logs the pose BEFORE the frame
+    line.x_m = p.x - initial.x;
+    line.y_m = p.y - initial.y;
+    line.z_m = p.z - initial.z;
+    line.tracked = report.tracked;
+    line.integrated = report.integrated;
+    io::write_slambench_log_line(log.stream(), line);
+    trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
+    summary.add(report);
+    pose_before = report.T_world_cam;
+    if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
+      last_progress = Clock::now();
+      std::cerr << "kfx run: frame " << summary.frames;
+      if (total_frames > 0) std::cerr << "/" << total_frames;
+      std::cerr << ", tracked " << summary.tracked << ", " << summary.frames_per_second()
+                << " frames/s computation\n";
+    }
+  };
   while (options.max_frames == 0 || pipeline.frame_count() < options.max_frames) {
     const auto read_start = Clock::now();
     const io::ReadResult result = reader.next(frame);
@@ -74,35 +111,13 @@ void run(const RunOptions& options, const std::string& out_dir) {
       continue;
     }
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
-    const FrameReport report = pipeline.process(frame.depth_mm);
-
-    io::SlambenchLogLine line;
-    line.frame = report.index;
-    line.acquisition_s = acquisition_s;
-    line.preprocessing_s = report.stage_ms[static_cast<int>(Stage::kPreprocess)] / 1000.0;
-    line.tracking_s = report.stage_ms[static_cast<int>(Stage::kTrack)] / 1000.0;
-    line.integration_s = report.stage_ms[static_cast<int>(Stage::kIntegrate)] / 1000.0;
-    line.raycasting_s = report.stage_ms[static_cast<int>(Stage::kRaycast)] / 1000.0;
-    line.rendering_s = report.stage_ms[static_cast<int>(Stage::kRender)] / 1000.0;
-    const Vec3f p = pose_before.translation_part();  // SLAMBench logs the pose BEFORE the frame
-    line.x_m = p.x - initial.x;
-    line.y_m = p.y - initial.y;
-    line.z_m = p.z - initial.z;
-    line.tracked = report.tracked;
-    line.integrated = report.integrated;
-    io::write_slambench_log_line(log.stream(), line);
-
-    trajectory.push_back(io::to_stamped_pose(frame.stamp_s, report.T_world_cam));
-    summary.add(report);
-    pose_before = report.T_world_cam;
-    if (!options.quiet && (seconds_since(last_progress) > 5.0 || pipeline.frame_count() == 1)) {
-      last_progress = Clock::now();
-      std::cerr << "kfx run: frame " << pipeline.frame_count();
-      if (total_frames > 0) std::cerr << "/" << total_frames;
-      std::cerr << ", tracked " << summary.tracked << ", " << summary.frames_per_second()
-                << " frames/s computation\n";
-    }
+    // One frame in flight: the next frame is read while the device computes this one, and its
+    // pose comes back asynchronously.
+    submitted.push_back(Submitted{frame.stamp_s, acquisition_s});
+    pipeline.submit(frame.depth_mm);
+    if (pipeline.frames_in_flight() > 1) finish(pipeline.collect());
   }
+  while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
   KFX_CHECK(frames_with_depth > 0,
             options.input << ": no frame of the " << pipeline.frame_count()
