@@ -14,6 +14,7 @@
 #include <sstream>
 #include <string>
 
+#include "cli_runner.hpp"
 #include "core/platform.hpp"
 #include "pipeline/sweep_plan.hpp"
 
@@ -455,22 +456,8 @@ TEST(SweepResults, CsvRowsQuoteAndFollowTheHeader) {
 // ---------------------------------------------------------------------------------------------
 // End to end through the kfx binary.
 
-struct CommandResult {
-  int exit_code;
-  std::string output;
-};
-
-CommandResult run_kfx(const std::string& arguments) {
-  const std::string command = std::string(KFX_CLI_PATH) + " " + arguments + " 2>&1";
-  FILE* pipe = popen(command.c_str(), "r");
-  CommandResult result{-1, ""};
-  if (!pipe) return result;
-  std::array<char, 4096> buffer;
-  while (fgets(buffer.data(), buffer.size(), pipe)) result.output += buffer.data();
-  const int status = pclose(pipe);
-  result.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-  return result;
-}
+using test::CommandResult;
+using test::run_kfx;
 
 int count_lines(const fs::path& path) {
   std::ifstream in(path);
