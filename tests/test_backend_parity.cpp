@@ -32,12 +32,10 @@ constexpr float kTrackedPoseTol_m = 1e-3f;
 constexpr double kTrajectoryMedianTol_m = 1e-3;
 constexpr double kTrajectoryP95Tol_m = 1e-2;
 
-bool cuda_or_skip_reason(std::string* why) { return cuda_available(why); }
-
 #define KFX_REQUIRE_CUDA()                                 \
   do {                                                     \
     std::string why_not;                                   \
-    if (!cuda_or_skip_reason(&why_not)) GTEST_SKIP() << why_not; \
+    if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;     \
   } while (0)
 
 BackendSetup small_setup() {

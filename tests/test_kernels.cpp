@@ -8,6 +8,7 @@
 #include <random>
 #include <vector>
 
+#include "backend/stage_args.hpp"
 #include "core/se3.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
@@ -374,6 +375,15 @@ TEST(Integrate, ColumnBoundsNeverChangeTheResult) {
   EXPECT_GT(touched_total, 10000);  // the poses do see the volume
 }
 
+/// Raycast arguments over a test volume, through the backends' own builder.
+RaycastArgs raycast_args(VolumeFixture& vol, HostImage<Vec3f>& vertex, HostImage<Vec3f>& normal,
+                         const TrackingState& state, float step_m, float large_step_m) {
+  RaycastParams p;
+  p.step_m = step_m;
+  p.large_step_m = large_step_m;
+  return make_raycast_args(vol.view(), vertex.view(), normal.view(), &state, p);
+}
+
 TEST(Raycast, PlaneDepthAndNormalAreAnalytic) {
   VolumeFixture vol;
   TrackingState state{};
@@ -382,13 +392,7 @@ TEST(Raycast, PlaneDepthAndNormalAreAnalytic) {
   for (int i = 0; i < 3; ++i) integrate_all(vol, depth, state, true);
   set_reference_view(state, kK);
   HostImage<Vec3f> vertex(80, 60), normal(80, 60);
-  RaycastArgs a;
-  a.volume = vol.view();
-  a.vertex = vertex.view();
-  a.normal = normal.view();
-  a.state = &state;
-  a.step_m = vol.size_m / vol.res;
-  a.large_step_m = 0.075f;
+  const RaycastArgs a = raycast_args(vol, vertex, normal, state, vol.size_m / vol.res, 0.075f);
   for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
   for (const auto& [x, y] : {std::pair{40, 30}, std::pair{10, 10}, std::pair{70, 50}}) {
     EXPECT_NEAR(vertex(x, y).z, 2.0f, 0.01f) << x << "," << y;  // within a fifth of a voxel
@@ -419,13 +423,7 @@ TEST(Raycast, SkippingUntouchedBricksChangesNothing) {
     state.T_world_cam = se3_exp(twist);
     set_reference_view(state, kK);
     HostImage<Vec3f> v_skip(80, 60), n_skip(80, 60), v_full(80, 60), n_full(80, 60);
-    RaycastArgs a;
-    a.state = &state;
-    a.step_m = vol.size_m / vol.res;
-    a.large_step_m = 0.075f;
-    a.volume = vol.view();
-    a.vertex = v_skip.view();
-    a.normal = n_skip.view();
+    RaycastArgs a = raycast_args(vol, v_skip, n_skip, state, vol.size_m / vol.res, 0.075f);
     for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
     a.volume.brick_touched = nullptr;
     a.vertex = v_full.view();
@@ -450,13 +448,7 @@ TEST(Raycast, EmptyVolumeIsAMiss) {
   state.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
   set_reference_view(state, kK);
   HostImage<Vec3f> vertex(80, 60), normal(80, 60);
-  RaycastArgs a;
-  a.volume = vol.view();
-  a.vertex = vertex.view();
-  a.normal = normal.view();
-  a.state = &state;
-  a.step_m = 0.05f;
-  raycast_pixel(40, 30, a);
+  raycast_pixel(40, 30, raycast_args(vol, vertex, normal, state, 0.05f, 0.075f));
   EXPECT_EQ(vertex(40, 30).z, 0.0f);
   EXPECT_EQ(normal(40, 30).x, kInvalidNormal);
 }
