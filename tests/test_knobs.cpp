@@ -205,10 +205,10 @@ TEST(Knobs, CheckerPerforationUpdatesOneVoxelInSInEveryDirection) {
   SmallVolume columns, rows;
   IntegrateArgs c = integrate_args(columns, depth, s);
   c.z_stride = 4;
-  c.checker_pattern = true;
+  c.pattern = IntegrationPattern::kChecker;
   IntegrateArgs r = integrate_args(rows, depth, s);
   r.z_stride = 4;
-  r.checker_pattern = true;
+  r.pattern = IntegrationPattern::kChecker;
   for (int y = 0; y < 32; ++y) {
     for (int x = 0; x < 32; ++x) integrate_column(x, y, 0, 32, c);
   }
@@ -237,10 +237,10 @@ TEST(Knobs, RayFactorModesAndZeroDepthTest) {
   TrackingState s{};
   s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
   // A voxel off the optical axis in front of the surface: sdf = (2 − z)·factor / mu.
-  auto tsdf_with = [&](int mode) {
+  auto tsdf_with = [&](RayFactor mode) {
     SmallVolume vol;
     IntegrateArgs a = integrate_args(vol, depth, s);
-    a.ray_factor_mode = mode;
+    a.ray_factor = mode;
     const int x = 20, y = 16, z = 18;  // centre (2.05, 1.65, 1.85) → camera (0.45, 0.05, 1.85)
     integrate_voxel(a.state->T_cam_world * vol.view().centre_m(x, y, z), x, y, z, a);
     return vol.view().tsdf(x, y, z);
@@ -248,9 +248,9 @@ TEST(Knobs, RayFactorModesAndZeroDepthTest) {
   const float px = 0.45f, py = 0.05f, pz = 1.85f;
   const float exact = std::sqrt(1 + (px / pz) * (px / pz) + (py / pz) * (py / pz));
   const float approx = 1 + 0.5f * (px * px + py * py) / (pz * pz);
-  EXPECT_NEAR(tsdf_with(kRayFactorExact), (2.0f - pz) * exact / 0.3f, 1e-4f);
-  EXPECT_NEAR(tsdf_with(kRayFactorApprox), (2.0f - pz) * approx / 0.3f, 1e-4f);
-  EXPECT_NEAR(tsdf_with(kRayFactorNone), (2.0f - pz) / 0.3f, 1e-4f);
+  EXPECT_NEAR(tsdf_with(RayFactor::kExact), (2.0f - pz) * exact / 0.3f, 1e-4f);
+  EXPECT_NEAR(tsdf_with(RayFactor::kApprox), (2.0f - pz) * approx / 0.3f, 1e-4f);
+  EXPECT_NEAR(tsdf_with(RayFactor::kNone), (2.0f - pz) / 0.3f, 1e-4f);
   // A voxel 0.2 m in front of the camera projecting onto the hole (35, 15): skipped with the
   // test; without it, depth 0 gives diff = −0.2·factor > −mu, so it is updated.
   for (bool test : {true, false}) {

@@ -26,16 +26,21 @@ struct TrackRow {
   float jacobian[6];
 };
 
-/// Arguments of track_pixel.
-struct TrackArgs {
+/// Settings of one ICP iteration, derived from the configuration.
+struct IcpParams {
+  float dist_threshold_m = 0.1f;  ///< |ref_v − p| above this → −4
+  float normal_threshold = 0.8f;  ///< dot(R·n, ref_n) below this → −5
+  float icp_threshold = 1e-5f;    ///< a level has converged when |update| is below this
+  int stride_px = 1;              ///< track one pixel per stride × stride block (perforation)
+};
+
+/// Arguments of track_pixel: the settings and the buffers.
+struct TrackArgs : IcpParams {
   ImageView<const Vec3f> in_vertex;   ///< this level's vertices (camera frame)
   ImageView<const Vec3f> in_normal;   ///< this level's normals (camera frame)
   ImageView<const Vec3f> ref_vertex;  ///< raycast vertices (volume frame), compute size
   ImageView<const Vec3f> ref_normal;  ///< raycast normals (volume frame), compute size
   const TrackingState* state;         ///< T_world_cam and project_reference
-  float dist_threshold_m = 0.1f;      ///< |ref_v − p| above this → −4
-  float normal_threshold = 0.8f;      ///< dot(R·n, ref_n) below this → −5
-  int stride_px = 1;                  ///< track one pixel per stride × stride block (perforation)
 };
 
 /// Projective data association and point-to-plane residual of one pixel.

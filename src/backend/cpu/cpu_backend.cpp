@@ -10,7 +10,6 @@
 #include <thread>
 
 #include "backend/backend.hpp"
-#include "backend/stage_args.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
@@ -97,7 +96,7 @@ class CpuBackend final : public Backend {
     stage_ms_.fill(0.0);
   }
 
-  void preprocess(const PreprocessParams& p) override {
+  void preprocess(const BilateralParams& p) override {
     begin_frame_state(state_);
     const MmToMArgs mm{input_mm_.view(), depth_m_.view(), setup_.compute_ratio};
     const int w = depth_m_.width(), h = depth_m_.height();
@@ -107,7 +106,7 @@ class CpuBackend final : public Backend {
       for (int x = 0; x < w; ++x) max_depth_m = std::max(max_depth_m, mm_to_m_pixel(x, y, mm));
     }
     state_.max_depth_m = max_depth_m;
-    const BilateralArgs b = make_bilateral_args(depth_m_.view(), level_depth_[0].view(), p);
+    const BilateralArgs b{p, depth_m_.view(), level_depth_[0].view()};
     for_each_pixel(w, h, [&](int x, int y) { bilateral_pixel(x, y, b); });
   }
 
@@ -134,8 +133,12 @@ class CpuBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (level_converged(state_, level)) return;
-    const TrackArgs a = make_track_args(level_vertex_[level].view(), level_normal_[level].view(),
-                                        ref_vertex_.view(), ref_normal_.view(), &state_, p);
+    const TrackArgs a{p,
+                      level_vertex_[level].view(),
+                      level_normal_[level].view(),
+                      ref_vertex_.view(),
+                      ref_normal_.view(),
+                      &state_};
     const int w = a.in_vertex.width, h = a.in_vertex.height, s = p.stride_px;
     const double weight = static_cast<double>(s) * s;  // each tracked pixel stands for its block
     const bool keep_outcome = level == 0;
@@ -163,7 +166,7 @@ class CpuBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    const IntegrateArgs a = make_integrate_args(volume_view(), depth_m_.view(), &state_, p);
+    const IntegrateArgs a{p, volume_view(), depth_m_.view(), &state_};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag.
     const int res = setup_.volume_res_vox;
@@ -178,8 +181,7 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
-    const RaycastArgs a =
-        make_raycast_args(volume_view(), ref_vertex_.view(), ref_normal_.view(), &state_, p);
+    const RaycastArgs a{p, volume_view(), ref_vertex_.view(), ref_normal_.view(), &state_};
     const int blocks_x = (ref_vertex_.width() + p.block_x_px - 1) / p.block_x_px;
     const int blocks_y = (ref_vertex_.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)

@@ -12,7 +12,6 @@
 #include <map>
 
 #include "backend/backend.hpp"
-#include "backend/stage_args.hpp"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
 
@@ -172,7 +171,7 @@ class CudaBackend final : public Backend {
     ++frames_submitted_;
   }
 
-  void preprocess(const PreprocessParams& p) override {
+  void preprocess(const BilateralParams& p) override {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     KFX_CUDA_CHECK(
@@ -180,7 +179,7 @@ class CudaBackend final : public Backend {
     const MmToMArgs mm{input_view(), depth_view(), setup_.compute_ratio};
     const dim3 block(32, 8);
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
-    const BilateralArgs b = make_bilateral_args(depth_view(), level_depth_view(0), p);
+    const BilateralArgs b{p, depth_view(), level_depth_view(0)};
     launch(pixel_kernel<BilateralBody, BilateralArgs>, grid_for(w, h, block), block, b, w, h);
   }
 
@@ -210,8 +209,12 @@ class CudaBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
-    const TrackArgs a = make_track_args(level_vertex_view(level), level_normal_view(level),
-                                        ref_view(ref_vertex_), ref_view(ref_normal_), state_.data(), p);
+    const TrackArgs a{p,
+                      level_vertex_view(level),
+                      level_normal_view(level),
+                      ref_view(ref_vertex_),
+                      ref_view(ref_normal_),
+                      state_.data()};
     const int pixels = ((a.in_vertex.width + p.stride_px - 1) / p.stride_px) *
                        ((a.in_vertex.height + p.stride_px - 1) / p.stride_px);
     const int blocks = std::min(reduce_blocks_, (pixels + kReduceBlock - 1) / kReduceBlock);
@@ -233,7 +236,7 @@ class CudaBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
-    const IntegrateArgs a = make_integrate_args(volume_view(), depth_view(), state_.data(), p);
+    const IntegrateArgs a{p, volume_view(), depth_view(), state_.data()};
     const int res = setup_.volume_res_vox;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
@@ -244,8 +247,8 @@ class CudaBackend final : public Backend {
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
     launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
-    const RaycastArgs a = make_raycast_args(volume_view(), ref_view(ref_vertex_),
-                                            ref_view(ref_normal_), state_.data(), p);
+    const RaycastArgs a{p, volume_view(), ref_view(ref_vertex_), ref_view(ref_normal_),
+                        state_.data()};
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
