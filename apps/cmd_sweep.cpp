@@ -21,7 +21,7 @@
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
 #include "pipeline/pipeline.hpp"
-#include "pipeline/sweep_plan.hpp"
+#include "study/sweep_plan.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
 #include "timed_passes.hpp"

@@ -83,6 +83,7 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(thesis.approx.integration_z_stride, 8);
   EXPECT_EQ(thesis.tracking.iterations_per_level, std::vector<int>{2});
   EXPECT_EQ(thesis.approx.raycast_rate, 2);
+  EXPECT_EQ(thesis.approx.ray_factor, RayFactor::kThesis);
 }
 
 TEST(Knobs, SpatialBilateralIsAWeightedMeanWithoutRangeTerm) {
@@ -261,6 +262,40 @@ TEST(Knobs, RayFactorModesAndZeroDepthTest) {
     integrate_voxel(p, 1, 1, 1, a);
     EXPECT_EQ(vol.view().at(1, 1, 1).weight, test ? 0 : 1);
   }
+}
+
+TEST(Knobs, ThesisRayFactorIsTheThesisFormNotASeries) {
+  // The seed thesis's ray factor 1 + x/z + (y/z)² (x not squared): unlike sqrt(1 + r²) and its
+  // expansion 1 + r²/2 it is first order in x/z, so it is far larger than both for x > 0 and
+  // smaller than 1 for x < 0, while in y it equals the expansion's 1 + (y/z)² only when x = 0.
+  HostImage<float> depth(40, 30, 2.0f);
+  TrackingState s{};
+  s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
+  auto tsdf_at = [&](RayFactor mode, int x) {
+    SmallVolume vol;
+    IntegrateArgs a = integrate_args(vol, depth, s);
+    a.ray_factor = mode;
+    const int y = 16, z = 18;
+    integrate_voxel(a.state->T_cam_world * vol.view().centre_m(x, y, z), x, y, z, a);
+    return vol.view().tsdf(x, y, z);
+  };
+  // Voxels x = 20 and x = 11 sit at camera x = ±0.45 m, y = 0.05 m, z = 1.85 m.
+  const float px = 0.45f, py = 0.05f, pz = 1.85f;
+  const float exact = std::sqrt(1 + (px / pz) * (px / pz) + (py / pz) * (py / pz));
+  const float approx = 1 + 0.5f * (px * px + py * py) / (pz * pz);
+  const float thesis_right = 1 + px / pz + (py / pz) * (py / pz);
+  const float thesis_left = 1 - px / pz + (py / pz) * (py / pz);
+  constexpr float kTol = 1e-4f;  // tsdf is stored in int16: 1/32766 per unit
+  EXPECT_NEAR(tsdf_at(RayFactor::kThesis, 20), (2.0f - pz) * thesis_right / 0.3f, kTol);
+  EXPECT_NEAR(tsdf_at(RayFactor::kThesis, 11), (2.0f - pz) * thesis_left / 0.3f, kTol);
+  // Exact and approx are symmetric in x; the thesis's form is not.
+  EXPECT_NEAR(tsdf_at(RayFactor::kExact, 20), tsdf_at(RayFactor::kExact, 11), kTol);
+  EXPECT_NEAR(tsdf_at(RayFactor::kApprox, 20), tsdf_at(RayFactor::kApprox, 11), kTol);
+  EXPECT_GT(thesis_right - exact, 0.2f);  // 1.24 against 1.03: not a close approximation
+  EXPECT_GT(thesis_right - approx, 0.2f);
+  EXPECT_LT(thesis_left, 1.0f);
+  EXPECT_GT(std::fabs(tsdf_at(RayFactor::kThesis, 20) - tsdf_at(RayFactor::kApprox, 20)), 0.05f);
+  EXPECT_GT(std::fabs(tsdf_at(RayFactor::kThesis, 11) - tsdf_at(RayFactor::kExact, 11)), 0.05f);
 }
 
 TEST(Knobs, RaycastBlocksCopyTheBlockRay) {

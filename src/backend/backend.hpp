@@ -32,6 +32,13 @@ struct BackendSetup {
   int pyramid_levels = 3;
   int volume_res_vox = 256;
   float volume_size_m = 2.0f;
+  /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them). Defaults measured on an
+  /// H200 (bench/RESULTS.md).
+  struct CudaTuning {
+    bool programmatic_launch = true;  ///< programmatic dependent launch on sm_90 and newer
+    int reduce_blocks = 0;            ///< cap on the ICP reduction grid; 0 = one block per SM
+    int z_chunks = 16;                ///< z-ranges each integration column is split into
+  } cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
 };
@@ -52,6 +59,14 @@ struct DebugMaps {
 };
 
 /// One stage-per-call backend.
+///
+/// The rule graph replay imposes: the CUDA backend records a frame's launches once per frame
+/// shape (begin_frame) and replays that recording for every later frame of the same shape,
+/// arguments included. So everything a stage call passes (its *Params and `always`) may depend
+/// only on the frame's shape and on the configuration, never on the frame number or on data;
+/// what does depend on them (the frame index, the pose, converged, tracked) is read by the
+/// kernels from the device-side TrackingState. A new shape-dependent choice needs a bit in the
+/// shape (src/pipeline/pipeline.cpp).
 class Backend {
  public:
   virtual ~Backend() = default;

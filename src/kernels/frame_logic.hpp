@@ -13,6 +13,16 @@
 
 namespace kfx {
 
+/// The state after a reset: no frame yet (frame_index −1), every pose at `T_world_cam`.
+inline TrackingState initial_tracking_state(const Mat4f& T_world_cam) {
+  TrackingState s{};
+  s.frame_index = -1;
+  s.T_world_cam = T_world_cam;
+  s.T_world_cam_before = T_world_cam;
+  s.T_world_raycast = T_world_cam;
+  return s;
+}
+
 /// Start of every frame (run once, before any other stage reads the state): count it.
 KFX_HD inline void begin_frame_state(TrackingState& s) { s.frame_index += 1; }
 

@@ -18,6 +18,8 @@ enum class RayFactor : int {
   kExact = 0,   ///< sqrt(1 + r²), SLAMBench's
   kApprox = 1,  ///< 1 + r²/2, its first-order expansion
   kNone = 2,    ///< 1: the z difference itself
+  kThesis = 3,  ///< 1 + x/z + (y/z)²: the seed thesis's cheaper form, x not squared (not a
+                ///< series of sqrt(1 + r²); it scales the sdf asymmetrically in x)
 };
 
 /// Which voxels a perforated frame updates (setting `integration_pattern`).
@@ -128,6 +130,8 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
     ray_factor = sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
   } else if (a.ray_factor == RayFactor::kApprox) {
     ray_factor = 1.0f + 0.5f * (p.x * p.x + p.y * p.y) / (p.z * p.z);  // sqrt(1+r²) ≈ 1 + r²/2
+  } else if (a.ray_factor == RayFactor::kThesis) {
+    ray_factor = 1.0f + p.x / p.z + (p.y / p.z) * (p.y / p.z);  // as the thesis writes it
   }
   const float diff = (depth - p.z) * ray_factor;
   if (diff > -a.mu_m) {

@@ -296,10 +296,12 @@ std::vector<ConfigField> build_fields() {
                                      {"checker", IntegrationPattern::kChecker}},
          &C::Approximations::integration_pattern);
   choice("ray_factor",
-         "integrate: sdf ray factor sqrt(1+(x/z)^2+(y/z)^2) exact | approx (1 + r^2/2) | none",
+         "integrate: sdf ray factor, r^2 = (x/z)^2 + (y/z)^2: exact sqrt(1 + r^2) | approx "
+         "1 + r^2/2 | thesis 1 + x/z + (y/z)^2 (the seed thesis's form, x not squared) | none 1",
          Choices<RayFactor>{{"exact", RayFactor::kExact},
                             {"approx", RayFactor::kApprox},
-                            {"none", RayFactor::kNone}},
+                            {"none", RayFactor::kNone},
+                            {"thesis", RayFactor::kThesis}},
          &C::Approximations::ray_factor);
   flag("integrate_zero_depth_test", "integrate: skip pixels without depth (on = exact)",
        &C::Approximations::integrate_zero_depth_test);
@@ -310,7 +312,10 @@ std::vector<ConfigField> build_fields() {
     ConfigField f;
     f.key = "raycast_block_px";
     f.section = "approximations";
-    f.help = "raycast: one ray per bx,by pixel block, copied into the block (1,1 = exact)";
+    f.help =
+        "raycast: one ray per bx,by pixel block (width bx, height by), copied into the block "
+        "(1,1 = exact; the thesis's text says 1x2 blocks, its code copies 2x2: the thesis preset "
+        "uses 2,2)";
     f.parse = [](C& c, const std::string& text) {
       const auto v = parse_floats<2>("raycast_block_px", text, true);
       c.approx.raycast_block_px = {parse_integer("raycast_block_px", format_number(v[0])),
@@ -327,6 +332,22 @@ std::vector<ConfigField> build_fields() {
          Choices<RaycastInterp>{{"trilinear", RaycastInterp::kTrilinear},
                                 {"two_value", RaycastInterp::kTwoValue}},
          &C::Approximations::raycast_interp);
+  // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
+  {
+    ConfigField f;
+    f.key = "cuda_pdl";
+    f.section = "cuda";
+    f.help = "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)";
+    f.parse = [](C& c, const std::string& text) { c.cuda.pdl = parse_bool("cuda_pdl", text); };
+    f.format = [](const C& c) { return std::string(c.cuda.pdl ? "on" : "off"); };
+    t.push_back(f);
+  }
+  integer("cuda_reduce_blocks", "cuda", "", "",
+          "cuda: cap on the ICP reduction grid, 0 = one block per SM (0..65535; speed only)",
+          [](C& c) -> int& { return c.cuda.reduce_blocks; });
+  integer("cuda_z_chunks", "cuda", "", "",
+          "cuda: z-ranges each integration column is split into (1..1024; speed only)",
+          [](C& c) -> int& { return c.cuda.z_chunks; });
   return t;
 }
 
@@ -408,6 +429,10 @@ void PipelineConfig::validate() const {
     KFX_CHECK(b >= 1 && b <= 16, "raycast_block_px entries must be in 1..16, got " << b);
   }
   KFX_CHECK(approx.raycast_constant_step_m >= 0, "raycast_constant_step_m must be >= 0");
+  KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
+            "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
+  KFX_CHECK(cuda.z_chunks >= 1 && cuda.z_chunks <= 1024,
+            "cuda_z_chunks must be in 1..1024, got " << cuda.z_chunks);
 }
 
 std::string PipelineConfig::dump() const {
@@ -470,11 +495,12 @@ PipelineConfig make_preset(const std::string& name) {
   if (name == "thesis") {
     // The seed thesis's final combination (its code, REFERENCE.md last section): 3x3 spatial
     // bilateral on zero-padded depth; one pyramid level, at most 2 iterations (-y 2); z-slice
-    // perforation 8 without the depth-0 test and with the cheaper ray factor; raycast every
-    // 2nd frame at half resolution, each result copied into a 2x2 block.
+    // perforation 8 without the depth-0 test and with its own cheaper ray factor
+    // 1 + x/z + (y/z)²; raycast every 2nd frame at half resolution, each result copied into a
+    // 2x2 block (its code's block; its text says 1x2).
     for (const char* a : {"bilateral_mode=spatial3x3", "zero_padded_depth=on", "pyramid_iterations=2",
                           "integration_z_stride=8", "integrate_zero_depth_test=off",
-                          "ray_factor=approx", "raycast_rate=2", "raycast_block_px=2,2"}) {
+                          "ray_factor=thesis", "raycast_rate=2", "raycast_block_px=2,2"}) {
       set_config_assignment(c, a);
     }
     return c;

@@ -73,6 +73,13 @@ struct PipelineConfig {
     RaycastInterp raycast_interp = RaycastInterp::kTrilinear;  ///< trilinear | two_value
   } approx;
 
+  /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
+  struct Cuda {
+    bool pdl = true;            ///< programmatic dependent launch (on sm_90 and newer)
+    int reduce_blocks = 0;      ///< cap on the ICP reduction grid; 0 = one block per SM
+    int z_chunks = 16;          ///< z-ranges each integration column is split into
+  } cuda;
+
   /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.
   void validate() const;
   /// `key = value` lines for every setting, grouped by section.

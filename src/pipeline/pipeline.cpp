@@ -23,6 +23,9 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.pyramid_levels = levels;
   setup_.volume_res_vox = config_.volume.resolution_vox;
   setup_.volume_size_m = config_.volume.size_m;
+  setup_.cuda.programmatic_launch = config_.cuda.pdl;
+  setup_.cuda.reduce_blocks = config_.cuda.reduce_blocks;
+  setup_.cuda.z_chunks = config_.cuda.z_chunks;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
   const auto& f = config_.volume.init_pose_factor;
