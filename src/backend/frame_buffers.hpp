@@ -53,13 +53,13 @@ struct FrameBuffers {
   }
 
   Image<float> depth_m;  ///< unfiltered compute-size depth, metres
-  std::array<Image<float>, kMaxPyramidLevels> level_depth;    ///< level 0: bilateral output
-  std::array<Image<Vec3f>, kMaxPyramidLevels> level_vertex;   ///< camera-frame vertices
-  std::array<Image<Vec3f>, kMaxPyramidLevels> level_normal;   ///< camera-frame normals
-  Image<Vec3f> ref_vertex;     ///< raycast vertices (volume frame): the ICP reference
-  Image<Vec3f> ref_normal;     ///< raycast normals (volume frame)
-  Image<int8_t> track_outcome; ///< last level-0 ICP outcome per pixel
-  Array<Voxel> volume;         ///< res³ voxels, x fastest
+  std::array<Image<float>, kMaxPyramidLevels> level_depth;   ///< level 0: bilateral output
+  std::array<Image<Vec3f>, kMaxPyramidLevels> level_vertex;  ///< camera-frame vertices
+  std::array<Image<Vec3f>, kMaxPyramidLevels> level_normal;  ///< camera-frame normals
+  Image<Vec3f> ref_vertex;       ///< raycast vertices (volume frame): the ICP reference
+  Image<Vec3f> ref_normal;       ///< raycast normals (volume frame)
+  Image<int8_t> track_outcome;   ///< last level-0 ICP outcome per pixel
+  Array<Voxel> volume;           ///< res³ voxels, x fastest
   Array<uint8_t> brick_touched;  ///< one flag per 8³ brick (VolumeView::brick_touched)
   int volume_res_vox = 0;
   float volume_size_m = 0.0f;

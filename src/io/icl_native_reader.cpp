@@ -254,8 +254,8 @@ std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
   // Frames run from the first to the last number found; a gap is a missing (bad) frame.
   const std::vector<std::string> found = find_freiburg_ground_truth(folder);
   std::string ground_truth_path;
-  std::vector<StampedPose> ground_truth =
-      load_ground_truth(options.ground_truth_path, found.empty() ? "" : found.front(), &ground_truth_path);
+  std::vector<StampedPose> ground_truth = load_ground_truth(
+      options.ground_truth_path, found.empty() ? "" : found.front(), &ground_truth_path);
   return std::make_unique<IclNativeReader>(folder, numbers.front(), numbers.back(),
                                            std::move(ground_truth), std::move(ground_truth_path));
 }

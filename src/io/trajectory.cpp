@@ -3,8 +3,8 @@
 #include "io/trajectory.hpp"
 
 #include <Eigen/Geometry>
-#include <cmath>
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <string>
@@ -114,7 +114,8 @@ std::vector<std::string> find_freiburg_ground_truth(const std::string& folder) {
   std::vector<std::string> found;
   std::error_code error;
   const std::string suffix = ".gt.freiburg";
-  for (std::filesystem::directory_iterator it(folder, error), end; !error && it != end; it.increment(error)) {
+  for (std::filesystem::directory_iterator it(folder, error), end; !error && it != end;
+       it.increment(error)) {
     const std::string name = it->path().filename().string();
     if (name.size() > suffix.size() &&
         name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0 &&

@@ -1,5 +1,5 @@
 #pragma once
-/// Single-thread kernels that make the frame's decisions on the state (REFERENCE.md step 3–5):
+/// Single-thread kernels that make the frame's decisions on the state (docs/algorithm.md §2.2–2.4):
 /// the ICP update and convergence test, the accept test with pose revert, the integration gate
 /// and the reference-view update. The CPU runs them inline; the GPU runs them in one thread
 /// (the last block of a reduction, or a one-thread launch), so the host never waits on them.

@@ -1,5 +1,5 @@
 #pragma once
-/// TSDF integration (Newcombe et al. 2011, eq. 6–11; REFERENCE.md step 4), one voxel column
+/// TSDF integration (Newcombe et al. 2011, eq. 6–11; docs/algorithm.md §2.3), one voxel column
 /// (x, y) and a range of z per call. Each column first bounds its z-range to where a voxel can
 /// change (in front of the camera, inside the image, not beyond the farthest depth + mu); the
 /// per-voxel tests below are the exact ones, so the bound only skips work.
@@ -114,7 +114,7 @@ KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateA
   if (end < begin) end = begin;
 }
 
-/// Updates voxel (x, y, z), whose centre is at camera-frame point p (REFERENCE.md step 4), and
+/// Updates voxel (x, y, z), whose centre is at camera-frame point p (docs/algorithm.md §2.3), and
 /// marks its brick when its tsdf leaves +1.
 /// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
 /// the GPU pass 18 % faster but moved icl_office_kt0's ATE from 0.84 to 0.93 cm (measured).
@@ -176,13 +176,14 @@ KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const 
 
 /// Integrates the whole updatable part of row (y, z) (voxels contiguous in memory).
 KFX_HD inline void integrate_row(int y, int z, const IntegrateArgs& a) {
+  const bool perforated = a.z_stride > 1;
+  const bool checker = a.pattern == IntegrationPattern::kChecker;
+  if (perforated && !checker && z % a.z_stride != perforation_residue(a, 0)) return;
   int step = 1;
-  if (a.z_stride > 1 && a.pattern == IntegrationPattern::kSlices &&
-      z % a.z_stride != perforation_residue(a, 0)) return;
   const VoxelLine line = x_line(y, z, a);
   int x_begin, x_end;
   integrate_line_bounds(line, a, x_begin, x_end);
-  if (a.z_stride > 1 && a.pattern == IntegrationPattern::kChecker) {  // x ≡ residue (mod s) along this row
+  if (perforated && checker) {  // x ≡ residue (mod s) along this row
     step = a.z_stride;
     const int residue = perforation_residue(a, y + z);
     x_begin += ((residue - x_begin) % step + step) % step;

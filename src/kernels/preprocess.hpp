@@ -1,6 +1,6 @@
 #pragma once
 /// Preprocessing kernels, one output pixel each: mm → metres, bilateral filter, the robust
-/// half-sample of the pyramid, and vertex/normal maps (REFERENCE.md steps 1–3).
+/// half-sample of the pyramid, and vertex/normal maps (docs/algorithm.md §2.1–2.2).
 
 #include <array>
 #include <cmath>

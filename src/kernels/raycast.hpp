@@ -1,5 +1,5 @@
 #pragma once
-/// Raycast of the TSDF (Newcombe et al. 2011, sec. 3.4; REFERENCE.md step 5), one ray per
+/// Raycast of the TSDF (Newcombe et al. 2011, sec. 3.4; docs/algorithm.md §2.4), one ray per
 /// compute pixel, giving the reference vertex and normal maps for the next frame's ICP.
 
 #include "core/image.hpp"

@@ -9,7 +9,7 @@
 
 namespace kfx {
 
-/// Outcome codes of one pixel (REFERENCE.md step 3).
+/// Outcome codes of one pixel (docs/algorithm.md §2.2).
 enum TrackOutcome : int {
   kTrackInlier = 1,
   kTrackNoInputNormal = -1,

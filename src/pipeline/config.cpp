@@ -242,7 +242,8 @@ std::vector<ConfigField> build_fields() {
           [](C& c) -> int& { return c.render.rate; });
   // Approximations (the seed thesis's techniques and more), each exact by default.
   // A choice setting: its text names one value of an enum, parsed here once.
-  auto choice = [&](std::string key, std::string help, auto choices, auto C::Approximations::*member) {
+  auto choice = [&](std::string key, std::string help, auto choices,
+                    auto C::Approximations::*member) {
     ConfigField f;
     f.key = key;
     f.section = "approximations";
@@ -453,10 +454,10 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   const auto& approx = config.approx;
   const float size_m = config.volume.size_m;
   StageParams p;
-  p.bilateral = make_bilateral_params(
-      approx.bilateral_mode, config.preprocess.bilateral_radius_px,
-      config.preprocess.bilateral_spatial_sigma_px, config.preprocess.bilateral_range_sigma_m,
-      approx.zero_padded_depth);
+  p.bilateral =
+      make_bilateral_params(approx.bilateral_mode, config.preprocess.bilateral_radius_px,
+                            config.preprocess.bilateral_spatial_sigma_px,
+                            config.preprocess.bilateral_range_sigma_m, approx.zero_padded_depth);
   p.pyramid.half_sample_range_m = config.tracking.half_sample_range_m;
   for (int l = 0; l < static_cast<int>(config.tracking.iterations_per_level.size()); ++l) {
     p.pyramid.level_intrinsics[l] = compute_k.scaled_down(static_cast<float>(1 << l));
@@ -493,14 +494,15 @@ PipelineConfig make_preset(const std::string& name) {
   PipelineConfig c;
   if (name == "exact") return c;
   if (name == "thesis") {
-    // The seed thesis's final combination (its code, REFERENCE.md last section): 3x3 spatial
+    // The seed thesis's final combination (its code, docs/algorithm.md §5): 3x3 spatial
     // bilateral on zero-padded depth; one pyramid level, at most 2 iterations (-y 2); z-slice
     // perforation 8 without the depth-0 test and with its own cheaper ray factor
     // 1 + x/z + (y/z)²; raycast every 2nd frame at half resolution, each result copied into a
     // 2x2 block (its code's block; its text says 1x2).
-    for (const char* a : {"bilateral_mode=spatial3x3", "zero_padded_depth=on", "pyramid_iterations=2",
-                          "integration_z_stride=8", "integrate_zero_depth_test=off",
-                          "ray_factor=thesis", "raycast_rate=2", "raycast_block_px=2,2"}) {
+    for (const char* a :
+         {"bilateral_mode=spatial3x3", "zero_padded_depth=on", "pyramid_iterations=2",
+          "integration_z_stride=8", "integrate_zero_depth_test=off", "ray_factor=thesis",
+          "raycast_rate=2", "raycast_block_px=2,2"}) {
       set_config_assignment(c, a);
     }
     return c;

@@ -57,8 +57,8 @@ struct PipelineConfig {
   struct Render {
     int rate = 4;  ///< render the volume every N frames when rendering is on
   } render;
-  /// The seed thesis's techniques and more, each defaulting to exact (REFERENCE.md, last
-  /// section). `kfx settings` lists them with their effect and range.
+  /// The seed thesis's techniques and more, each defaulting to exact (docs/algorithm.md
+  /// §5). `kfx settings` lists them with their effect and range.
   struct Approximations {
     BilateralMode bilateral_mode = BilateralMode::kExact;  ///< exact (5×5 with range) | spatial3x3
     bool zero_padded_depth = false;        ///< bilateral reads outside the image as 0
@@ -75,9 +75,9 @@ struct PipelineConfig {
 
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
   struct Cuda {
-    bool pdl = true;            ///< programmatic dependent launch (on sm_90 and newer)
-    int reduce_blocks = 0;      ///< cap on the ICP reduction grid; 0 = one block per SM
-    int z_chunks = 16;          ///< z-ranges each integration column is split into
+    bool pdl = true;        ///< programmatic dependent launch (on sm_90 and newer)
+    int reduce_blocks = 0;  ///< cap on the ICP reduction grid; 0 = one block per SM
+    int z_chunks = 16;      ///< z-ranges each integration column is split into
   } cuda;
 
   /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.

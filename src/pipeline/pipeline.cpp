@@ -120,7 +120,8 @@ FrameReport Pipeline::collect() {
   report.T_world_cam = state.T_world_cam;
   report.icp_iterations = track ? state.iterations_run : 0;
   report.inlier_fraction =
-      track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels) : 0.0;
+      track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)
+            : 0.0;
   for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
   }

@@ -1,5 +1,5 @@
 #pragma once
-/// The one frame loop (REFERENCE.md "Per frame, in this order"): preprocess → track (pyramid
+/// The one frame loop (docs/algorithm.md §2–3): preprocess → track (pyramid
 /// ICP) → accept/revert → integrate → raycast. Orchestration lives here once; the backend runs
 /// the stages.
 

@@ -121,7 +121,8 @@ class CpuBackend final : public Backend {
   void icp_iteration(int level, const IcpParams& p) override {
     if (level_converged(state_, level)) return;
     // The level-0 outcome is kept for read_maps().
-    const ImageView<int8_t> outcome = level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
+    const ImageView<int8_t> outcome =
+        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
     const TrackArgs a{p,
                       buffers_.level_vertex[level].view(),
                       buffers_.level_normal[level].view(),
@@ -166,7 +167,8 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
-    const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(), buffers_.ref_normal.view(), &state_};
+    const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(),
+                        buffers_.ref_normal.view(), &state_};
     const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
     const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)

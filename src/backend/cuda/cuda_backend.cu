@@ -5,17 +5,17 @@
 /// stream, and the state after the frame comes back asynchronously into pinned memory.
 /// KFX_CUDA_SYNC=1 turns graphs off and synchronises after every launch (debugging).
 
-#include <array>
 #include <algorithm>
+#include <array>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
 #include <map>
 
 #include "backend/backend.hpp"
-#include "backend/frame_buffers.hpp"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
+#include "backend/frame_buffers.hpp"
 
 namespace kfx {
 
@@ -62,8 +62,8 @@ class CudaBackend final : public Backend {
     }
     // Tuning (settings cuda_reduce_blocks, cuda_z_chunks): the cap on the ICP reduction grid
     // (0: one block per SM) and the z-ranges per integration column.
-    const int max_blocks = setup.cuda.reduce_blocks > 0 ? setup.cuda.reduce_blocks
-                                                        : properties_.multiProcessorCount;
+    const int max_blocks =
+        setup.cuda.reduce_blocks > 0 ? setup.cuda.reduce_blocks : properties_.multiProcessorCount;
     reduce_blocks_ = std::max(1, std::min((w * h + kReduceBlock - 1) / kReduceBlock, max_blocks));
     z_chunks_ = std::max(1, setup.cuda.z_chunks);
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
@@ -93,13 +93,13 @@ class CudaBackend final : public Backend {
     const long long voxels = static_cast<long long>(buffers_.volume.size());
     launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
            buffers_.volume.data(), voxels);
-    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0,
-                                   buffers_.brick_touched.bytes(), stream_.get()));
+    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0, buffers_.brick_touched.bytes(),
+                                   stream_.get()));
     *state_readback_[0].data() = initial_tracking_state(T_world_cam);
     KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(),
                                    sizeof(TrackingState), cudaMemcpyHostToDevice, stream_.get()));
-    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.ref_vertex.data(), 0, buffers_.ref_vertex.bytes(),
-                                   stream_.get()));
+    KFX_CUDA_CHECK(
+        cudaMemsetAsync(buffers_.ref_vertex.data(), 0, buffers_.ref_vertex.bytes(), stream_.get()));
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     pending_.clear();
     frames_submitted_ = 0;

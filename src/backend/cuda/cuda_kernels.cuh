@@ -144,7 +144,8 @@ __global__ void __launch_bounds__(kReduceBlock)
   double acc[kAccumulatorSize];
 #pragma unroll
   for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0.0;
-  for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < samples; i += gridDim.x * kReduceBlock) {
+  for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < samples;
+       i += gridDim.x * kReduceBlock) {
     track_sample(i % grid_w, i / grid_w, args, acc);
   }
   const double block_total = block_sum_accumulator(acc);
