@@ -21,9 +21,9 @@
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
 #include "pipeline/pipeline.hpp"
-#include "pipeline/sweep_plan.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
+#include "study/sweep_plan.hpp"
 #include "timed_passes.hpp"
 
 namespace kfx::cli {

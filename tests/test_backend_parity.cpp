@@ -66,7 +66,7 @@ HostImage<uint16_t> scene_depth() {
 
 /// Drives one backend through a frame of a given kind by hand.
 TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track, bool always) {
-  PreprocessParams pre;
+  BilateralParams pre;
   for (int i = 0; i < 5; ++i) pre.spatial_weight[i] = std::exp(-((i - 2) * (i - 2)) / 32.0f);
   PyramidParams pyr;
   for (int l = 0; l < 3; ++l) pyr.level_intrinsics[l] = kK.scaled_down(static_cast<float>(1 << l));

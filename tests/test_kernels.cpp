@@ -8,7 +8,6 @@
 #include <random>
 #include <vector>
 
-#include "backend/stage_args.hpp"
 #include "core/se3.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
@@ -375,13 +374,13 @@ TEST(Integrate, ColumnBoundsNeverChangeTheResult) {
   EXPECT_GT(touched_total, 10000);  // the poses do see the volume
 }
 
-/// Raycast arguments over a test volume, through the backends' own builder.
+/// Raycast arguments over a test volume: settings plus buffers, as the backends build them.
 RaycastArgs raycast_args(VolumeFixture& vol, HostImage<Vec3f>& vertex, HostImage<Vec3f>& normal,
                          const TrackingState& state, float step_m, float large_step_m) {
   RaycastParams p;
   p.step_m = step_m;
   p.large_step_m = large_step_m;
-  return make_raycast_args(vol.view(), vertex.view(), normal.view(), &state, p);
+  return RaycastArgs{p, vol.view(), vertex.view(), normal.view(), &state};
 }
 
 TEST(Raycast, PlaneDepthAndNormalAreAnalytic) {

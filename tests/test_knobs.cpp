@@ -83,6 +83,7 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(thesis.approx.integration_z_stride, 8);
   EXPECT_EQ(thesis.tracking.iterations_per_level, std::vector<int>{2});
   EXPECT_EQ(thesis.approx.raycast_rate, 2);
+  EXPECT_EQ(thesis.approx.ray_factor, RayFactor::kThesis);
 }
 
 TEST(Knobs, SpatialBilateralIsAWeightedMeanWithoutRangeTerm) {
@@ -205,10 +206,10 @@ TEST(Knobs, CheckerPerforationUpdatesOneVoxelInSInEveryDirection) {
   SmallVolume columns, rows;
   IntegrateArgs c = integrate_args(columns, depth, s);
   c.z_stride = 4;
-  c.checker_pattern = true;
+  c.pattern = IntegrationPattern::kChecker;
   IntegrateArgs r = integrate_args(rows, depth, s);
   r.z_stride = 4;
-  r.checker_pattern = true;
+  r.pattern = IntegrationPattern::kChecker;
   for (int y = 0; y < 32; ++y) {
     for (int x = 0; x < 32; ++x) integrate_column(x, y, 0, 32, c);
   }
@@ -237,10 +238,10 @@ TEST(Knobs, RayFactorModesAndZeroDepthTest) {
   TrackingState s{};
   s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
   // A voxel off the optical axis in front of the surface: sdf = (2 − z)·factor / mu.
-  auto tsdf_with = [&](int mode) {
+  auto tsdf_with = [&](RayFactor mode) {
     SmallVolume vol;
     IntegrateArgs a = integrate_args(vol, depth, s);
-    a.ray_factor_mode = mode;
+    a.ray_factor = mode;
     const int x = 20, y = 16, z = 18;  // centre (2.05, 1.65, 1.85) → camera (0.45, 0.05, 1.85)
     integrate_voxel(a.state->T_cam_world * vol.view().centre_m(x, y, z), x, y, z, a);
     return vol.view().tsdf(x, y, z);
@@ -248,9 +249,9 @@ TEST(Knobs, RayFactorModesAndZeroDepthTest) {
   const float px = 0.45f, py = 0.05f, pz = 1.85f;
   const float exact = std::sqrt(1 + (px / pz) * (px / pz) + (py / pz) * (py / pz));
   const float approx = 1 + 0.5f * (px * px + py * py) / (pz * pz);
-  EXPECT_NEAR(tsdf_with(kRayFactorExact), (2.0f - pz) * exact / 0.3f, 1e-4f);
-  EXPECT_NEAR(tsdf_with(kRayFactorApprox), (2.0f - pz) * approx / 0.3f, 1e-4f);
-  EXPECT_NEAR(tsdf_with(kRayFactorNone), (2.0f - pz) / 0.3f, 1e-4f);
+  EXPECT_NEAR(tsdf_with(RayFactor::kExact), (2.0f - pz) * exact / 0.3f, 1e-4f);
+  EXPECT_NEAR(tsdf_with(RayFactor::kApprox), (2.0f - pz) * approx / 0.3f, 1e-4f);
+  EXPECT_NEAR(tsdf_with(RayFactor::kNone), (2.0f - pz) / 0.3f, 1e-4f);
   // A voxel 0.2 m in front of the camera projecting onto the hole (35, 15): skipped with the
   // test; without it, depth 0 gives diff = −0.2·factor > −mu, so it is updated.
   for (bool test : {true, false}) {
@@ -261,6 +262,40 @@ TEST(Knobs, RayFactorModesAndZeroDepthTest) {
     integrate_voxel(p, 1, 1, 1, a);
     EXPECT_EQ(vol.view().at(1, 1, 1).weight, test ? 0 : 1);
   }
+}
+
+TEST(Knobs, ThesisRayFactorIsTheThesisFormNotASeries) {
+  // The seed thesis's ray factor 1 + x/z + (y/z)² (x not squared): unlike sqrt(1 + r²) and its
+  // expansion 1 + r²/2 it is first order in x/z, so it is far larger than both for x > 0 and
+  // smaller than 1 for x < 0, while in y it equals the expansion's 1 + (y/z)² only when x = 0.
+  HostImage<float> depth(40, 30, 2.0f);
+  TrackingState s{};
+  s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
+  auto tsdf_at = [&](RayFactor mode, int x) {
+    SmallVolume vol;
+    IntegrateArgs a = integrate_args(vol, depth, s);
+    a.ray_factor = mode;
+    const int y = 16, z = 18;
+    integrate_voxel(a.state->T_cam_world * vol.view().centre_m(x, y, z), x, y, z, a);
+    return vol.view().tsdf(x, y, z);
+  };
+  // Voxels x = 20 and x = 11 sit at camera x = ±0.45 m, y = 0.05 m, z = 1.85 m.
+  const float px = 0.45f, py = 0.05f, pz = 1.85f;
+  const float exact = std::sqrt(1 + (px / pz) * (px / pz) + (py / pz) * (py / pz));
+  const float approx = 1 + 0.5f * (px * px + py * py) / (pz * pz);
+  const float thesis_right = 1 + px / pz + (py / pz) * (py / pz);
+  const float thesis_left = 1 - px / pz + (py / pz) * (py / pz);
+  constexpr float kTol = 1e-4f;  // tsdf is stored in int16: 1/32766 per unit
+  EXPECT_NEAR(tsdf_at(RayFactor::kThesis, 20), (2.0f - pz) * thesis_right / 0.3f, kTol);
+  EXPECT_NEAR(tsdf_at(RayFactor::kThesis, 11), (2.0f - pz) * thesis_left / 0.3f, kTol);
+  // Exact and approx are symmetric in x; the thesis's form is not.
+  EXPECT_NEAR(tsdf_at(RayFactor::kExact, 20), tsdf_at(RayFactor::kExact, 11), kTol);
+  EXPECT_NEAR(tsdf_at(RayFactor::kApprox, 20), tsdf_at(RayFactor::kApprox, 11), kTol);
+  EXPECT_GT(thesis_right - exact, 0.2f);  // 1.24 against 1.03: not a close approximation
+  EXPECT_GT(thesis_right - approx, 0.2f);
+  EXPECT_LT(thesis_left, 1.0f);
+  EXPECT_GT(std::fabs(tsdf_at(RayFactor::kThesis, 20) - tsdf_at(RayFactor::kApprox, 20)), 0.05f);
+  EXPECT_GT(std::fabs(tsdf_at(RayFactor::kThesis, 11) - tsdf_at(RayFactor::kExact, 11)), 0.05f);
 }
 
 TEST(Knobs, RaycastBlocksCopyTheBlockRay) {

@@ -16,7 +16,7 @@
 
 #include "cli_runner.hpp"
 #include "core/platform.hpp"
-#include "pipeline/sweep_plan.hpp"
+#include "study/sweep_plan.hpp"
 
 namespace kfx::sweep {
 namespace {

@@ -2,6 +2,8 @@
 
 #include "backend/backend.hpp"
 
+#include "backend/frame_buffers.hpp"
+
 namespace kfx {
 
 #if defined(KFX_HAVE_CUDA)
@@ -19,6 +21,13 @@ const char* stage_name(Stage stage) {
     case Stage::kRender: return "render";
     default: return "?";
   }
+}
+
+void check_depth_frame(const HostImage<uint16_t>& depth_mm, const BackendSetup& setup) {
+  KFX_CHECK(depth_mm.width() == setup.input_width_px && depth_mm.height() == setup.input_height_px,
+            "depth frame is " << depth_mm.width() << "x" << depth_mm.height()
+                              << ", the pipeline was set up for " << setup.input_width_px << "x"
+                              << setup.input_height_px);
 }
 
 BackendKind parse_backend_kind(const std::string& text) {

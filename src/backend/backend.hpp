@@ -16,12 +16,13 @@
 #include "core/math.hpp"
 #include "core/volume.hpp"
 #include "kernels/frame_logic.hpp"
+#include "kernels/integrate.hpp"
+#include "kernels/preprocess.hpp"
+#include "kernels/raycast.hpp"
+#include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
 
 namespace kfx {
-
-/// Most pyramid levels supported.
-constexpr int kMaxPyramidLevels = 4;
 
 /// Sizes fixed for a backend's lifetime; every buffer is allocated once from these.
 struct BackendSetup {
@@ -31,6 +32,13 @@ struct BackendSetup {
   int pyramid_levels = 3;
   int volume_res_vox = 256;
   float volume_size_m = 2.0f;
+  /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them). Defaults measured on an
+  /// H200 (bench/RESULTS.md).
+  struct CudaTuning {
+    bool programmatic_launch = true;  ///< programmatic dependent launch on sm_90 and newer
+    int reduce_blocks = 0;            ///< cap on the ICP reduction grid; 0 = one block per SM
+    int z_chunks = 16;                ///< z-ranges each integration column is split into
+  } cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
 };
@@ -40,53 +48,6 @@ enum class Stage : int { kPreprocess = 0, kTrack, kIntegrate, kRaycast, kRender,
 
 /// Stage names as reported ("preprocess", "track", ...).
 const char* stage_name(Stage stage);
-
-/// Parameters of the preprocessing stage.
-struct PreprocessParams {
-  int bilateral_radius_px = 2;
-  float spatial_weight[9] = {};          ///< per-axis Gaussian weights, 2r+1 of them
-  float range_denominator_m2 = 0.02f;    ///< 2σ_r²
-  bool use_range_term = true;
-  bool zero_padded = false;              ///< neighbours outside the image read as 0
-};
-
-/// Parameters of the pyramid (half-sampling, vertices, normals).
-struct PyramidParams {
-  float half_sample_range_m = 0.3f;
-  std::array<Intrinsics, kMaxPyramidLevels> level_intrinsics{};  ///< K at each level
-};
-
-/// Parameters of one ICP iteration.
-struct IcpParams {
-  float dist_threshold_m = 0.1f;
-  float normal_threshold = 0.8f;
-  float icp_threshold = 1e-5f;
-  int stride_px = 1;  ///< track one pixel per stride × stride block, weighted by stride²
-};
-
-/// Parameters of integration.
-struct IntegrateParams {
-  Intrinsics k;  ///< compute-size intrinsics
-  float mu_m = 0.1f;
-  int max_weight = 100;
-  int z_stride = 1;             ///< update 1 voxel in z_stride, rotating with the frame
-  bool checker_pattern = false; ///< perforate x + y + z instead of whole z slices
-  int ray_factor_mode = 0;      ///< RayFactorMode
-  bool zero_depth_test = true;
-};
-
-/// Parameters of the raycast.
-struct RaycastParams {
-  Intrinsics k;  ///< compute-size intrinsics
-  float near_m = 0.4f;
-  float far_m = 4.0f;
-  float step_m = 0.0f;
-  float large_step_m = 0.075f;
-  float constant_step_m = 0.0f;  ///< > 0: constant march step
-  bool two_value_interp = false;
-  int block_x_px = 1;            ///< one ray per block, copied into it
-  int block_y_px = 1;
-};
 
 /// Host copies of the maps a renderer or a test wants to look at.
 struct DebugMaps {
@@ -98,6 +59,14 @@ struct DebugMaps {
 };
 
 /// One stage-per-call backend.
+///
+/// The rule graph replay imposes: the CUDA backend records a frame's launches once per frame
+/// shape (begin_frame) and replays that recording for every later frame of the same shape,
+/// arguments included. So everything a stage call passes (its *Params and `always`) may depend
+/// only on the frame's shape and on the configuration, never on the frame number or on data;
+/// what does depend on them (the frame index, the pose, converged, tracked) is read by the
+/// kernels from the device-side TrackingState. A new shape-dependent choice needs a bit in the
+/// shape (src/pipeline/pipeline.cpp).
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -116,7 +85,7 @@ class Backend {
   virtual void begin_frame(int shape) = 0;
   virtual void end_frame() = 0;
   /// mm → metres at compute size (and the frame's largest depth), then the bilateral filter.
-  virtual void preprocess(const PreprocessParams& params) = 0;
+  virtual void preprocess(const BilateralParams& params) = 0;
   /// Builds every pyramid level's depth, vertex and normal maps.
   virtual void build_pyramid(const PyramidParams& params) = 0;
   /// Marks the start of a tracked frame (pose saved for a revert).

@@ -59,7 +59,7 @@ struct CheckPosResult {
 /// the first paired ground-truth position, the estimate is mapped to
 /// (X.x + g0.x, s·(X.y + g0.y), X.z + g0.z), s = −1 with `flip_y` else +1, and compared with the
 /// paired ground-truth position. NOTE: with flip_y this is exactly checkPos.py's −(Y + g0.y)
-/// (REFERENCE.md), which is offset by 2·g0.y from a pure mirror of the relative motion.
+/// (docs/algorithm.md §4), which is offset by 2·g0.y from a pure mirror of the relative motion.
 /// Throws kfx::Error when there is no pair.
 CheckPosResult compute_checkpos(const std::vector<io::StampedPose>& est,
                                 const std::vector<io::StampedPose>& gt,

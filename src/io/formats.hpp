@@ -32,13 +32,4 @@ std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
 /// True when `folder` holds ICL-NUIM native depth files (scene_00_NNNN.depth).
 bool has_icl_native_files(const std::string& folder);
 
-/// The ground truth a reader should return: read from `options.ground_truth_path` when set,
-/// else from `found_path` ("" = none). `used_path` receives the file read ("" = none). Throws
-/// kfx::Error naming the file when it cannot be read or has a malformed line.
-std::vector<StampedPose> load_ground_truth(const ReaderOptions& options,
-                                           const std::string& found_path, std::string* used_path);
-
-/// The `*.gt.freiburg` files directly in `folder`, sorted by name.
-std::vector<std::string> find_freiburg_ground_truth(const std::string& folder);
-
 }  // namespace kfx::io

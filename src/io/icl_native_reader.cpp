@@ -16,6 +16,7 @@
 #include "core/platform.hpp"
 #include "io/formats.hpp"
 #include "io/text_listing.hpp"
+#include "io/trajectory.hpp"
 
 namespace kfx::io {
 namespace {
@@ -245,22 +246,6 @@ bool has_icl_native_files(const std::string& folder) {
   return !native_frame_numbers(folder).empty();
 }
 
-std::vector<std::string> find_freiburg_ground_truth(const std::string& folder) {
-  std::vector<std::string> found;
-  std::error_code error;
-  const std::string suffix = ".gt.freiburg";
-  for (fs::directory_iterator it(folder, error), end; !error && it != end; it.increment(error)) {
-    const std::string name = it->path().filename().string();
-    if (name.size() > suffix.size() &&
-        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0 &&
-        it->is_regular_file(error)) {
-      found.push_back(it->path().string());
-    }
-  }
-  std::sort(found.begin(), found.end());
-  return found;
-}
-
 std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
                                                const ReaderOptions& options) {
   const std::vector<long> numbers = native_frame_numbers(folder);
@@ -269,8 +254,8 @@ std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
   // Frames run from the first to the last number found; a gap is a missing (bad) frame.
   const std::vector<std::string> found = find_freiburg_ground_truth(folder);
   std::string ground_truth_path;
-  std::vector<StampedPose> ground_truth =
-      load_ground_truth(options, found.empty() ? "" : found.front(), &ground_truth_path);
+  std::vector<StampedPose> ground_truth = load_ground_truth(
+      options.ground_truth_path, found.empty() ? "" : found.front(), &ground_truth_path);
   return std::make_unique<IclNativeReader>(folder, numbers.front(), numbers.back(),
                                            std::move(ground_truth), std::move(ground_truth_path));
 }

@@ -7,6 +7,7 @@
 #include "core/platform.hpp"
 #include "io/formats.hpp"
 #include "io/png_sequence_reader.hpp"
+#include "io/trajectory.hpp"
 
 namespace kfx::io {
 
@@ -25,8 +26,8 @@ std::unique_ptr<Reader> open_icl_png_folder(const std::string& folder,
   spec.intrinsics = kIclNuimIntrinsics;
   const std::vector<std::string> found = find_freiburg_ground_truth(folder);
   // Several candidates: the first by name, as the description reports (use --gt to choose).
-  spec.ground_truth =
-      load_ground_truth(options, found.empty() ? "" : found.front(), &spec.ground_truth_path);
+  spec.ground_truth = load_ground_truth(
+      options.ground_truth_path, found.empty() ? "" : found.front(), &spec.ground_truth_path);
   return std::make_unique<PngSequenceReader>(std::move(spec));
 }
 

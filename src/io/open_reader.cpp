@@ -12,6 +12,7 @@
 #include "io/slambench_raw.hpp"
 #include "io/synthetic.hpp"
 #include "io/text_listing.hpp"
+#include "io/trajectory.hpp"
 
 namespace kfx::io {
 namespace {
@@ -57,7 +58,7 @@ std::unique_ptr<Reader> with_ground_truth_override(std::unique_ptr<Reader> reade
                                                    const ReaderOptions& options) {
   if (options.ground_truth_path.empty()) return reader;
   std::string used;
-  std::vector<StampedPose> poses = load_ground_truth(options, "", &used);
+  std::vector<StampedPose> poses = load_ground_truth(options.ground_truth_path, "", &used);
   return std::make_unique<GroundTruthOverride>(std::move(reader), std::move(poses), used);
 }
 
@@ -121,13 +122,6 @@ std::unique_ptr<Reader> open_folder(const std::string& input, const ReaderOption
 }
 
 }  // namespace
-
-std::vector<StampedPose> load_ground_truth(const ReaderOptions& options,
-                                           const std::string& found_path, std::string* used_path) {
-  *used_path = options.ground_truth_path.empty() ? found_path : options.ground_truth_path;
-  if (used_path->empty()) return {};
-  return read_tum_trajectory(*used_path);
-}
 
 std::unique_ptr<Reader> open_reader(const std::string& input, const ReaderOptions& options) {
   if (input == "synthetic" || input.rfind("synthetic:", 0) == 0) {

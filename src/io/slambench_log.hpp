@@ -1,5 +1,5 @@
 #pragma once
-/// SLAMBench KFusion's per-frame log (REFERENCE.md "Timing columns and log"): tab-separated,
+/// SLAMBench KFusion's per-frame log (docs/algorithm.md §4): tab-separated,
 /// times in seconds, X Y Z = camera position minus the initial one, written BEFORE the frame is
 /// processed (line f holds the pose after frame f − 1).
 

@@ -3,8 +3,10 @@
 #include "io/trajectory.hpp"
 
 #include <Eigen/Geometry>
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
 #include <string>
 
 #include "core/platform.hpp"
@@ -99,6 +101,30 @@ void write_tum_trajectory(const std::string& path, const std::vector<StampedPose
   AtomicFile file(path);
   file.stream() << out;
   file.commit();
+}
+
+std::vector<StampedPose> load_ground_truth(const std::string& override_path,
+                                           const std::string& found_path, std::string* used_path) {
+  *used_path = override_path.empty() ? found_path : override_path;
+  if (used_path->empty()) return {};
+  return read_tum_trajectory(*used_path);
+}
+
+std::vector<std::string> find_freiburg_ground_truth(const std::string& folder) {
+  std::vector<std::string> found;
+  std::error_code error;
+  const std::string suffix = ".gt.freiburg";
+  for (std::filesystem::directory_iterator it(folder, error), end; !error && it != end;
+       it.increment(error)) {
+    const std::string name = it->path().filename().string();
+    if (name.size() > suffix.size() &&
+        name.compare(name.size() - suffix.size(), suffix.size(), suffix) == 0 &&
+        it->is_regular_file(error)) {
+      found.push_back(it->path().string());
+    }
+  }
+  std::sort(found.begin(), found.end());
+  return found;
 }
 
 }  // namespace kfx::io

@@ -1,5 +1,6 @@
 #pragma once
-/// Stamped poses and TUM-format trajectory files (`stamp tx ty tz qx qy qz qw`, camera to world).
+/// Stamped poses and TUM-format trajectory files (`stamp tx ty tz qx qy qz qw`, camera to world),
+/// and where a dataset's ground-truth trajectory is found.
 
 #include <string>
 #include <vector>
@@ -26,5 +27,14 @@ std::vector<StampedPose> read_tum_trajectory(const std::string& path);
 /// as '# ' comments first.
 void write_tum_trajectory(const std::string& path, const std::vector<StampedPose>& poses,
                           const std::vector<std::string>& header = {});
+
+/// The ground truth a reader should return: read from `override_path` when set (the user's
+/// --gt), else from `found_path` ("" = none). `used_path` receives the file read ("" = none).
+/// Throws kfx::Error naming the file when it cannot be read or has a malformed line.
+std::vector<StampedPose> load_ground_truth(const std::string& override_path,
+                                           const std::string& found_path, std::string* used_path);
+
+/// The `*.gt.freiburg` files (ICL-NUIM's ground truth) directly in `folder`, sorted by name.
+std::vector<std::string> find_freiburg_ground_truth(const std::string& folder);
 
 }  // namespace kfx::io

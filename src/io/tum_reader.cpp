@@ -8,6 +8,7 @@
 #include "core/platform.hpp"
 #include "io/formats.hpp"
 #include "io/png_sequence_reader.hpp"
+#include "io/trajectory.hpp"
 
 namespace kfx::io {
 namespace {
@@ -82,8 +83,8 @@ std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOpt
   spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal());
   const fs::path groundtruth = fs::path(spec.folder) / "groundtruth.txt";
   spec.ground_truth = load_ground_truth(
-      options, fs::is_regular_file(groundtruth, error) ? groundtruth.string() : "",
-      &spec.ground_truth_path);
+      options.ground_truth_path,
+      fs::is_regular_file(groundtruth, error) ? groundtruth.string() : "", &spec.ground_truth_path);
   return std::make_unique<PngSequenceReader>(std::move(spec));
 }
 

@@ -1,5 +1,5 @@
 #pragma once
-/// Single-thread kernels that make the frame's decisions on the state (REFERENCE.md step 3–5):
+/// Single-thread kernels that make the frame's decisions on the state (docs/algorithm.md §2.2–2.4):
 /// the ICP update and convergence test, the accept test with pose revert, the integration gate
 /// and the reference-view update. The CPU runs them inline; the GPU runs them in one thread
 /// (the last block of a reduction, or a one-thread launch), so the host never waits on them.
@@ -12,6 +12,16 @@
 #include "kernels/tracking_state.hpp"
 
 namespace kfx {
+
+/// The state after a reset: no frame yet (frame_index −1), every pose at `T_world_cam`.
+inline TrackingState initial_tracking_state(const Mat4f& T_world_cam) {
+  TrackingState s{};
+  s.frame_index = -1;
+  s.T_world_cam = T_world_cam;
+  s.T_world_cam_before = T_world_cam;
+  s.T_world_raycast = T_world_cam;
+  return s;
+}
 
 /// Start of every frame (run once, before any other stage reads the state): count it.
 KFX_HD inline void begin_frame_state(TrackingState& s) { s.frame_index += 1; }

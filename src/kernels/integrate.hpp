@@ -1,5 +1,5 @@
 #pragma once
-/// TSDF integration (Newcombe et al. 2011, eq. 6–11; REFERENCE.md step 4), one voxel column
+/// TSDF integration (Newcombe et al. 2011, eq. 6–11; docs/algorithm.md §2.3), one voxel column
 /// (x, y) and a range of z per call. Each column first bounds its z-range to where a voxel can
 /// change (in front of the camera, inside the image, not beyond the farthest depth + mu); the
 /// per-voxel tests below are the exact ones, so the bound only skips work.
@@ -12,23 +12,40 @@
 
 namespace kfx {
 
-/// Arguments of integrate_column.
-struct IntegrateArgs {
-  VolumeView volume;
-  ImageView<const float> depth_m;  ///< unfiltered compute-size depth, metres
-  Intrinsics k;                    ///< compute-size intrinsics
-  const TrackingState* state;      ///< T_cam_world, integrate_now, max_depth_m
-  float mu_m = 0.1f;               ///< truncation distance
-  int max_weight = 100;            ///< weight cap
+/// How the sdf of a voxel is scaled from a difference in z to a distance along the ray
+/// (setting `ray_factor`); r² = (x/z)² + (y/z)² for the voxel's camera-frame point (x, y, z).
+enum class RayFactor : int {
+  kExact = 0,   ///< sqrt(1 + r²), SLAMBench's
+  kApprox = 1,  ///< 1 + r²/2, its first-order expansion
+  kNone = 2,    ///< 1: the z difference itself
+  kThesis = 3,  ///< 1 + x/z + (y/z)²: the seed thesis's cheaper form, x not squared (not a
+                ///< series of sqrt(1 + r²); it scales the sdf asymmetrically in x)
+};
+
+/// Which voxels a perforated frame updates (setting `integration_pattern`).
+enum class IntegrationPattern : int {
+  kSlices = 0,   ///< whole z slices, z ≡ f (mod s): the thesis's
+  kChecker = 1,  ///< a 3-D checkerboard, x + y + z ≡ f (mod s)
+};
+
+/// Settings of integration, derived from the configuration.
+struct IntegrateParams {
+  Intrinsics k;          ///< compute-size intrinsics
+  float mu_m = 0.1f;     ///< truncation distance
+  int max_weight = 100;  ///< weight cap
   /// Approximations (exact values first):
-  int z_stride = 1;             ///< update 1 voxel in z_stride, rotating with the frame
-  bool checker_pattern = false; ///< false: whole z slices (z ≡ f); true: x + y + z ≡ f (mod s)
-  int ray_factor_mode = 0;      ///< 0 exact sqrt, 1 first-order approximation, 2 none (1)
+  int z_stride = 1;  ///< update 1 voxel in z_stride, rotating with the frame
+  IntegrationPattern pattern = IntegrationPattern::kSlices;
+  RayFactor ray_factor = RayFactor::kExact;
   bool zero_depth_test = true;  ///< skip pixels without depth
 };
 
-/// Ray-factor modes of IntegrateArgs.
-enum RayFactorMode : int { kRayFactorExact = 0, kRayFactorApprox = 1, kRayFactorNone = 2 };
+/// Arguments of integrate_column and integrate_row: the settings and the buffers.
+struct IntegrateArgs : IntegrateParams {
+  VolumeView volume;
+  ImageView<const float> depth_m;  ///< unfiltered compute-size depth, metres
+  const TrackingState* state;      ///< T_cam_world, integrate_now, max_depth_m
+};
 
 /// Smallest camera z at which a voxel is considered (SLAMBench's 0.0001 m).
 constexpr float kIntegrateMinZ_m = 0.0001f;
@@ -97,7 +114,7 @@ KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateA
   if (end < begin) end = begin;
 }
 
-/// Updates voxel (x, y, z), whose centre is at camera-frame point p (REFERENCE.md step 4), and
+/// Updates voxel (x, y, z), whose centre is at camera-frame point p (docs/algorithm.md §2.3), and
 /// marks its brick when its tsdf leaves +1.
 /// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
 /// the GPU pass 18 % faster but moved icl_office_kt0's ATE from 0.84 to 0.93 cm (measured).
@@ -109,10 +126,12 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
   const float depth = a.depth_m(static_cast<int>(u), static_cast<int>(v));
   if (a.zero_depth_test && depth == 0.0f) return;
   float ray_factor = 1.0f;  // distance along the ray per unit of z
-  if (a.ray_factor_mode == kRayFactorExact) {
+  if (a.ray_factor == RayFactor::kExact) {
     ray_factor = sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
-  } else if (a.ray_factor_mode == kRayFactorApprox) {
+  } else if (a.ray_factor == RayFactor::kApprox) {
     ray_factor = 1.0f + 0.5f * (p.x * p.x + p.y * p.y) / (p.z * p.z);  // sqrt(1+r²) ≈ 1 + r²/2
+  } else if (a.ray_factor == RayFactor::kThesis) {
+    ray_factor = 1.0f + p.x / p.z + (p.y / p.z) * (p.y / p.z);  // as the thesis writes it
   }
   const float diff = (depth - p.z) * ray_factor;
   if (diff > -a.mu_m) {
@@ -139,7 +158,7 @@ KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgs& a,
 /// the line's own coordinate must have: `other` is the sum of the line's two fixed coordinates.
 KFX_HD inline int perforation_residue(const IntegrateArgs& a, int other) {
   const int f = a.state->frame_index % a.z_stride;
-  if (!a.checker_pattern) return f;
+  if (a.pattern == IntegrationPattern::kSlices) return f;
   return ((f - other) % a.z_stride + a.z_stride) % a.z_stride;
 }
 
@@ -157,12 +176,14 @@ KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const 
 
 /// Integrates the whole updatable part of row (y, z) (voxels contiguous in memory).
 KFX_HD inline void integrate_row(int y, int z, const IntegrateArgs& a) {
+  const bool perforated = a.z_stride > 1;
+  const bool checker = a.pattern == IntegrationPattern::kChecker;
+  if (perforated && !checker && z % a.z_stride != perforation_residue(a, 0)) return;
   int step = 1;
-  if (a.z_stride > 1 && !a.checker_pattern && z % a.z_stride != perforation_residue(a, 0)) return;
   const VoxelLine line = x_line(y, z, a);
   int x_begin, x_end;
   integrate_line_bounds(line, a, x_begin, x_end);
-  if (a.z_stride > 1 && a.checker_pattern) {  // x ≡ residue (mod s) along this row
+  if (perforated && checker) {  // x ≡ residue (mod s) along this row
     step = a.z_stride;
     const int residue = perforation_residue(a, y + z);
     x_begin += ((residue - x_begin) % step + step) % step;

@@ -1,7 +1,9 @@
 #pragma once
 /// Preprocessing kernels, one output pixel each: mm → metres, bilateral filter, the robust
-/// half-sample of the pyramid, and vertex/normal maps (REFERENCE.md steps 1–3).
+/// half-sample of the pyramid, and vertex/normal maps (docs/algorithm.md §2.1–2.2).
 
+#include <array>
+#include <cmath>
 #include <cstdint>
 
 #include "core/camera.hpp"
@@ -30,10 +32,14 @@ KFX_HD inline float mm_to_m_pixel(int x, int y, const MmToMArgs& a) {
 /// Largest supported bilateral radius (window 2r+1).
 constexpr int kMaxBilateralRadius = 4;
 
-/// Arguments of bilateral_pixel.
-struct BilateralArgs {
-  ImageView<const float> in_m;
-  ImageView<float> out_m;
+/// Bilateral filter variants (setting `bilateral_mode`).
+enum class BilateralMode : int {
+  kExact = 0,       ///< SLAMBench's: (2r+1)² Gaussian window with the range term
+  kSpatial3x3 = 1,  ///< the thesis's: 3×3 spatial weights only, no range term
+};
+
+/// Settings of the bilateral filter, derived from the configuration.
+struct BilateralParams {
   int radius_px = 2;
   /// g[k] = exp(−(k−r)²/(2σ²)), k = 0..2r (spatial weight per axis).
   float spatial_weight[2 * kMaxBilateralRadius + 1] = {};
@@ -43,6 +49,30 @@ struct BilateralArgs {
   bool use_range_term = true;
   /// true: neighbours outside the image read as 0 (zero padding, no clamping).
   bool zero_padded = false;
+};
+
+/// The filter of `mode`: g[k] = exp(−(k−r)²/(2σ²)) and 2σ_r², as SLAMBench computes them;
+/// kSpatial3x3 forces radius 1 and drops the range term.
+inline BilateralParams make_bilateral_params(BilateralMode mode, int radius_px,
+                                             float spatial_sigma_px, float range_sigma_m,
+                                             bool zero_padded) {
+  BilateralParams p;
+  const bool spatial_only = mode == BilateralMode::kSpatial3x3;
+  p.radius_px = spatial_only ? 1 : radius_px;
+  for (int i = 0; i <= 2 * p.radius_px; ++i) {
+    const int x = i - p.radius_px;
+    p.spatial_weight[i] = expf(-(x * x) / (2 * spatial_sigma_px * spatial_sigma_px));
+  }
+  p.range_denominator_m2 = 2 * range_sigma_m * range_sigma_m;
+  p.use_range_term = !spatial_only;
+  p.zero_padded = zero_padded;
+  return p;
+}
+
+/// Arguments of bilateral_pixel: the settings and the buffers.
+struct BilateralArgs : BilateralParams {
+  ImageView<const float> in_m;
+  ImageView<float> out_m;
 };
 
 /// Edge-preserving bilateral filter of one pixel (coordinates clamped at the borders;
@@ -82,6 +112,16 @@ KFX_HD inline void bilateral_pixel(int x, int y, const BilateralArgs& a) {
   }
   a.out_m(x, y) = value_sum / weight_sum;
 }
+
+/// Most pyramid levels supported.
+constexpr int kMaxPyramidLevels = 4;
+
+/// Settings of the pyramid stage (half-sampling, vertices, normals), derived from the
+/// configuration.
+struct PyramidParams {
+  float half_sample_range_m = 0.3f;                              ///< HalfSampleArgs::range_m
+  std::array<Intrinsics, kMaxPyramidLevels> level_intrinsics{};  ///< K at each level
+};
 
 /// Arguments of half_sample_pixel.
 struct HalfSampleArgs {

@@ -1,5 +1,5 @@
 #pragma once
-/// Raycast of the TSDF (Newcombe et al. 2011, sec. 3.4; REFERENCE.md step 5), one ray per
+/// Raycast of the TSDF (Newcombe et al. 2011, sec. 3.4; docs/algorithm.md §2.4), one ray per
 /// compute pixel, giving the reference vertex and normal maps for the next frame's ICP.
 
 #include "core/image.hpp"
@@ -90,21 +90,32 @@ KFX_HD inline bool sample_in_untouched_space(const VolumeView& vol, Vec3f p_m) {
   return true;
 }
 
-/// Arguments of raycast_pixel.
-struct RaycastArgs {
-  VolumeView volume;
-  ImageView<Vec3f> vertex;      ///< hit points (volume frame); 0 on a miss
-  ImageView<Vec3f> normal;      ///< unit normals; x = kInvalidNormal on a miss
-  const TrackingState* state;   ///< raycast_view = T_world_raycast · K⁻¹
+/// How the march samples the tsdf (setting `raycast_interp`).
+enum class RaycastInterp : int {
+  kTrilinear = 0,  ///< 8 voxels (exact)
+  kTwoValue = 1,   ///< 2 voxels: nearest in x and y, linear in z
+};
+
+/// Settings of the raycast, derived from the configuration.
+struct RaycastParams {
+  Intrinsics k;  ///< compute-size intrinsics (the reference view)
   float near_m = 0.4f;
   float far_m = 4.0f;
   float step_m = 0.0f;          ///< one voxel
   float large_step_m = 0.075f;  ///< 0.75 · mu
   /// Approximations (exact values first):
   float constant_step_m = 0.0f;  ///< > 0: march with this step only (no switch to fine steps)
-  bool two_value_interp = false; ///< sample 2 voxels (nearest x, y; linear in z) instead of 8
-  int block_x_px = 1;            ///< one ray per block_x × block_y pixels, copied into the block
+  RaycastInterp interp = RaycastInterp::kTrilinear;
+  int block_x_px = 1;  ///< one ray per block_x × block_y pixels, copied into the block
   int block_y_px = 1;
+};
+
+/// Arguments of raycast_pixel and raycast_block: the settings and the buffers.
+struct RaycastArgs : RaycastParams {
+  VolumeView volume;
+  ImageView<Vec3f> vertex;     ///< hit points (volume frame); 0 on a miss
+  ImageView<Vec3f> normal;     ///< unit normals; x = kInvalidNormal on a miss
+  const TrackingState* state;  ///< raycast_view = T_world_raycast · K⁻¹
 };
 
 /// Two-value tsdf sample: nearest voxel in x and y, linear between the two z neighbours.
@@ -122,7 +133,8 @@ KFX_HD inline float volume_interp_two_value(const VolumeView& vol, Vec3f p_m) {
 
 /// The sample the march uses: trilinear (exact) or two-value.
 KFX_HD inline float raycast_sample(const RaycastArgs& a, Vec3f p_m) {
-  return a.two_value_interp ? volume_interp_two_value(a.volume, p_m) : volume_interp(a.volume, p_m);
+  return a.interp == RaycastInterp::kTwoValue ? volume_interp_two_value(a.volume, p_m)
+                                              : volume_interp(a.volume, p_m);
 }
 
 /// Marches one ray; returns t of the hit (> 0) or 0 on a miss, and the hit point.

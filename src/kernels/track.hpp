@@ -9,7 +9,7 @@
 
 namespace kfx {
 
-/// Outcome codes of one pixel (REFERENCE.md step 3).
+/// Outcome codes of one pixel (docs/algorithm.md §2.2).
 enum TrackOutcome : int {
   kTrackInlier = 1,
   kTrackNoInputNormal = -1,
@@ -26,16 +26,22 @@ struct TrackRow {
   float jacobian[6];
 };
 
-/// Arguments of track_pixel.
-struct TrackArgs {
+/// Settings of one ICP iteration, derived from the configuration.
+struct IcpParams {
+  float dist_threshold_m = 0.1f;  ///< |ref_v − p| above this → −4
+  float normal_threshold = 0.8f;  ///< dot(R·n, ref_n) below this → −5
+  float icp_threshold = 1e-5f;    ///< a level has converged when |update| is below this
+  int stride_px = 1;              ///< track one pixel per stride × stride block (perforation)
+};
+
+/// Arguments of track_pixel and track_sample: the settings and the buffers.
+struct TrackArgs : IcpParams {
   ImageView<const Vec3f> in_vertex;   ///< this level's vertices (camera frame)
   ImageView<const Vec3f> in_normal;   ///< this level's normals (camera frame)
   ImageView<const Vec3f> ref_vertex;  ///< raycast vertices (volume frame), compute size
   ImageView<const Vec3f> ref_normal;  ///< raycast normals (volume frame), compute size
   const TrackingState* state;         ///< T_world_cam and project_reference
-  float dist_threshold_m = 0.1f;      ///< |ref_v − p| above this → −4
-  float normal_threshold = 0.8f;      ///< dot(R·n, ref_n) below this → −5
-  int stride_px = 1;                  ///< track one pixel per stride × stride block (perforation)
+  ImageView<int8_t> outcome;          ///< per-pixel TrackOutcome, written where data is set
 };
 
 /// Projective data association and point-to-plane residual of one pixel.
@@ -108,6 +114,25 @@ KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weigh
     for (int c = r; c < 6; ++c) acc[k++] += weight * j[r] * j[c];
   }
   acc[kAccInliers] += weight;
+}
+
+/// ICP perforation (stride s = icp_stride_px): a level is tracked on a grid of
+/// ceil(w/s) × ceil(h/s) samples; sample (i, j) is pixel (i·s, j·s) and stands for its s × s
+/// block, so its row is weighted s². With s = 1 every pixel is a sample of weight 1.
+KFX_HD inline int track_grid_width(const TrackArgs& a) {
+  return (a.in_vertex.width + a.stride_px - 1) / a.stride_px;
+}
+KFX_HD inline int track_grid_height(const TrackArgs& a) {
+  return (a.in_vertex.height + a.stride_px - 1) / a.stride_px;
+}
+
+/// Tracks sample (i, j) of the grid, adds its weighted row to `acc` and records its outcome
+/// when `a.outcome` is set.
+KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
+  const int x = i * a.stride_px, y = j * a.stride_px;
+  const TrackRow row = track_pixel(x, y, a);
+  accumulate_row(acc, row, static_cast<double>(a.stride_px) * a.stride_px);
+  if (a.outcome.data) a.outcome(x, y) = static_cast<int8_t>(row.outcome);
 }
 
 }  // namespace kfx

@@ -7,7 +7,8 @@
 
 namespace kfx {
 
-/// Layout of the packed ICP accumulator (REFERENCE.md: Σe², Σe·J, JᵀJ upper triangle, counts).
+/// Layout of the packed ICP accumulator (docs/algorithm.md §2.2: Σe², Σe·J, JᵀJ upper triangle,
+/// counts).
 enum AccumulatorIndex : int {
   kAccErrorSq = 0,      ///< Σ e²
   kAccJtE = 1,          ///< Σ e·J, 6 values

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <sstream>
+#include <utility>
 
 #include "core/platform.hpp"
 
@@ -81,6 +82,10 @@ std::string format_list(const Container& values) {
 }
 
 using C = PipelineConfig;
+
+/// The text names of an enum setting's values.
+template <class Enum>
+using Choices = std::vector<std::pair<std::string, Enum>>;
 
 // Helpers that build a table row from a member accessor.
 template <class Get>
@@ -236,24 +241,30 @@ std::vector<ConfigField> build_fields() {
   integer("render_rate", "render", "z", "rendering-rate", "render every N-th frame (>= 1)",
           [](C& c) -> int& { return c.render.rate; });
   // Approximations (the seed thesis's techniques and more), each exact by default.
-  auto choice = [&](std::string key, std::string help, std::vector<std::string> choices,
-                    std::string C::Approximations::*member) {
+  // A choice setting: its text names one value of an enum, parsed here once.
+  auto choice = [&](std::string key, std::string help, auto choices,
+                    auto C::Approximations::*member) {
     ConfigField f;
     f.key = key;
     f.section = "approximations";
     f.help = help;
     f.parse = [key, choices, member](C& c, const std::string& text) {
       std::string allowed;
-      for (const auto& option : choices) {
-        if (option == text) {
-          c.approx.*member = text;
+      for (const auto& [name, value] : choices) {
+        if (name == text) {
+          c.approx.*member = value;
           return;
         }
-        allowed += (allowed.empty() ? "" : ", ") + option;
+        allowed += (allowed.empty() ? "" : ", ") + name;
       }
       KFX_FAIL("setting '" << key << "': '" << text << "' is not one of " << allowed);
     };
-    f.format = [member](const C& c) { return c.approx.*member; };
+    f.format = [choices, member](const C& c) {
+      for (const auto& [name, value] : choices) {
+        if (value == c.approx.*member) return name;
+      }
+      return std::string("?");
+    };
     t.push_back(f);
   };
   auto flag = [&](std::string key, std::string help, bool C::Approximations::*member) {
@@ -267,7 +278,9 @@ std::vector<ConfigField> build_fields() {
   };
   choice("bilateral_mode",
          "preprocess: exact = 5x5 Gaussian with range term; spatial3x3 = 3x3 spatial weights only",
-         {"exact", "spatial3x3"}, &C::Approximations::bilateral_mode);
+         Choices<BilateralMode>{{"exact", BilateralMode::kExact},
+                                {"spatial3x3", BilateralMode::kSpatial3x3}},
+         &C::Approximations::bilateral_mode);
   flag("zero_padded_depth", "preprocess: bilateral reads outside the image as 0 (on|off)",
        &C::Approximations::zero_padded_depth);
   integer("icp_stride_px", "approximations", "", "",
@@ -280,10 +293,17 @@ std::vector<ConfigField> build_fields() {
   choice("integration_pattern",
          "integrate: which voxels a perforated frame updates: slices (z = f mod s, the thesis's) "
          "| checker (x+y+z = f mod s, spread in 3-D)",
-         {"slices", "checker"}, &C::Approximations::integration_pattern);
+         Choices<IntegrationPattern>{{"slices", IntegrationPattern::kSlices},
+                                     {"checker", IntegrationPattern::kChecker}},
+         &C::Approximations::integration_pattern);
   choice("ray_factor",
-         "integrate: sdf ray factor sqrt(1+(x/z)^2+(y/z)^2) exact | approx (1 + r^2/2) | none",
-         {"exact", "approx", "none"}, &C::Approximations::ray_factor);
+         "integrate: sdf ray factor, r^2 = (x/z)^2 + (y/z)^2: exact sqrt(1 + r^2) | approx "
+         "1 + r^2/2 | thesis 1 + x/z + (y/z)^2 (the seed thesis's form, x not squared) | none 1",
+         Choices<RayFactor>{{"exact", RayFactor::kExact},
+                            {"approx", RayFactor::kApprox},
+                            {"none", RayFactor::kNone},
+                            {"thesis", RayFactor::kThesis}},
+         &C::Approximations::ray_factor);
   flag("integrate_zero_depth_test", "integrate: skip pixels without depth (on = exact)",
        &C::Approximations::integrate_zero_depth_test);
   integer("raycast_rate", "approximations", "", "",
@@ -293,7 +313,10 @@ std::vector<ConfigField> build_fields() {
     ConfigField f;
     f.key = "raycast_block_px";
     f.section = "approximations";
-    f.help = "raycast: one ray per bx,by pixel block, copied into the block (1,1 = exact)";
+    f.help =
+        "raycast: one ray per bx,by pixel block (width bx, height by), copied into the block "
+        "(1,1 = exact; the thesis's text says 1x2 blocks, its code copies 2x2: the thesis preset "
+        "uses 2,2)";
     f.parse = [](C& c, const std::string& text) {
       const auto v = parse_floats<2>("raycast_block_px", text, true);
       c.approx.raycast_block_px = {parse_integer("raycast_block_px", format_number(v[0])),
@@ -307,7 +330,25 @@ std::vector<ConfigField> build_fields() {
       [](C& c) -> float& { return c.approx.raycast_constant_step_m; });
   choice("raycast_interp",
          "raycast: trilinear (8 voxels, exact) | two_value (nearest x,y; linear in z)",
-         {"trilinear", "two_value"}, &C::Approximations::raycast_interp);
+         Choices<RaycastInterp>{{"trilinear", RaycastInterp::kTrilinear},
+                                {"two_value", RaycastInterp::kTwoValue}},
+         &C::Approximations::raycast_interp);
+  // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
+  {
+    ConfigField f;
+    f.key = "cuda_pdl";
+    f.section = "cuda";
+    f.help = "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)";
+    f.parse = [](C& c, const std::string& text) { c.cuda.pdl = parse_bool("cuda_pdl", text); };
+    f.format = [](const C& c) { return std::string(c.cuda.pdl ? "on" : "off"); };
+    t.push_back(f);
+  }
+  integer("cuda_reduce_blocks", "cuda", "", "",
+          "cuda: cap on the ICP reduction grid, 0 = one block per SM (0..65535; speed only)",
+          [](C& c) -> int& { return c.cuda.reduce_blocks; });
+  integer("cuda_z_chunks", "cuda", "", "",
+          "cuda: z-ranges each integration column is split into (1..1024; speed only)",
+          [](C& c) -> int& { return c.cuda.z_chunks; });
   return t;
 }
 
@@ -389,6 +430,10 @@ void PipelineConfig::validate() const {
     KFX_CHECK(b >= 1 && b <= 16, "raycast_block_px entries must be in 1..16, got " << b);
   }
   KFX_CHECK(approx.raycast_constant_step_m >= 0, "raycast_constant_step_m must be >= 0");
+  KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
+            "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
+  KFX_CHECK(cuda.z_chunks >= 1 && cuda.z_chunks <= 1024,
+            "cuda_z_chunks must be in 1..1024, got " << cuda.z_chunks);
 }
 
 std::string PipelineConfig::dump() const {
@@ -404,19 +449,60 @@ std::string PipelineConfig::dump() const {
   return out.str();
 }
 
+StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& compute_k,
+                              int compute_width_px, int compute_height_px) {
+  const auto& approx = config.approx;
+  const float size_m = config.volume.size_m;
+  StageParams p;
+  p.bilateral =
+      make_bilateral_params(approx.bilateral_mode, config.preprocess.bilateral_radius_px,
+                            config.preprocess.bilateral_spatial_sigma_px,
+                            config.preprocess.bilateral_range_sigma_m, approx.zero_padded_depth);
+  p.pyramid.half_sample_range_m = config.tracking.half_sample_range_m;
+  for (int l = 0; l < static_cast<int>(config.tracking.iterations_per_level.size()); ++l) {
+    p.pyramid.level_intrinsics[l] = compute_k.scaled_down(static_cast<float>(1 << l));
+  }
+  p.icp.dist_threshold_m = config.tracking.dist_threshold_m;
+  p.icp.normal_threshold = config.tracking.normal_threshold;
+  p.icp.icp_threshold = config.tracking.icp_threshold;
+  p.icp.stride_px = approx.icp_stride_px;
+  p.accept.max_rms_error_m = config.tracking.max_rms_error_m;
+  p.accept.min_inlier_fraction = config.tracking.min_inlier_fraction;
+  p.accept.compute_pixels = compute_width_px * compute_height_px;
+  p.integrate.k = compute_k;
+  p.integrate.mu_m = config.volume.mu_m;
+  p.integrate.max_weight = config.volume.max_weight;
+  p.integrate.z_stride = approx.integration_z_stride;
+  p.integrate.pattern = approx.integration_pattern;
+  p.integrate.ray_factor = approx.ray_factor;
+  p.integrate.zero_depth_test = approx.integrate_zero_depth_test;
+  p.raycast.k = compute_k;
+  p.raycast.near_m = config.raycast.near_m;
+  p.raycast.far_m = config.raycast.far_m;
+  p.raycast.step_m = size_m / static_cast<float>(config.volume.resolution_vox);
+  p.raycast.large_step_m = config.raycast.large_step_mu * config.volume.mu_m;
+  p.raycast.constant_step_m = approx.raycast_constant_step_m;
+  p.raycast.interp = approx.raycast_interp;
+  p.raycast.block_x_px = approx.raycast_block_px[0];
+  p.raycast.block_y_px = approx.raycast_block_px[1];
+  return p;
+}
+
 std::vector<std::string> preset_names() { return {"exact", "thesis", "fast"}; }
 
 PipelineConfig make_preset(const std::string& name) {
   PipelineConfig c;
   if (name == "exact") return c;
   if (name == "thesis") {
-    // The seed thesis's final combination (its code, REFERENCE.md last section): 3x3 spatial
+    // The seed thesis's final combination (its code, docs/algorithm.md §5): 3x3 spatial
     // bilateral on zero-padded depth; one pyramid level, at most 2 iterations (-y 2); z-slice
-    // perforation 8 without the depth-0 test and with the cheaper ray factor; raycast every
-    // 2nd frame at half resolution, each result copied into a 2x2 block.
-    for (const char* a : {"bilateral_mode=spatial3x3", "zero_padded_depth=on", "pyramid_iterations=2",
-                          "integration_z_stride=8", "integrate_zero_depth_test=off",
-                          "ray_factor=approx", "raycast_rate=2", "raycast_block_px=2,2"}) {
+    // perforation 8 without the depth-0 test and with its own cheaper ray factor
+    // 1 + x/z + (y/z)²; raycast every 2nd frame at half resolution, each result copied into a
+    // 2x2 block (its code's block; its text says 1x2).
+    for (const char* a :
+         {"bilateral_mode=spatial3x3", "zero_padded_depth=on", "pyramid_iterations=2",
+          "integration_z_stride=8", "integrate_zero_depth_test=off", "ray_factor=thesis",
+          "raycast_rate=2", "raycast_block_px=2,2"}) {
       set_config_assignment(c, a);
     }
     return c;

@@ -9,6 +9,11 @@
 #include <vector>
 
 #include "core/camera.hpp"
+#include "kernels/frame_logic.hpp"
+#include "kernels/integrate.hpp"
+#include "kernels/preprocess.hpp"
+#include "kernels/raycast.hpp"
+#include "kernels/track.hpp"
 
 namespace kfx {
 
@@ -52,27 +57,50 @@ struct PipelineConfig {
   struct Render {
     int rate = 4;  ///< render the volume every N frames when rendering is on
   } render;
-  /// The seed thesis's techniques and more, each defaulting to exact (REFERENCE.md, last
-  /// section). `kfx settings` lists them with their effect and range.
+  /// The seed thesis's techniques and more, each defaulting to exact (docs/algorithm.md
+  /// §5). `kfx settings` lists them with their effect and range.
   struct Approximations {
-    std::string bilateral_mode = "exact";  ///< exact (5×5 with range) | spatial3x3
+    BilateralMode bilateral_mode = BilateralMode::kExact;  ///< exact (5×5 with range) | spatial3x3
     bool zero_padded_depth = false;        ///< bilateral reads outside the image as 0
     int icp_stride_px = 1;                 ///< track one pixel per s × s block, weighted s²
     int integration_z_stride = 1;          ///< integrate 1 voxel in s, rotating per frame
-    std::string integration_pattern = "slices";  ///< slices (z ≡ f) | checker (x+y+z ≡ f)
-    std::string ray_factor = "exact";      ///< exact sqrt | approx (1 + r²/2) | none (1)
+    IntegrationPattern integration_pattern = IntegrationPattern::kSlices;  ///< slices | checker
+    RayFactor ray_factor = RayFactor::kExact;  ///< exact | approx | none
     bool integrate_zero_depth_test = true; ///< skip pixels without depth when integrating
     int raycast_rate = 1;                  ///< raycast every N-th frame (ICP reuses the last)
     std::array<int, 2> raycast_block_px{1, 1};  ///< one ray per bx × by block, copied into it
     float raycast_constant_step_m = 0.0f;  ///< > 0: constant march step (no fine steps)
-    std::string raycast_interp = "trilinear";   ///< trilinear (8 voxels) | two_value (2)
+    RaycastInterp raycast_interp = RaycastInterp::kTrilinear;  ///< trilinear | two_value
   } approx;
+
+  /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
+  struct Cuda {
+    bool pdl = true;        ///< programmatic dependent launch (on sm_90 and newer)
+    int reduce_blocks = 0;  ///< cap on the ICP reduction grid; 0 = one block per SM
+    int z_chunks = 16;      ///< z-ranges each integration column is split into
+  } cuda;
 
   /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.
   void validate() const;
   /// `key = value` lines for every setting, grouped by section.
   std::string dump() const;
 };
+
+/// Every stage's kernel settings, derived from one validated configuration: the pipeline hands
+/// them to the backend, which adds only its buffers.
+struct StageParams {
+  BilateralParams bilateral;
+  PyramidParams pyramid;
+  IcpParams icp;
+  AcceptParams accept;
+  IntegrateParams integrate;
+  RaycastParams raycast;
+};
+
+/// The stage settings of `config` for compute-size intrinsics `compute_k` and a compute image
+/// of `compute_width_px` × `compute_height_px`.
+StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& compute_k,
+                              int compute_width_px, int compute_height_px);
 
 /// One configurable setting.
 struct ConfigField {

@@ -1,10 +1,6 @@
-/// The frame loop and the derivation of stage parameters from the configuration.
+/// The frame loop: which stages each frame runs, in order, and its report.
 
 #include "pipeline/pipeline.hpp"
-
-#include <cmath>
-
-#include "kernels/integrate.hpp"
 
 namespace kfx {
 
@@ -27,56 +23,16 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.pyramid_levels = levels;
   setup_.volume_res_vox = config_.volume.resolution_vox;
   setup_.volume_size_m = config_.volume.size_m;
+  setup_.cuda.programmatic_launch = config_.cuda.pdl;
+  setup_.cuda.reduce_blocks = config_.cuda.reduce_blocks;
+  setup_.cuda.z_chunks = config_.cuda.z_chunks;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
   const auto& f = config_.volume.init_pose_factor;
   const float size = config_.volume.size_m;
   initial_pose_ = Mat4f::translation(Vec3f{f[0] * size, f[1] * size, f[2] * size});
 
-  // Bilateral: g[k] = exp(−(k−r)²/(2σ²)) and the range denominator 2σ_r², as SLAMBench.
-  const auto& pre = config_.preprocess;
-  const auto& approx = config_.approx;
-  const bool spatial_only = approx.bilateral_mode == "spatial3x3";
-  preprocess_.bilateral_radius_px = spatial_only ? 1 : pre.bilateral_radius_px;
-  for (int i = 0; i <= 2 * preprocess_.bilateral_radius_px; ++i) {
-    const int x = i - preprocess_.bilateral_radius_px;
-    const float sigma = pre.bilateral_spatial_sigma_px;
-    preprocess_.spatial_weight[i] = expf(-(x * x) / (2 * sigma * sigma));
-  }
-  preprocess_.range_denominator_m2 =
-      2 * pre.bilateral_range_sigma_m * pre.bilateral_range_sigma_m;
-  preprocess_.use_range_term = !spatial_only;
-  preprocess_.zero_padded = approx.zero_padded_depth;
-
-  pyramid_.half_sample_range_m = config_.tracking.half_sample_range_m;
-  for (int l = 0; l < levels; ++l) {
-    pyramid_.level_intrinsics[l] = compute_k_.scaled_down(static_cast<float>(1 << l));
-  }
-  icp_.dist_threshold_m = config_.tracking.dist_threshold_m;
-  icp_.normal_threshold = config_.tracking.normal_threshold;
-  icp_.icp_threshold = config_.tracking.icp_threshold;
-  icp_.stride_px = approx.icp_stride_px;
-  accept_.max_rms_error_m = config_.tracking.max_rms_error_m;
-  accept_.min_inlier_fraction = config_.tracking.min_inlier_fraction;
-  accept_.compute_pixels = cw * ch;
-  integrate_.k = compute_k_;
-  integrate_.mu_m = config_.volume.mu_m;
-  integrate_.max_weight = config_.volume.max_weight;
-  integrate_.z_stride = approx.integration_z_stride;
-  integrate_.checker_pattern = approx.integration_pattern == "checker";
-  integrate_.ray_factor_mode = approx.ray_factor == "approx"  ? kRayFactorApprox
-                               : approx.ray_factor == "none" ? kRayFactorNone
-                                                             : kRayFactorExact;
-  integrate_.zero_depth_test = approx.integrate_zero_depth_test;
-  raycast_.k = compute_k_;
-  raycast_.near_m = config_.raycast.near_m;
-  raycast_.far_m = config_.raycast.far_m;
-  raycast_.step_m = size / static_cast<float>(config_.volume.resolution_vox);
-  raycast_.large_step_m = config_.raycast.large_step_mu * config_.volume.mu_m;
-  raycast_.constant_step_m = approx.raycast_constant_step_m;
-  raycast_.two_value_interp = approx.raycast_interp == "two_value";
-  raycast_.block_x_px = approx.raycast_block_px[0];
-  raycast_.block_y_px = approx.raycast_block_px[1];
+  params_ = make_stage_params(config_, compute_k_, cw, ch);
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
@@ -112,18 +68,18 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   b.begin_frame(shape);
 
   b.begin_stage(Stage::kPreprocess);
-  b.preprocess(preprocess_);
+  b.preprocess(params_.bilateral);
   b.end_stage(Stage::kPreprocess);
 
   b.begin_stage(Stage::kTrack);
   if (track) {
-    b.build_pyramid(pyramid_);
+    b.build_pyramid(params_.pyramid);
     b.begin_tracking();
     const auto& iterations = config_.tracking.iterations_per_level;
     for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
-      for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, icp_);
+      for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, params_.icp);
     }
-    b.accept_or_revert(accept_);
+    b.accept_or_revert(params_.accept);
   } else {
     b.skip_tracking();
   }
@@ -135,14 +91,14 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
     // The bootstrap frames (0–3, integrated untracked) fill every z slice: with perforated
     // slices the first raycast would see a half-empty volume, tracking would fail at frame 4
     // and, as later frames integrate only when tracked, the map would never fill in.
-    IntegrateParams params = integrate_;
+    IntegrateParams params = params_.integrate;
     if (always) params.z_stride = 1;
     b.integrate(params, always);
   }
   b.end_stage(Stage::kIntegrate);
 
   b.begin_stage(Stage::kRaycast);
-  if (report.raycast) b.raycast(raycast_);
+  if (report.raycast) b.raycast(params_.raycast);
   b.end_stage(Stage::kRaycast);
   b.end_frame();
   // What the host knows now; collect() completes it from the backend's state.
@@ -164,7 +120,8 @@ FrameReport Pipeline::collect() {
   report.T_world_cam = state.T_world_cam;
   report.icp_iterations = track ? state.iterations_run : 0;
   report.inlier_fraction =
-      track ? state.accumulator[kAccInliers] / static_cast<double>(accept_.compute_pixels) : 0.0;
+      track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)
+            : 0.0;
   for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
   }

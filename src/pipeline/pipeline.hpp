@@ -1,5 +1,5 @@
 #pragma once
-/// The one frame loop (REFERENCE.md "Per frame, in this order"): preprocess → track (pyramid
+/// The one frame loop (docs/algorithm.md §2–3): preprocess → track (pyramid
 /// ICP) → accept/revert → integrate → raycast. Orchestration lives here once; the backend runs
 /// the stages.
 
@@ -60,12 +60,7 @@ class Pipeline {
   BackendSetup setup_;
   Intrinsics compute_k_;
   Mat4f initial_pose_;
-  PreprocessParams preprocess_;
-  PyramidParams pyramid_;
-  IcpParams icp_;
-  AcceptParams accept_;
-  IntegrateParams integrate_;
-  RaycastParams raycast_;
+  StageParams params_;  ///< every stage's kernel settings, derived once from config_
   std::unique_ptr<Backend> backend_;
   /// A submitted frame and the host-side decisions made for it.
   struct PendingFrame {

@@ -10,7 +10,7 @@
 #include <thread>
 
 #include "backend/backend.hpp"
-#include "backend/stage_args.hpp"
+#include "backend/frame_buffers.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
@@ -18,6 +18,10 @@
 
 namespace kfx {
 namespace {
+
+/// Host memory for FrameBuffers' arrays.
+template <class T>
+using HostArray = std::vector<T>;
 
 /// Calls body(x, y) for every pixel of a width × height grid, rows spread over threads.
 template <class Body>
@@ -42,25 +46,13 @@ std::string cpu_model_name() {
 
 class CpuBackend final : public Backend {
  public:
-  explicit CpuBackend(const BackendSetup& setup) : setup_(setup) {
-    const int w = setup.compute_width_px(), h = setup.compute_height_px();
-    input_mm_ = HostImage<uint16_t>(setup.input_width_px, setup.input_height_px);
-    depth_m_ = HostImage<float>(w, h);
-    for (int l = 0; l < setup.pyramid_levels; ++l) {
-      level_depth_[l] = HostImage<float>(w >> l, h >> l);
-      level_vertex_[l] = HostImage<Vec3f>(w >> l, h >> l);
-      level_normal_[l] = HostImage<Vec3f>(w >> l, h >> l);
-    }
-    ref_vertex_ = HostImage<Vec3f>(w, h);
-    ref_normal_ = HostImage<Vec3f>(w, h, Vec3f{kInvalidNormal, 0, 0});
-    track_outcome_ = HostImage<int8_t>(w, h);
-    row_partials_.assign(static_cast<size_t>(h) * kAccumulatorSize, 0.0);
-    volume_.assign(static_cast<size_t>(setup.volume_res_vox) * setup.volume_res_vox *
-                       setup.volume_res_vox,
-                   Voxel{});
-    const size_t bricks = bricks_per_side(setup.volume_res_vox);
-    brick_touched_.assign(bricks * bricks * bricks, 0);
-    state_ = TrackingState{};
+  explicit CpuBackend(const BackendSetup& setup)
+      : setup_(setup),
+        input_mm_(setup.input_width_px, setup.input_height_px),
+        buffers_(setup),
+        row_partials_(static_cast<size_t>(setup.compute_height_px()) * kAccumulatorSize) {
+    auto& normals = buffers_.ref_normal.pixels();
+    std::fill(normals.begin(), normals.end(), Vec3f{kInvalidNormal, 0, 0});
   }
 
   std::string name() const override { return "cpu"; }
@@ -70,22 +62,16 @@ class CpuBackend final : public Backend {
 
   void reset(const Mat4f& T_world_cam) override {
     const Voxel empty{static_cast<int16_t>(kTsdfScale), 0};
-    std::fill(volume_.begin(), volume_.end(), empty);
-    std::fill(brick_touched_.begin(), brick_touched_.end(), 0);
-    state_ = TrackingState{};
+    std::fill(buffers_.volume.begin(), buffers_.volume.end(), empty);
+    std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 0);
+    auto& vertices = buffers_.ref_vertex.pixels();
+    std::fill(vertices.begin(), vertices.end(), Vec3f{0, 0, 0});
+    state_ = initial_tracking_state(T_world_cam);
     finished_.clear();
-    state_.frame_index = -1;
-    state_.T_world_cam = T_world_cam;
-    state_.T_world_cam_before = T_world_cam;
-    state_.T_world_raycast = T_world_cam;
   }
 
   void upload_depth(const HostImage<uint16_t>& depth_mm) override {
-    KFX_CHECK(depth_mm.width() == setup_.input_width_px &&
-                  depth_mm.height() == setup_.input_height_px,
-              "depth frame is " << depth_mm.width() << "x" << depth_mm.height()
-                                << ", the pipeline was set up for " << setup_.input_width_px
-                                << "x" << setup_.input_height_px);
+    check_depth_frame(depth_mm, setup_);
     input_mm_.pixels() = depth_mm.pixels();
   }
 
@@ -97,33 +83,33 @@ class CpuBackend final : public Backend {
     stage_ms_.fill(0.0);
   }
 
-  void preprocess(const PreprocessParams& p) override {
+  void preprocess(const BilateralParams& p) override {
     begin_frame_state(state_);
-    const MmToMArgs mm{input_mm_.view(), depth_m_.view(), setup_.compute_ratio};
-    const int w = depth_m_.width(), h = depth_m_.height();
+    const MmToMArgs mm{input_mm_.view(), buffers_.depth_m.view(), setup_.compute_ratio};
+    const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
     float max_depth_m = 0.0f;
 #pragma omp parallel for schedule(static) reduction(max : max_depth_m)
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) max_depth_m = std::max(max_depth_m, mm_to_m_pixel(x, y, mm));
     }
     state_.max_depth_m = max_depth_m;
-    const BilateralArgs b = make_bilateral_args(depth_m_.view(), level_depth_[0].view(), p);
+    const BilateralArgs b{p, buffers_.depth_m.view(), buffers_.level_depth[0].view()};
     for_each_pixel(w, h, [&](int x, int y) { bilateral_pixel(x, y, b); });
   }
 
   void build_pyramid(const PyramidParams& p) override {
     for (int l = 1; l < setup_.pyramid_levels; ++l) {
-      const HalfSampleArgs a{level_depth_[l - 1].view(), level_depth_[l].view(),
+      const HalfSampleArgs a{buffers_.level_depth[l - 1].view(), buffers_.level_depth[l].view(),
                              p.half_sample_range_m};
-      for_each_pixel(level_depth_[l].width(), level_depth_[l].height(),
+      for_each_pixel(buffers_.level_depth[l].width(), buffers_.level_depth[l].height(),
                      [&](int x, int y) { half_sample_pixel(x, y, a); });
     }
     for (int l = 0; l < setup_.pyramid_levels; ++l) {
-      const DepthToVertexArgs v{level_depth_[l].view(), level_vertex_[l].view(),
+      const DepthToVertexArgs v{buffers_.level_depth[l].view(), buffers_.level_vertex[l].view(),
                                 p.level_intrinsics[l].inverse_matrix()};
       for_each_pixel(v.vertex.width, v.vertex.height,
                      [&](int x, int y) { depth_to_vertex_pixel(x, y, v); });
-      const VertexToNormalArgs n{level_vertex_[l].view(), level_normal_[l].view(),
+      const VertexToNormalArgs n{buffers_.level_vertex[l].view(), buffers_.level_normal[l].view(),
                                  p.level_intrinsics[l].handedness()};
       for_each_pixel(n.normal.width, n.normal.height,
                      [&](int x, int y) { vertex_to_normal_pixel(x, y, n); });
@@ -134,24 +120,27 @@ class CpuBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (level_converged(state_, level)) return;
-    const TrackArgs a = make_track_args(level_vertex_[level].view(), level_normal_[level].view(),
-                                        ref_vertex_.view(), ref_normal_.view(), &state_, p);
-    const int w = a.in_vertex.width, h = a.in_vertex.height, s = p.stride_px;
-    const double weight = static_cast<double>(s) * s;  // each tracked pixel stands for its block
-    const bool keep_outcome = level == 0;
+    // The level-0 outcome is kept for read_maps().
+    const ImageView<int8_t> outcome =
+        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
+    const TrackArgs a{p,
+                      buffers_.level_vertex[level].view(),
+                      buffers_.level_normal[level].view(),
+                      buffers_.ref_vertex.view(),
+                      buffers_.ref_normal.view(),
+                      &state_,
+                      outcome};
+    const int grid_w = track_grid_width(a), grid_h = track_grid_height(a);
 #pragma omp parallel for schedule(static)
-    for (int y = 0; y < h; y += s) {
+    for (int j = 0; j < grid_h; ++j) {
       double acc[kAccumulatorSize] = {};  // local: stays in registers, no aliasing
-      for (int x = 0; x < w; x += s) {
-        const TrackRow row = track_pixel(x, y, a);
-        accumulate_row(acc, row, weight);
-        if (keep_outcome) track_outcome_(x, y) = static_cast<int8_t>(row.outcome);
-      }
-      std::copy(acc, acc + kAccumulatorSize, &row_partials_[static_cast<size_t>(y) * kAccumulatorSize]);
+      for (int i = 0; i < grid_w; ++i) track_sample(i, j, a, acc);
+      std::copy(acc, acc + kAccumulatorSize,
+                &row_partials_[static_cast<size_t>(j) * kAccumulatorSize]);
     }
     double total[kAccumulatorSize] = {};
-    for (int y = 0; y < h; y += s) {  // fixed order: repeatable
-      const double* acc = &row_partials_[static_cast<size_t>(y) * kAccumulatorSize];
+    for (int j = 0; j < grid_h; ++j) {  // fixed order: repeatable
+      const double* acc = &row_partials_[static_cast<size_t>(j) * kAccumulatorSize];
       for (int i = 0; i < kAccumulatorSize; ++i) total[i] += acc[i];
     }
     icp_update(state_, total, p.icp_threshold, level);
@@ -163,7 +152,7 @@ class CpuBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    const IntegrateArgs a = make_integrate_args(volume_view(), depth_m_.view(), &state_, p);
+    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), &state_};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag.
     const int res = setup_.volume_res_vox;
@@ -178,10 +167,10 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
-    const RaycastArgs a =
-        make_raycast_args(volume_view(), ref_vertex_.view(), ref_normal_.view(), &state_, p);
-    const int blocks_x = (ref_vertex_.width() + p.block_x_px - 1) / p.block_x_px;
-    const int blocks_y = (ref_vertex_.height() + p.block_y_px - 1) / p.block_y_px;
+    const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(),
+                        buffers_.ref_normal.view(), &state_};
+    const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
+    const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < blocks_y; ++y) {
       for (int x = 0; x < blocks_x; ++x) raycast_block(x, y, a);
@@ -210,28 +199,16 @@ class CpuBackend final : public Backend {
   }
 
   DebugMaps read_maps() override {
-    return DebugMaps{depth_m_, level_depth_[0], ref_vertex_, ref_normal_, track_outcome_};
+    return DebugMaps{buffers_.depth_m, buffers_.level_depth[0], buffers_.ref_vertex,
+                     buffers_.ref_normal, buffers_.track_outcome};
   }
-  std::vector<Voxel> read_volume() override { return volume_; }
+  std::vector<Voxel> read_volume() override { return buffers_.volume; }
 
  private:
-  VolumeView volume_view() {
-    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m,
-                      brick_touched_.data()};
-  }
-
   BackendSetup setup_;
   HostImage<uint16_t> input_mm_;
-  HostImage<float> depth_m_;
-  std::array<HostImage<float>, kMaxPyramidLevels> level_depth_;
-  std::array<HostImage<Vec3f>, kMaxPyramidLevels> level_vertex_;
-  std::array<HostImage<Vec3f>, kMaxPyramidLevels> level_normal_;
-  HostImage<Vec3f> ref_vertex_;
-  HostImage<Vec3f> ref_normal_;
-  HostImage<int8_t> track_outcome_;
+  FrameBuffers<HostImage, HostArray> buffers_;
   std::vector<double> row_partials_;
-  std::vector<Voxel> volume_;
-  std::vector<uint8_t> brick_touched_;
   TrackingState state_{};
   std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};

@@ -5,6 +5,7 @@
 /// stream, and the state after the frame comes back asynchronously into pinned memory.
 /// KFX_CUDA_SYNC=1 turns graphs off and synchronises after every launch (debugging).
 
+#include <algorithm>
 #include <array>
 #include <cstdlib>
 #include <cstring>
@@ -12,9 +13,9 @@
 #include <map>
 
 #include "backend/backend.hpp"
-#include "backend/stage_args.hpp"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
+#include "backend/frame_buffers.hpp"
 
 namespace kfx {
 
@@ -44,15 +45,14 @@ dim3 grid_for(int width, int height, dim3 block) {
 
 class CudaBackend final : public Backend {
  public:
-  explicit CudaBackend(const BackendSetup& setup) : setup_(setup) {
+  explicit CudaBackend(const BackendSetup& setup) : setup_(setup), buffers_(setup) {
     KFX_CUDA_CHECK(cudaGetDevice(&device_));
     KFX_CUDA_CHECK(cudaGetDeviceProperties(&properties_, device_));
     const char* sync = std::getenv("KFX_CUDA_SYNC");
     debug_sync_ = sync && std::string(sync) == "1";
-    // Programmatic dependent launch is on by default on Hopper (measured: −2.4 % per frame,
-    // bench/RESULTS.md); KFX_CUDA_PDL=0 turns it off.
-    const char* pdl = std::getenv("KFX_CUDA_PDL");
-    programmatic_launch_ = !(pdl && std::string(pdl) == "0") && properties_.major >= 9;
+    // Programmatic dependent launch needs sm_90 (measured on an H200: −2.4 % per frame,
+    // bench/RESULTS.md); setting cuda_pdl=off turns it off.
+    programmatic_launch_ = setup.cuda.programmatic_launch && properties_.major >= 9;
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     const size_t input_pixels = static_cast<size_t>(setup.input_width_px) * setup.input_height_px;
     for (int p = 0; p < 2; ++p) {
@@ -60,32 +60,15 @@ class CudaBackend final : public Backend {
       staging_mm_[p] = PinnedBuffer<uint16_t>(input_pixels);
       state_readback_[p] = PinnedBuffer<TrackingState>(1);
     }
-    depth_m_ = DeviceBuffer<float>(static_cast<size_t>(w) * h);
-    for (int l = 0; l < setup.pyramid_levels; ++l) {
-      const size_t n = static_cast<size_t>(w >> l) * (h >> l);
-      level_depth_[l] = DeviceBuffer<float>(n);
-      level_vertex_[l] = DeviceBuffer<Vec3f>(n);
-      level_normal_[l] = DeviceBuffer<Vec3f>(n);
-    }
-    ref_vertex_ = DeviceBuffer<Vec3f>(static_cast<size_t>(w) * h);
-    ref_normal_ = DeviceBuffer<Vec3f>(static_cast<size_t>(w) * h);
-    track_outcome_ = DeviceBuffer<int8_t>(static_cast<size_t>(w) * h);
-    // Tuning (bench only): KFX_CUDA_REDUCE_BLOCKS caps the ICP reduction grid,
-    // KFX_CUDA_Z_CHUNKS splits each integration column into that many z-ranges.
-    const char* blocks_env = std::getenv("KFX_CUDA_REDUCE_BLOCKS");
-    // Defaults measured on an H200 (bench/RESULTS.md): one reduction block per SM, 16 z-chunks.
-    const int max_blocks = blocks_env ? std::atoi(blocks_env) : properties_.multiProcessorCount;
+    // Tuning (settings cuda_reduce_blocks, cuda_z_chunks): the cap on the ICP reduction grid
+    // (0: one block per SM) and the z-ranges per integration column.
+    const int max_blocks =
+        setup.cuda.reduce_blocks > 0 ? setup.cuda.reduce_blocks : properties_.multiProcessorCount;
     reduce_blocks_ = std::max(1, std::min((w * h + kReduceBlock - 1) / kReduceBlock, max_blocks));
-    const char* chunks_env = std::getenv("KFX_CUDA_Z_CHUNKS");
-    z_chunks_ = chunks_env ? std::max(1, std::atoi(chunks_env)) : 16;
+    z_chunks_ = std::max(1, setup.cuda.z_chunks);
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
-    const long long voxels = static_cast<long long>(setup.volume_res_vox) *
-                             setup.volume_res_vox * setup.volume_res_vox;
-    volume_ = DeviceBuffer<Voxel>(static_cast<size_t>(voxels));
-    const size_t bricks = bricks_per_side(setup.volume_res_vox);
-    brick_touched_ = DeviceBuffer<uint8_t>(bricks * bricks * bricks);
     state_ = DeviceBuffer<TrackingState>(1);
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
@@ -107,30 +90,23 @@ class CudaBackend final : public Backend {
 
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    const long long voxels = static_cast<long long>(volume_.size());
+    const long long voxels = static_cast<long long>(buffers_.volume.size());
     launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
-           volume_.data(), voxels);
-    KFX_CUDA_CHECK(cudaMemsetAsync(brick_touched_.data(), 0, brick_touched_.bytes(), stream_.get()));
-    TrackingState initial{};
-    initial.frame_index = -1;
-    initial.T_world_cam = T_world_cam;
-    initial.T_world_cam_before = T_world_cam;
-    initial.T_world_raycast = T_world_cam;
-    *state_readback_[0].data() = initial;
+           buffers_.volume.data(), voxels);
+    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0, buffers_.brick_touched.bytes(),
+                                   stream_.get()));
+    *state_readback_[0].data() = initial_tracking_state(T_world_cam);
     KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(),
                                    sizeof(TrackingState), cudaMemcpyHostToDevice, stream_.get()));
-    KFX_CUDA_CHECK(cudaMemsetAsync(ref_vertex_.data(), 0, ref_vertex_.bytes(), stream_.get()));
+    KFX_CUDA_CHECK(
+        cudaMemsetAsync(buffers_.ref_vertex.data(), 0, buffers_.ref_vertex.bytes(), stream_.get()));
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     pending_.clear();
     frames_submitted_ = 0;
   }
 
   void upload_depth(const HostImage<uint16_t>& depth_mm) override {
-    KFX_CHECK(depth_mm.width() == setup_.input_width_px &&
-                  depth_mm.height() == setup_.input_height_px,
-              "depth frame is " << depth_mm.width() << "x" << depth_mm.height()
-                                << ", the pipeline was set up for " << setup_.input_width_px
-                                << "x" << setup_.input_height_px);
+    check_depth_frame(depth_mm, setup_);
     parity_ = frames_submitted_ % 2;
     // The frame two back used these buffers: wait until it has finished with them.
     KFX_CUDA_CHECK(cudaEventSynchronize(frame_done_[parity_].get()));
@@ -172,15 +148,15 @@ class CudaBackend final : public Backend {
     ++frames_submitted_;
   }
 
-  void preprocess(const PreprocessParams& p) override {
+  void preprocess(const BilateralParams& p) override {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     KFX_CUDA_CHECK(
         cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
-    const MmToMArgs mm{input_view(), depth_view(), setup_.compute_ratio};
+    const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio};
     const dim3 block(32, 8);
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
-    const BilateralArgs b = make_bilateral_args(depth_view(), level_depth_view(0), p);
+    const BilateralArgs b{p, buffers_.depth_m.view(), buffers_.level_depth[0].view()};
     launch(pixel_kernel<BilateralBody, BilateralArgs>, grid_for(w, h, block), block, b, w, h);
   }
 
@@ -188,16 +164,17 @@ class CudaBackend final : public Backend {
     if (replaying_) return;
     const dim3 block(32, 8);
     for (int l = 1; l < setup_.pyramid_levels; ++l) {
-      const HalfSampleArgs a{level_depth_view(l - 1), level_depth_view(l), p.half_sample_range_m};
+      const HalfSampleArgs a{buffers_.level_depth[l - 1].view(), buffers_.level_depth[l].view(),
+                             p.half_sample_range_m};
       launch(pixel_kernel<HalfSampleBody, HalfSampleArgs>, grid_for(a.out_m.width, a.out_m.height, block), block,
              a, a.out_m.width, a.out_m.height);
     }
     for (int l = 0; l < setup_.pyramid_levels; ++l) {
-      const DepthToVertexArgs v{level_depth_view(l), level_vertex_view(l),
+      const DepthToVertexArgs v{buffers_.level_depth[l].view(), buffers_.level_vertex[l].view(),
                                 p.level_intrinsics[l].inverse_matrix()};
       const int w = v.vertex.width, h = v.vertex.height;
       launch(pixel_kernel<DepthToVertexBody, DepthToVertexArgs>, grid_for(w, h, block), block, v, w, h);
-      const VertexToNormalArgs n{level_vertex_view(l), level_normal_view(l),
+      const VertexToNormalArgs n{buffers_.level_vertex[l].view(), buffers_.level_normal[l].view(),
                                  p.level_intrinsics[l].handedness()};
       launch(pixel_kernel<VertexToNormalBody, VertexToNormalArgs>, grid_for(w, h, block), block, n, w, h);
     }
@@ -210,14 +187,20 @@ class CudaBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
-    const TrackArgs a = make_track_args(level_vertex_view(level), level_normal_view(level),
-                                        ref_view(ref_vertex_), ref_view(ref_normal_), state_.data(), p);
-    const int pixels = ((a.in_vertex.width + p.stride_px - 1) / p.stride_px) *
-                       ((a.in_vertex.height + p.stride_px - 1) / p.stride_px);
-    const int blocks = std::min(reduce_blocks_, (pixels + kReduceBlock - 1) / kReduceBlock);
-    launch(icp_iteration_kernel, dim3(blocks), dim3(kReduceBlock),
-        a, state_.data(), partials_.data(), blocks_done_.data(), p.icp_threshold, level,
-        level == 0 ? track_outcome_.data() : nullptr);
+    // The level-0 outcome is kept for read_maps().
+    const ImageView<int8_t> outcome =
+        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
+    const TrackArgs a{p,
+                      buffers_.level_vertex[level].view(),
+                      buffers_.level_normal[level].view(),
+                      buffers_.ref_vertex.view(),
+                      buffers_.ref_normal.view(),
+                      state_.data(),
+                      outcome};
+    const int samples = track_grid_width(a) * track_grid_height(a);
+    const int blocks = std::min(reduce_blocks_, (samples + kReduceBlock - 1) / kReduceBlock);
+    launch(icp_iteration_kernel, dim3(blocks), dim3(kReduceBlock), a, state_.data(),
+           partials_.data(), blocks_done_.data(), level);
   }
 
   void accept_or_revert(const AcceptParams& p) override {
@@ -233,7 +216,7 @@ class CudaBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
-    const IntegrateArgs a = make_integrate_args(volume_view(), depth_view(), state_.data(), p);
+    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), state_.data()};
     const int res = setup_.volume_res_vox;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
@@ -244,8 +227,8 @@ class CudaBackend final : public Backend {
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
     launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
-    const RaycastArgs a = make_raycast_args(volume_view(), ref_view(ref_vertex_),
-                                            ref_view(ref_normal_), state_.data(), p);
+    const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(),
+                        buffers_.ref_normal.view(), state_.data()};
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
@@ -274,31 +257,29 @@ class CudaBackend final : public Backend {
 
   DebugMaps read_maps() override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     DebugMaps maps;
-    maps.depth_m = download(depth_m_, w, h);
-    maps.filtered_m = download(level_depth_[0], w, h);
-    maps.ref_vertex = download(ref_vertex_, w, h);
-    maps.ref_normal = download(ref_normal_, w, h);
-    maps.track_outcome = download(track_outcome_, w, h);
+    maps.depth_m = download(buffers_.depth_m);
+    maps.filtered_m = download(buffers_.level_depth[0]);
+    maps.ref_vertex = download(buffers_.ref_vertex);
+    maps.ref_normal = download(buffers_.ref_normal);
+    maps.track_outcome = download(buffers_.track_outcome);
     return maps;
   }
 
   std::vector<Voxel> read_volume() override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    std::vector<Voxel> voxels(volume_.size());
-    KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), volume_.data(), volume_.bytes(),
+    std::vector<Voxel> voxels(buffers_.volume.size());
+    KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), buffers_.volume.data(), buffers_.volume.bytes(),
                               cudaMemcpyDeviceToHost));
     return voxels;
   }
 
  private:
   template <class T>
-  HostImage<T> download(const DeviceBuffer<T>& buffer, int w, int h) {
-    HostImage<T> image(w, h);
-    KFX_CUDA_CHECK(cudaMemcpy(image.data(), buffer.data(), sizeof(T) * w * h,
-                              cudaMemcpyDeviceToHost));
-    return image;
+  HostImage<T> download(const DeviceImage<T>& image) {
+    HostImage<T> host(image.width(), image.height());
+    KFX_CUDA_CHECK(cudaMemcpy(host.data(), image.data(), image.bytes(), cudaMemcpyDeviceToHost));
+    return host;
   }
 
   /// Launches `kernel` on the pipeline's stream; with programmatic dependent launch enabled it
@@ -337,36 +318,12 @@ class CudaBackend final : public Backend {
     return {input_mm_[parity_].data(), setup_.input_width_px, setup_.input_height_px,
             setup_.input_width_px};
   }
-  ImageView<float> depth_view() const {
-    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
-    return {depth_m_.data(), w, h, w};
-  }
-  ImageView<float> level_depth_view(int l) const {
-    const int w = setup_.compute_width_px() >> l, h = setup_.compute_height_px() >> l;
-    return {level_depth_[l].data(), w, h, w};
-  }
-  ImageView<Vec3f> level_vertex_view(int l) const {
-    const int w = setup_.compute_width_px() >> l, h = setup_.compute_height_px() >> l;
-    return {level_vertex_[l].data(), w, h, w};
-  }
-  ImageView<Vec3f> level_normal_view(int l) const {
-    const int w = setup_.compute_width_px() >> l, h = setup_.compute_height_px() >> l;
-    return {level_normal_[l].data(), w, h, w};
-  }
-  ImageView<Vec3f> ref_view(const DeviceBuffer<Vec3f>& buffer) const {
-    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
-    return {buffer.data(), w, h, w};
-  }
-  VolumeView volume_view() const {
-    return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m,
-                      brick_touched_.data()};
-  }
 
   BackendSetup setup_;
   int device_ = 0;
   cudaDeviceProp properties_{};
   bool debug_sync_ = false;
-  bool programmatic_launch_ = false;  ///< programmatic dependent launch (KFX_CUDA_PDL=0: off)
+  bool programmatic_launch_ = false;  ///< programmatic dependent launch (setting cuda_pdl)
   Stream stream_;
   Stream copy_stream_;
   std::array<DeviceBuffer<uint16_t>, 2> input_mm_;
@@ -374,19 +331,11 @@ class CudaBackend final : public Backend {
   std::array<PinnedBuffer<TrackingState>, 2> state_readback_;
   std::array<Event, 2> upload_done_{Event(false), Event(false)};
   std::array<Event, 2> frame_done_{Event(false), Event(false)};
-  DeviceBuffer<float> depth_m_;
-  std::array<DeviceBuffer<float>, kMaxPyramidLevels> level_depth_;
-  std::array<DeviceBuffer<Vec3f>, kMaxPyramidLevels> level_vertex_;
-  std::array<DeviceBuffer<Vec3f>, kMaxPyramidLevels> level_normal_;
-  DeviceBuffer<Vec3f> ref_vertex_;
-  DeviceBuffer<Vec3f> ref_normal_;
-  DeviceBuffer<int8_t> track_outcome_;
+  FrameBuffers<DeviceImage, DeviceBuffer> buffers_;
   int reduce_blocks_ = 1;
   int z_chunks_ = 16;
   DeviceBuffer<double> partials_;
   DeviceBuffer<unsigned int> blocks_done_;
-  DeviceBuffer<Voxel> volume_;
-  DeviceBuffer<uint8_t> brick_touched_;
   DeviceBuffer<TrackingState> state_;
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;
   std::array<double, kStages> last_stage_ms_{};

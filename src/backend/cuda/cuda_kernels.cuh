@@ -136,23 +136,17 @@ __device__ inline double block_sum_accumulator(const double (&acc)[kAccumulatorS
 /// 6×6 system and updates the pose. A no-op once the level has converged.
 __global__ void __launch_bounds__(kReduceBlock)
     icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
-                         unsigned int* blocks_done, float icp_threshold, int level,
-                         int8_t* outcome) {
+                         unsigned int* blocks_done, int level) {
   wait_for_previous_kernel();
   if (level_converged(*state, level)) return;  // uniform: set by an earlier launch
-  // With a stride s, pixel (i mod ws, i div ws)·s stands for its s × s block.
-  const int s = args.stride_px;
-  const int ws = (args.in_vertex.width + s - 1) / s, hs = (args.in_vertex.height + s - 1) / s;
-  const int pixels = ws * hs;
-  const double weight = static_cast<double>(s) * s;
+  const int grid_w = track_grid_width(args);
+  const int samples = grid_w * track_grid_height(args);
   double acc[kAccumulatorSize];
 #pragma unroll
   for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0.0;
-  for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < pixels; i += gridDim.x * kReduceBlock) {
-    const int x = (i % ws) * s, y = (i / ws) * s;
-    const TrackRow row = track_pixel(x, y, args);
-    accumulate_row(acc, row, weight);
-    if (outcome) outcome[x + y * args.in_vertex.width] = static_cast<int8_t>(row.outcome);
+  for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < samples;
+       i += gridDim.x * kReduceBlock) {
+    track_sample(i % grid_w, i / grid_w, args, acc);
   }
   const double block_total = block_sum_accumulator(acc);
   __shared__ bool is_last;
@@ -181,7 +175,7 @@ __global__ void __launch_bounds__(kReduceBlock)
   }
   __syncthreads();
   if (threadIdx.x == 0) {
-    icp_update(*state, total, icp_threshold, level);
+    icp_update(*state, total, args.icp_threshold, level);
     *blocks_done = 0;  // ready for the next launch
   }
 }

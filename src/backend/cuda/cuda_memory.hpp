@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "backend/cuda/cuda_check.hpp"
+#include "core/image.hpp"
 
 namespace kfx::cuda {
 
@@ -38,6 +39,25 @@ class DeviceBuffer {
  private:
   T* data_ = nullptr;
   size_t count_ = 0;
+};
+
+/// A width × height image of T in device memory (row-major, no padding).
+template <class T>
+class DeviceImage {
+ public:
+  DeviceImage() = default;
+  DeviceImage(int width, int height)
+      : buffer_(static_cast<size_t>(width) * height), width_(width), height_(height) {}
+  int width() const { return width_; }
+  int height() const { return height_; }
+  T* data() const { return buffer_.data(); }
+  size_t bytes() const { return buffer_.bytes(); }
+  ImageView<T> view() const { return {buffer_.data(), width_, height_, width_}; }
+
+ private:
+  DeviceBuffer<T> buffer_;
+  int width_ = 0;
+  int height_ = 0;
 };
 
 /// `count` elements of T in page-locked host memory (fast, asynchronous copies).

@@ -1,6 +1,6 @@
 /// Sweep plan parsing, validation and results bookkeeping (see sweep_plan.hpp).
 
-#include "pipeline/sweep_plan.hpp"
+#include "study/sweep_plan.hpp"
 
 #include <algorithm>
 #include <cctype>

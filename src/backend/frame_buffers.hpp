@@ -1,0 +1,71 @@
+#pragma once
+/// The buffers of one pipeline, listed once for both backends: the CPU backend holds them in
+/// host memory (HostImage, std::vector), the CUDA backend in device memory (DeviceImage,
+/// DeviceBuffer). Every buffer is allocated here, once, from the BackendSetup; what differs per
+/// backend (input staging, reduction partials, streams) stays in the backend.
+///
+/// A reset (Backend::reset) returns them to: an empty volume (every voxel tsdf +1, weight 0),
+/// no brick touched, reference vertices 0, and the state initial_tracking_state(pose).
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+
+#include "backend/backend.hpp"
+#include "core/volume.hpp"
+#include "kernels/preprocess.hpp"
+
+namespace kfx {
+
+/// `Image<T>(w, h)` owns a w × h image with view(); `Array<T>(n)` owns n elements with data().
+template <template <class> class Image, template <class> class Array>
+struct FrameBuffers {
+  FrameBuffers() = default;
+  explicit FrameBuffers(const BackendSetup& setup)
+      : depth_m(setup.compute_width_px(), setup.compute_height_px()),
+        ref_vertex(setup.compute_width_px(), setup.compute_height_px()),
+        ref_normal(setup.compute_width_px(), setup.compute_height_px()),
+        track_outcome(setup.compute_width_px(), setup.compute_height_px()),
+        volume(voxel_count(setup)),
+        brick_touched(brick_count(setup)),
+        volume_res_vox(setup.volume_res_vox),
+        volume_size_m(setup.volume_size_m) {
+    const int w = setup.compute_width_px(), h = setup.compute_height_px();
+    for (int l = 0; l < setup.pyramid_levels; ++l) {
+      level_depth[l] = Image<float>(w >> l, h >> l);
+      level_vertex[l] = Image<Vec3f>(w >> l, h >> l);
+      level_normal[l] = Image<Vec3f>(w >> l, h >> l);
+    }
+  }
+
+  static size_t voxel_count(const BackendSetup& setup) {
+    const size_t res = static_cast<size_t>(setup.volume_res_vox);
+    return res * res * res;
+  }
+  static size_t brick_count(const BackendSetup& setup) {
+    const size_t bricks = static_cast<size_t>(bricks_per_side(setup.volume_res_vox));
+    return bricks * bricks * bricks;
+  }
+
+  /// The volume and its brick flags as the kernels see them.
+  VolumeView volume_view() {
+    return VolumeView{volume.data(), volume_res_vox, volume_size_m, brick_touched.data()};
+  }
+
+  Image<float> depth_m;  ///< unfiltered compute-size depth, metres
+  std::array<Image<float>, kMaxPyramidLevels> level_depth;   ///< level 0: bilateral output
+  std::array<Image<Vec3f>, kMaxPyramidLevels> level_vertex;  ///< camera-frame vertices
+  std::array<Image<Vec3f>, kMaxPyramidLevels> level_normal;  ///< camera-frame normals
+  Image<Vec3f> ref_vertex;       ///< raycast vertices (volume frame): the ICP reference
+  Image<Vec3f> ref_normal;       ///< raycast normals (volume frame)
+  Image<int8_t> track_outcome;   ///< last level-0 ICP outcome per pixel
+  Array<Voxel> volume;           ///< res³ voxels, x fastest
+  Array<uint8_t> brick_touched;  ///< one flag per 8³ brick (VolumeView::brick_touched)
+  int volume_res_vox = 0;
+  float volume_size_m = 0.0f;
+};
+
+/// Throws kfx::Error unless `depth_mm` has the input size the backend was set up for.
+void check_depth_frame(const HostImage<uint16_t>& depth_mm, const BackendSetup& setup);
+
+}  // namespace kfx
