@@ -7,6 +7,7 @@
 
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
+#include "kernels/marching_cubes.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/track.hpp"
@@ -50,6 +51,16 @@ struct DepthToVertexBody {
 struct VertexToNormalBody {
   __device__ void operator()(int x, int y, const VertexToNormalArgs& a) const {
     vertex_to_normal_pixel(x, y, a);
+  }
+};
+struct McCountBody {
+  __device__ void operator()(int x, int y, const MarchingCubesArgs& a) const {
+    mc_count_column(x, y, a);
+  }
+};
+struct McWriteBody {
+  __device__ void operator()(int x, int y, const MarchingCubesArgs& a) const {
+    mc_write_column(x, y, a);
   }
 };
 struct RaycastBlockBody {
