@@ -54,10 +54,12 @@ KFX_HD inline bool mc_cell_valid(const VolumeView& v, int x, int y, int z) {
 /// Case index of cell (x, y, z): bit c set when corner c is inside (tsdf < 0); 0 for an
 /// invalid cell.
 KFX_HD inline int mc_cell_case(const VolumeView& v, int x, int y, int z) {
-  if (!mc_cell_valid(v, x, y, z)) return 0;
+  if (x < 0 || y < 0 || z < 0 || x >= v.res - 1 || y >= v.res - 1 || z >= v.res - 1) return 0;
   int pattern = 0;
   for (int c = 0; c < 8; ++c) {
-    if (v.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)).tsdf < 0) pattern |= 1 << c;
+    const Voxel corner = v.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1));
+    if (corner.weight <= 0) return 0;
+    if (corner.tsdf < 0) pattern |= 1 << c;
   }
   return pattern;
 }
