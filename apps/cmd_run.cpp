@@ -61,7 +61,13 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
 
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, reader.width_px(),
                     reader.height_px(), prepared.backend);
-  if (outputs.mesh) pipeline.backend().reserve_mesh_extraction();
+  if (outputs.mesh) {
+    if (pipeline.backend().name() == "cpu") {  // the GPU backend checks its own memory
+      output::check_host_memory(mesh_scratch_bytes(prepared.config.volume.resolution_vox),
+                                "mesh extraction's scratch buffers (use --no-mesh or a smaller -v)");
+    }
+    pipeline.backend().reserve_mesh_extraction();
+  }
   const int total_frames = reader.frame_count() < 0 ? options.max_frames
                            : options.max_frames > 0
                                ? std::min(options.max_frames, reader.frame_count())

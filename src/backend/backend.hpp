@@ -17,6 +17,7 @@
 #include "core/mesh.hpp"
 #include "core/volume.hpp"
 #include "kernels/frame_logic.hpp"
+#include "kernels/marching_cubes.hpp"
 #include "kernels/tracking_state.hpp"
 
 namespace kfx {
@@ -160,10 +161,10 @@ class Backend {
 };
 
 /// Scratch bytes mesh extraction needs for a res³ volume: one vertex offset per voxel and one
-/// triangle offset per column (the mesh itself comes on top).
+/// triangle offset per column segment (the mesh itself comes on top).
 inline size_t mesh_scratch_bytes(int res) {
   const size_t r = static_cast<size_t>(res);
-  return sizeof(uint32_t) * (r * r * r + 1 + r * r + 1);
+  return sizeof(uint32_t) * (r * r * r + 1 + kMcZChunks * r * r + 1);
 }
 
 /// Backend choice on the command line.

@@ -1,9 +1,11 @@
 #pragma once
-/// Marching cubes over the TSDF's zero crossing (Lorensen and Cline 1987), one voxel column
-/// (x, y) per call, in two passes that both backends run:
-///   1. mc_count_column: each voxel's count of owned vertices (0–3) and each column's triangle
-///      count; the backend turns both into exclusive prefix sums (voxel order, column order);
-///   2. mc_write_column: vertices at their voxel's offset, triangles at their column's offset.
+/// Marching cubes over the TSDF's zero crossing (Lorensen and Cline 1987), one segment of a
+/// voxel column per call (column (x, y), z slab `chunk` of kMcZChunks), in two passes that both
+/// backends run:
+///   1. mc_count_column: each voxel's count of owned vertices (0–3) and each segment's triangle
+///      count; the backend turns both into exclusive prefix sums (voxel order; segment order:
+///      slab, then column);
+///   2. mc_write_column: vertices at their voxel's offset, triangles at their segment's offset.
 /// A vertex belongs to the edge it lies on, and the edge to the voxel it starts from, so
 /// neighbouring cells share vertices; the output order depends on the volume alone, so the mesh
 /// is the same bytes run to run. Cells are the cubes between 8 voxel centres; a cell is meshed
@@ -26,11 +28,27 @@ struct MarchingCubesArgs {
   /// res³ + 1 entries: pass 1 writes each voxel's vertex count; pass 2 reads their exclusive
   /// prefix sum (entry res³ = the vertex total).
   uint32_t* vertex_offset;
-  /// res² + 1 entries, by column x + y·res: pass 1 writes triangle counts, pass 2 reads offsets.
+  /// kMcZChunks·res² + 1 entries, by segment (mc_segment): pass 1 writes triangle counts,
+  /// pass 2 reads their exclusive prefix sum.
   uint32_t* triangle_offset;
   MeshVertex* vertices;         ///< pass 2 output
   MeshTriangle* triangles;      ///< pass 2 output
 };
+
+/// Column segments per voxel column: z is cut into this many slabs so the GPU has enough
+/// threads (8·res² rather than res²); fixed, so both backends order triangles alike.
+constexpr int kMcZChunks = 8;
+
+/// Index of the segment of column (x, y) in z slab `chunk`: slab-major.
+KFX_HD inline long long mc_segment(int x, int y, int chunk, int res) {
+  return x + static_cast<long long>(y) * res + static_cast<long long>(chunk) * res * res;
+}
+
+/// First and one-past-last z of slab `chunk`.
+KFX_HD inline void mc_slab(int chunk, int res, int& z_begin, int& z_end) {
+  z_begin = chunk * res / kMcZChunks;
+  z_end = (chunk + 1) * res / kMcZChunks;
+}
 
 /// Crossing positions closer than this fraction of a voxel to a corner are moved to it, so
 /// vertices on different edges never coincide (no degenerate triangles); the shift, at most
@@ -121,11 +139,14 @@ KFX_HD inline MeshVertex mc_edge_vertex(const VolumeView& v, int x, int y, int z
   return out;
 }
 
-/// Pass 1 for column (x, y): every voxel's owned vertex count, and the column's triangle count.
-KFX_HD inline void mc_count_column(int x, int y, const MarchingCubesArgs& a) {
+/// Pass 1 for segment (x, y, chunk): every voxel's owned vertex count, and the segment's
+/// triangle count.
+KFX_HD inline void mc_count_column(int x, int y, int chunk, const MarchingCubesArgs& a) {
   const VolumeView& v = a.volume;
   uint32_t triangles = 0;
-  for (int z = 0; z < v.res; ++z) {
+  int z_begin = 0, z_end = 0;
+  mc_slab(chunk, v.res, z_begin, z_end);
+  for (int z = z_begin; z < z_end; ++z) {
     const long long voxel = x + static_cast<long long>(y) * v.res + static_cast<long long>(z) * v.res * v.res;
     // Fast path: a voxel without weight owns nothing and starts no valid cell.
     if (v.at(x, y, z).weight <= 0) {
@@ -135,7 +156,7 @@ KFX_HD inline void mc_count_column(int x, int y, const MarchingCubesArgs& a) {
     a.vertex_offset[voxel] = mc_owned_vertex_count(v, x, y, z);
     triangles += a.table->triangle_count[mc_cell_case(v, x, y, z)];
   }
-  a.triangle_offset[x + y * v.res] = triangles;
+  a.triangle_offset[mc_segment(x, y, chunk, v.res)] = triangles;
 }
 
 /// Index of the vertex on the edge from voxel (x, y, z) along `axis` (pass 2, after the scan):
@@ -148,11 +169,14 @@ KFX_HD inline int32_t mc_vertex_index(const MarchingCubesArgs& a, int x, int y, 
   return static_cast<int32_t>(index);
 }
 
-/// Pass 2 for column (x, y): writes the vertices its voxels own and the triangles of its cells.
-KFX_HD inline void mc_write_column(int x, int y, const MarchingCubesArgs& a) {
+/// Pass 2 for segment (x, y, chunk): writes the vertices its voxels own and the triangles of its
+/// cells.
+KFX_HD inline void mc_write_column(int x, int y, int chunk, const MarchingCubesArgs& a) {
   const VolumeView& v = a.volume;
-  uint32_t triangle = a.triangle_offset[x + y * v.res];
-  for (int z = 0; z < v.res; ++z) {
+  uint32_t triangle = a.triangle_offset[mc_segment(x, y, chunk, v.res)];
+  int z_begin = 0, z_end = 0;
+  mc_slab(chunk, v.res, z_begin, z_end);
+  for (int z = z_begin; z < z_end; ++z) {
     if (v.at(x, y, z).weight <= 0) continue;
     uint32_t vertex = a.vertex_offset[x + static_cast<long long>(y) * v.res +
                                       static_cast<long long>(z) * v.res * v.res];

@@ -221,7 +221,7 @@ class CpuBackend final : public Backend {
     const size_t r = static_cast<size_t>(setup_.volume_res_vox);
     try {
       mesh_vertex_offset_.assign(r * r * r + 1, 0);
-      mesh_triangle_offset_.assign(r * r + 1, 0);
+      mesh_triangle_offset_.assign(kMcZChunks * r * r + 1, 0);
     } catch (const std::bad_alloc&) {
       mesh_vertex_offset_ = {};
       KFX_FAIL("mesh extraction of a " << r << "^3 volume needs "
@@ -236,18 +236,22 @@ class CpuBackend final : public Backend {
     const int res = setup_.volume_res_vox;
     MarchingCubesArgs a{volume_view(), &kMcTable, mesh_vertex_offset_.data(),
                         mesh_triangle_offset_.data(), nullptr, nullptr};
-#pragma omp parallel for schedule(dynamic, 4)
-    for (int y = 0; y < res; ++y) {
-      for (int x = 0; x < res; ++x) mc_count_column(x, y, a);
+#pragma omp parallel for collapse(2) schedule(dynamic, 4)
+    for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
+      for (int y = 0; y < res; ++y) {
+        for (int x = 0; x < res; ++x) mc_count_column(x, y, chunk, a);
+      }
     }
     Mesh mesh;
     mesh.vertices.resize(exclusive_scan(mesh_vertex_offset_, "vertices"));
     mesh.triangles.resize(exclusive_scan(mesh_triangle_offset_, "triangles"));
     a.vertices = mesh.vertices.data();
     a.triangles = mesh.triangles.data();
-#pragma omp parallel for schedule(dynamic, 4)
-    for (int y = 0; y < res; ++y) {
-      for (int x = 0; x < res; ++x) mc_write_column(x, y, a);
+#pragma omp parallel for collapse(2) schedule(dynamic, 4)
+    for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
+      for (int y = 0; y < res; ++y) {
+        for (int x = 0; x < res; ++x) mc_write_column(x, y, chunk, a);
+      }
     }
     return mesh;
   }
@@ -293,7 +297,7 @@ class CpuBackend final : public Backend {
   std::vector<Voxel> volume_;
   std::vector<uint8_t> brick_touched_;
   std::vector<uint32_t> mesh_vertex_offset_;    ///< res³ + 1, allocated on first use
-  std::vector<uint32_t> mesh_triangle_offset_;  ///< res² + 1
+  std::vector<uint32_t> mesh_triangle_offset_;  ///< kMcZChunks·res² + 1
   TrackingState state_{};
   std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};

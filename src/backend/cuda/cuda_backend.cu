@@ -298,7 +298,7 @@ class CudaBackend final : public Backend {
   void reserve_mesh_extraction() override {
     if (mesh_vertex_count_.size() > 0) return;
     const size_t r = static_cast<size_t>(setup_.volume_res_vox);
-    const size_t voxels = r * r * r + 1, columns = r * r + 1;
+    const size_t voxels = r * r * r + 1, columns = kMcZChunks * r * r + 1;
     size_t scan_voxels_bytes = 0, scan_columns_bytes = 0;
     KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, scan_voxels_bytes,
                                                  static_cast<uint32_t*>(nullptr),
@@ -338,13 +338,15 @@ class CudaBackend final : public Backend {
     const int res = setup_.volume_res_vox;
     const int voxels = static_cast<int>(mesh_vertex_count_.size());
     const int columns = static_cast<int>(mesh_triangle_count_.size());
-    // Pass 1: counts per voxel and per column (in stream order after any submitted frame).
+    // Pass 1: counts per voxel and per column segment (in stream order after any submitted
+    // frame).
     MarchingCubesArgs a{volume_view(), mesh_table_.data(), mesh_vertex_count_.data(),
                         mesh_triangle_count_.data(), nullptr, nullptr};
     const dim3 block(32, 4);
-    launch(pixel_kernel<McCountBody, MarchingCubesArgs>, grid_for(res, res, block), block, a, res,
-           res);
-    // Compaction: exclusive sums give every voxel's first vertex and every column's first
+    dim3 grid = grid_for(res, res, block);
+    grid.z = kMcZChunks;
+    launch(marching_cubes_kernel<false>, grid, block, a);
+    // Compaction: exclusive sums give every voxel's first vertex and every segment's first
     // triangle (CUB's scan is deterministic: integer sums).
     size_t scan_bytes = mesh_scan_temp_.size();
     KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(mesh_scan_temp_.data(), scan_bytes,
@@ -376,8 +378,7 @@ class CudaBackend final : public Backend {
     a.triangle_offset = mesh_triangle_offset_.data();
     a.vertices = mesh_vertices_.data();
     a.triangles = mesh_triangles_.data();
-    launch(pixel_kernel<McWriteBody, MarchingCubesArgs>, grid_for(res, res, block), block, a, res,
-           res);
+    launch(marching_cubes_kernel<true>, grid, block, a);
     Mesh mesh;
     mesh.vertices.resize(vertex_total);
     mesh.triangles.resize(triangle_total);
@@ -504,7 +505,7 @@ class CudaBackend final : public Backend {
   // Mesh extraction, allocated on first use (reserve_mesh_extraction()).
   DeviceBuffer<uint32_t> mesh_vertex_count_;     ///< res³ + 1 per-voxel vertex counts
   DeviceBuffer<uint32_t> mesh_vertex_offset_;    ///< their exclusive sum
-  DeviceBuffer<uint32_t> mesh_triangle_count_;   ///< res² + 1 per-column triangle counts
+  DeviceBuffer<uint32_t> mesh_triangle_count_;   ///< kMcZChunks·res² + 1 per-segment counts
   DeviceBuffer<uint32_t> mesh_triangle_offset_;  ///< their exclusive sum
   DeviceBuffer<uint8_t> mesh_scan_temp_;
   DeviceBuffer<McTable> mesh_table_;
