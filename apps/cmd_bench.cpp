@@ -11,7 +11,7 @@
 
 #include "commands.hpp"
 #include "eval/report.hpp"
-#include "io/atomic_file.hpp"
+#include "output/stats_json.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -88,11 +88,7 @@ void bench(const BenchOptions& options) {
               median_of(pass_fps), options.repeat, frames.size(), all.tracked);
   if (j.contains("ate_rmse_m")) std::printf(", ATE RMSE %.3f cm", j["ate_rmse_m"].get<double>() * 100);
   std::printf("\n");
-  if (!options.json_path.empty()) {
-    io::AtomicFile file(options.json_path);
-    file.stream() << j.dump(2) << "\n";
-    file.commit();
-  }
+  if (!options.json_path.empty()) output::write_json_document(options.json_path, j);
 }
 
 }  // namespace

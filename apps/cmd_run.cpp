@@ -1,5 +1,6 @@
 /// `kfx run INPUT --out DIR`: the pipeline over a sequence, writing the trajectory, the
-/// SLAMBench-style log, statistics (with ATE when ground truth exists) and the configuration.
+/// SLAMBench-style log, statistics (with ATE when ground truth exists), the configuration, the
+/// mesh and, on request, the point cloud and the volume (writers in src/output/).
 
 #include <algorithm>
 #include <chrono>
@@ -12,8 +13,15 @@
 
 #include "commands.hpp"
 #include "eval/report.hpp"
-#include "io/atomic_file.hpp"
-#include "io/slambench_log.hpp"
+#include "output/cloud_ply.hpp"
+#include "output/host_memory.hpp"
+#include "output/mesh_output.hpp"
+#include "output/run_config.hpp"
+#include "output/run_folder.hpp"
+#include "output/run_trajectory.hpp"
+#include "output/slambench_log_writer.hpp"
+#include "output/stats_json.hpp"
+#include "output/volume_file.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -33,16 +41,33 @@ int count_valid_pixels(const HostImage<uint16_t>& depth_mm) {
                                          [](uint16_t d) { return d != 0; }));
 }
 
-void run(const RunOptions& options, const std::string& out_dir) {
+/// The outputs beyond the four every run writes.
+struct RunOutputs {
+  std::string dir;
+  bool mesh = true;          ///< mesh.ply
+  bool cloud = false;        ///< cloud.ply
+  bool save_volume = false;  ///< volume.kfxtsdf
+  bool overwrite = false;    ///< replace an earlier run's outputs in dir
+};
+
+void run(const RunOptions& options, const RunOutputs& outputs) {
+  const std::string& out_dir = outputs.dir;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
-  std::error_code ec;
-  fs::create_directories(out_dir, ec);
-  KFX_CHECK(!ec && fs::is_directory(out_dir), "cannot create output folder '" << out_dir << "'");
+  // Everything that can fail for want of room or permission fails here, before the run.
+  output::prepare_run_folder(out_dir, outputs.overwrite);
+  const size_t volume_bytes = output::volume_host_bytes(prepared.config.volume.resolution_vox);
+  if (outputs.save_volume) output::check_host_memory(volume_bytes, "--save-volume's host copy");
 
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, reader.width_px(),
                     reader.height_px(), prepared.backend);
-  const Vec3f initial = pipeline.initial_pose().translation_part();
+  if (outputs.mesh) {
+    if (pipeline.backend().name() == "cpu") {  // the GPU backend checks its own memory
+      output::check_host_memory(mesh_scratch_bytes(prepared.config.volume.resolution_vox),
+                                "mesh extraction's scratch buffers (use --no-mesh or a smaller -v)");
+    }
+    pipeline.backend().reserve_mesh_extraction();
+  }
   const int total_frames = reader.frame_count() < 0 ? options.max_frames
                            : options.max_frames > 0
                                ? std::min(options.max_frames, reader.frame_count())
@@ -53,11 +78,9 @@ void run(const RunOptions& options, const std::string& out_dir) {
               << pipeline.backend().device_name() << "), preset " << options.preset << "\n";
   }
 
-  io::AtomicFile log(out_dir + "/slambench.log");
-  io::write_slambench_log_header(log.stream());
+  output::SlambenchLogWriter log(out_dir + "/slambench.log", pipeline.initial_pose());
   RunSummary summary;
   std::vector<io::StampedPose> trajectory;
-  Mat4f pose_before = pipeline.initial_pose();
   int frames_with_depth = 0, skipped = 0;
   io::Frame frame;
   auto last_progress = Clock::now();
@@ -72,24 +95,9 @@ void run(const RunOptions& options, const std::string& out_dir) {
   auto finish = [&](const FrameReport& report) {
     const Submitted s = submitted.front();
     submitted.pop_front();
-    io::SlambenchLogLine line;
-    line.frame = report.index;
-    line.acquisition_s = s.acquisition_s;
-    line.preprocessing_s = report.stage_ms[static_cast<int>(Stage::kPreprocess)] / 1000.0;
-    line.tracking_s = report.stage_ms[static_cast<int>(Stage::kTrack)] / 1000.0;
-    line.integration_s = report.stage_ms[static_cast<int>(Stage::kIntegrate)] / 1000.0;
-    line.raycasting_s = report.stage_ms[static_cast<int>(Stage::kRaycast)] / 1000.0;
-    line.rendering_s = report.stage_ms[static_cast<int>(Stage::kRender)] / 1000.0;
-    const Vec3f p = pose_before.translation_part();  // SLAMBench logs the pose BEFORE the frame
-    line.x_m = p.x - initial.x;
-    line.y_m = p.y - initial.y;
-    line.z_m = p.z - initial.z;
-    line.tracked = report.tracked;
-    line.integrated = report.integrated;
-    io::write_slambench_log_line(log.stream(), line);
+    log.add(report, s.acquisition_s);
     trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
     summary.add(report);
-    pose_before = report.T_world_cam;
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
       std::cerr << "kfx run: frame " << summary.frames;
@@ -145,7 +153,7 @@ void run(const RunOptions& options, const std::string& out_dir) {
     try {
       const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth,
                                                       eval_options, "trajectory", "ground truth");
-      stats["ate"] = eval::to_json(result);
+      output::add_flat_evaluation(stats, result);
       if (!options.quiet) std::cerr << eval::format_report(result);
       summary.ate_rmse_m = result.ate.stats_m.rmse;
     } catch (const Error& e) {
@@ -155,31 +163,39 @@ void run(const RunOptions& options, const std::string& out_dir) {
   }
 
   // Outputs become visible only now, stats.json last: it marks a complete run.
-  {
-    io::AtomicFile config_file(out_dir + "/config.txt");
-    config_file.stream() << "# kfx " << KFX_VERSION << " configuration (preset "
-                         << options.preset << ")\n"
-                         << pipeline.config().dump();
-    config_file.commit();
+  std::string written = "trajectory.txt slambench.log stats.json config.txt";
+  if (outputs.mesh) {
+    const auto start = Clock::now();
+    const Mesh mesh = pipeline.backend().extract_mesh();
+    stats["mesh_extraction_s"] = seconds_since(start);
+    stats["mesh_vertices"] = mesh.vertices.size();
+    stats["mesh_triangles"] = mesh.triangles.size();
+    output::write_run_mesh(out_dir + "/mesh.ply", mesh, options.input, options.quiet);
+    written += " mesh.ply";
   }
-  const auto& k = pipeline.compute_intrinsics();
-  io::write_tum_trajectory(
-      out_dir + "/trajectory.txt", trajectory,
-      {"kfx " + std::string(KFX_VERSION) + " trajectory of " + options.input,
-       "pose AFTER each frame, camera to volume frame (first camera at " +
-           std::to_string(initial.x) + " " + std::to_string(initial.y) + " " +
-           std::to_string(initial.z) + " m), compute intrinsics " + std::to_string(k.fx) + " " +
-           std::to_string(k.fy) + " " + std::to_string(k.cx) + " " + std::to_string(k.cy),
-       "stamp tx ty tz qx qy qz qw"});
+  if (outputs.cloud) {
+    const DebugMaps maps = pipeline.backend().read_maps();
+    stats["cloud_points"] = output::write_cloud_ply(
+        out_dir + "/cloud.ply", maps.ref_vertex, maps.ref_normal,
+        "kfx " + std::string(KFX_VERSION) + " last raycast of " + options.input +
+            ", volume frame (as trajectory.txt), metres");
+    written += " cloud.ply";
+  }
+  if (outputs.save_volume) {
+    output::SavedVolume volume;
+    volume.res = pipeline.config().volume.resolution_vox;
+    volume.size_m = pipeline.config().volume.size_m;
+    volume.voxels = pipeline.backend().read_volume();
+    output::write_volume_file(out_dir + "/volume.kfxtsdf", volume);
+    written += " volume.kfxtsdf";
+  }
+  output::write_run_config(out_dir + "/config.txt", pipeline.config(), options.preset);
+  output::write_run_trajectory(out_dir + "/trajectory.txt", trajectory, options.input,
+                               pipeline.initial_pose(), pipeline.compute_intrinsics());
   log.commit();
-  {
-    io::AtomicFile stats_file(out_dir + "/stats.json");
-    stats_file.stream() << stats.dump(2) << "\n";
-    stats_file.commit();
-  }
+  output::write_json_document(out_dir + "/stats.json", stats);
   std::cout << summary.one_line() << "\n"
-            << "outputs in " << out_dir
-            << ": trajectory.txt slambench.log stats.json config.txt\n";
+            << "outputs in " << out_dir << ": " << written << "\n";
 }
 
 }  // namespace
@@ -187,10 +203,18 @@ void run(const RunOptions& options, const std::string& out_dir) {
 void add_run_command(CLI::App& app) {
   auto* command = app.add_subcommand("run", "run KinectFusion over a sequence");
   auto options = std::make_shared<RunOptions>();
-  auto out_dir = std::make_shared<std::string>();
+  auto outputs = std::make_shared<RunOutputs>();
   add_run_options(*command, *options);
-  command->add_option("-o,--out", *out_dir, "output folder")->required();
-  command->callback([options, out_dir] { run(*options, *out_dir); });
+  command->add_option("-o,--out", outputs->dir, "output folder")->required();
+  command->add_flag("--overwrite", outputs->overwrite,
+                    "replace an earlier run in the output folder (removes kfx's own outputs "
+                    "there first)");
+  command->add_flag("!--no-mesh", outputs->mesh, "do not write mesh.ply");
+  command->add_flag("--cloud", outputs->cloud,
+                    "also write cloud.ply (points and normals of the last raycast)");
+  command->add_flag("--save-volume", outputs->save_volume,
+                    "also write the TSDF as volume.kfxtsdf (for kfx mesh)");
+  command->callback([options, outputs] { run(*options, *outputs); });
 }
 
 }  // namespace kfx::cli

@@ -61,7 +61,8 @@ TEST_F(CliTest, GoodRunWritesCompleteOutputs) {
   std::ifstream stats_file(out / "stats.json");
   const auto stats = nlohmann::json::parse(stats_file);
   EXPECT_EQ(stats["frames"], 12);
-  EXPECT_TRUE(stats.contains("ate"));
+  EXPECT_TRUE(stats.contains("ate_rmse_m"));
+  EXPECT_EQ(stats["schema_version"], 2);
   EXPECT_GT(stats["frames_per_second"].get<double>(), 0.0);
   std::ifstream trajectory(out / "trajectory.txt");
   int poses = 0;

@@ -14,12 +14,14 @@
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "core/mesh.hpp"
 #include "core/volume.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/track.hpp"
+#include "kernels/marching_cubes.hpp"
 #include "kernels/tracking_state.hpp"
 
 namespace kfx {
@@ -114,7 +116,25 @@ class Backend {
   virtual DebugMaps read_maps() = 0;
   /// Host copy of the whole volume (slow; tests and mesh export).
   virtual std::vector<Voxel> read_volume() = 0;
+
+  /// Allocates what extract_mesh() needs beyond the mesh itself (mesh_scratch_bytes()), so a
+  /// volume too large to mesh fails before a run rather than after it; throws kfx::Error
+  /// naming the sizes. extract_mesh() calls it when needed.
+  virtual void reserve_mesh_extraction() = 0;
+  /// Marching cubes over the current volume (kernels/marching_cubes.hpp): the mesh on the
+  /// host, in the volume frame (metres), the same bytes run to run.
+  virtual Mesh extract_mesh() = 0;
+  /// Replaces the volume by `voxels` (res³ of them, x fastest), e.g. a saved volume; marks
+  /// every brick touched.
+  virtual void upload_volume(const std::vector<Voxel>& voxels) = 0;
 };
+
+/// Scratch bytes mesh extraction needs for a res³ volume: one vertex offset per voxel and one
+/// triangle offset per column segment (the mesh itself comes on top).
+inline size_t mesh_scratch_bytes(int res) {
+  const size_t r = static_cast<size_t>(res);
+  return sizeof(uint32_t) * (r * r * r + 1 + kMcZChunks * r * r + 1);
+}
 
 /// Backend choice on the command line.
 enum class BackendKind { kCpu, kCuda, kAuto };

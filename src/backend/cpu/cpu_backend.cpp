@@ -6,12 +6,14 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
+#include <new>
 #include <fstream>
 #include <thread>
 
 #include "backend/backend.hpp"
 #include "backend/frame_buffers.hpp"
 #include "kernels/integrate.hpp"
+#include "kernels/marching_cubes.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/track.hpp"
@@ -204,11 +206,75 @@ class CpuBackend final : public Backend {
   }
   std::vector<Voxel> read_volume() override { return buffers_.volume; }
 
+  void reserve_mesh_extraction() override {
+    if (!mesh_vertex_offset_.empty()) return;
+    const size_t r = static_cast<size_t>(setup_.volume_res_vox);
+    try {
+      mesh_vertex_offset_.assign(r * r * r + 1, 0);
+      mesh_triangle_offset_.assign(kMcZChunks * r * r + 1, 0);
+    } catch (const std::bad_alloc&) {
+      mesh_vertex_offset_ = {};
+      KFX_FAIL("mesh extraction of a " << r << "^3 volume needs "
+                                       << mesh_scratch_bytes(setup_.volume_res_vox) / double(1 << 30)
+                                       << " GiB of host memory beyond the volume, which could "
+                                          "not be allocated (use --no-mesh or a smaller -v)");
+    }
+  }
+
+  Mesh extract_mesh() override {
+    reserve_mesh_extraction();
+    const int res = setup_.volume_res_vox;
+    MarchingCubesArgs a{buffers_.volume_view(), &kMcTable, mesh_vertex_offset_.data(),
+                        mesh_triangle_offset_.data(), nullptr, nullptr};
+#pragma omp parallel for collapse(2) schedule(dynamic, 4)
+    for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
+      for (int y = 0; y < res; ++y) {
+        for (int x = 0; x < res; ++x) mc_count_column(x, y, chunk, a);
+      }
+    }
+    Mesh mesh;
+    mesh.vertices.resize(exclusive_scan(mesh_vertex_offset_, "vertices"));
+    mesh.triangles.resize(exclusive_scan(mesh_triangle_offset_, "triangles"));
+    a.vertices = mesh.vertices.data();
+    a.triangles = mesh.triangles.data();
+#pragma omp parallel for collapse(2) schedule(dynamic, 4)
+    for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
+      for (int y = 0; y < res; ++y) {
+        for (int x = 0; x < res; ++x) mc_write_column(x, y, chunk, a);
+      }
+    }
+    return mesh;
+  }
+
+  void upload_volume(const std::vector<Voxel>& voxels) override {
+    KFX_CHECK(voxels.size() == buffers_.volume.size(),
+              "volume of " << voxels.size() << " voxels given, the backend holds "
+                           << buffers_.volume.size());
+    std::copy(voxels.begin(), voxels.end(), buffers_.volume.begin());
+    std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 1);
+  }
+
  private:
+  /// Exclusive prefix sum in place over all but the last entry, which receives the total.
+  static size_t exclusive_scan(std::vector<uint32_t>& counts, const char* what) {
+    uint64_t total = 0;
+    for (size_t i = 0; i + 1 < counts.size(); ++i) {
+      const uint32_t count = counts[i];
+      counts[i] = static_cast<uint32_t>(total);
+      total += count;
+    }
+    KFX_CHECK(total <= 0x7fffffffu, "the mesh has " << total << " " << what
+                                                    << ", more than PLY's int indices address");
+    counts.back() = static_cast<uint32_t>(total);
+    return static_cast<size_t>(total);
+  }
+
   BackendSetup setup_;
   HostImage<uint16_t> input_mm_;
   FrameBuffers<HostImage, HostArray> buffers_;
   std::vector<double> row_partials_;
+  std::vector<uint32_t> mesh_vertex_offset_;    ///< res³ + 1, allocated on first use
+  std::vector<uint32_t> mesh_triangle_offset_;  ///< kMcZChunks·res² + 1
   TrackingState state_{};
   std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};

@@ -1,0 +1,201 @@
+#pragma once
+/// Marching cubes over the TSDF's zero crossing (Lorensen and Cline 1987), one segment of a
+/// voxel column per call (column (x, y), z slab `chunk` of kMcZChunks), in two passes that both
+/// backends run:
+///   1. mc_count_column: each voxel's count of owned vertices (0–3) and each segment's triangle
+///      count; the backend turns both into exclusive prefix sums (voxel order; segment order:
+///      slab, then column);
+///   2. mc_write_column: vertices at their voxel's offset, triangles at their segment's offset.
+/// A vertex belongs to the edge it lies on, and the edge to the voxel it starts from, so
+/// neighbouring cells share vertices; the output order depends on the volume alone, so the mesh
+/// is the same bytes run to run. Cells are the cubes between 8 voxel centres; a cell is meshed
+/// only when all 8 corners have weight > 0. Positions are in the volume frame (metres), the
+/// frame trajectory.txt uses.
+
+#include <cstdint>
+
+#include "core/math.hpp"
+#include "core/mesh.hpp"
+#include "core/volume.hpp"
+#include "kernels/marching_cubes_table.hpp"
+
+namespace kfx {
+
+/// Arguments of both marching-cubes passes.
+struct MarchingCubesArgs {
+  VolumeView volume;            ///< read only
+  const McTable* table;         ///< kMcTable (a device copy on the GPU)
+  /// res³ + 1 entries: pass 1 writes each voxel's vertex count; pass 2 reads their exclusive
+  /// prefix sum (entry res³ = the vertex total).
+  uint32_t* vertex_offset;
+  /// kMcZChunks·res² + 1 entries, by segment (mc_segment): pass 1 writes triangle counts,
+  /// pass 2 reads their exclusive prefix sum.
+  uint32_t* triangle_offset;
+  MeshVertex* vertices;         ///< pass 2 output
+  MeshTriangle* triangles;      ///< pass 2 output
+};
+
+/// Column segments per voxel column: z is cut into this many slabs so the GPU has enough
+/// threads (8·res² rather than res²); fixed, so both backends order triangles alike.
+constexpr int kMcZChunks = 8;
+
+/// Index of the segment of column (x, y) in z slab `chunk`: slab-major.
+KFX_HD inline long long mc_segment(int x, int y, int chunk, int res) {
+  return x + static_cast<long long>(y) * res + static_cast<long long>(chunk) * res * res;
+}
+
+/// First and one-past-last z of slab `chunk`.
+KFX_HD inline void mc_slab(int chunk, int res, int& z_begin, int& z_end) {
+  z_begin = chunk * res / kMcZChunks;
+  z_end = (chunk + 1) * res / kMcZChunks;
+}
+
+/// Crossing positions closer than this fraction of a voxel to a corner are moved to it, so
+/// vertices on different edges never coincide (no degenerate triangles); the shift, at most
+/// 1/64 voxel, is far below the TSDF's own error.
+constexpr float kMcMinEdgeFraction = 1.0f / 64.0f;
+
+/// True when voxel (x, y, z) lies inside the volume.
+KFX_HD inline bool mc_in_volume(const VolumeView& v, int x, int y, int z) {
+  return x >= 0 && y >= 0 && z >= 0 && x < v.res && y < v.res && z < v.res;
+}
+
+/// True when the cell with lower corner (x, y, z) exists and all its 8 corners have weight > 0.
+KFX_HD inline bool mc_cell_valid(const VolumeView& v, int x, int y, int z) {
+  if (x < 0 || y < 0 || z < 0 || x >= v.res - 1 || y >= v.res - 1 || z >= v.res - 1) return false;
+  for (int c = 0; c < 8; ++c) {
+    if (v.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)).weight <= 0) return false;
+  }
+  return true;
+}
+
+/// Case index of cell (x, y, z): bit c set when corner c is inside (tsdf < 0); 0 for an
+/// invalid cell.
+KFX_HD inline int mc_cell_case(const VolumeView& v, int x, int y, int z) {
+  if (x < 0 || y < 0 || z < 0 || x >= v.res - 1 || y >= v.res - 1 || z >= v.res - 1) return 0;
+  int pattern = 0;
+  for (int c = 0; c < 8; ++c) {
+    const Voxel corner = v.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1));
+    if (corner.weight <= 0) return 0;
+    if (corner.tsdf < 0) pattern |= 1 << c;
+  }
+  return pattern;
+}
+
+/// True when the edge from voxel (x, y, z) along `axis` carries a vertex: it crosses the zero
+/// level between two weighted voxels and belongs to at least one valid cell.
+KFX_HD inline bool mc_edge_has_vertex(const VolumeView& v, int x, int y, int z, int axis) {
+  const int nx = x + (axis == 0), ny = y + (axis == 1), nz = z + (axis == 2);
+  if (!mc_in_volume(v, nx, ny, nz)) return false;
+  const Voxel a = v.at(x, y, z), b = v.at(nx, ny, nz);
+  if (a.weight <= 0 || b.weight <= 0 || (a.tsdf < 0) == (b.tsdf < 0)) return false;
+  // The four cells around the edge have lower corners offset by 0 or −1 on the other axes.
+  for (int k = 0; k < 4; ++k) {
+    const int d1 = -(k & 1), d2 = -(k >> 1);
+    const int cx = x + (axis == 0 ? 0 : d1);
+    const int cy = y + (axis == 1 ? 0 : (axis == 0 ? d1 : d2));
+    const int cz = z + (axis == 2 ? 0 : d2);
+    if (mc_cell_valid(v, cx, cy, cz)) return true;
+  }
+  return false;
+}
+
+/// Vertices owned by voxel (x, y, z): one per axis whose edge carries one.
+KFX_HD inline uint32_t mc_owned_vertex_count(const VolumeView& v, int x, int y, int z) {
+  return static_cast<uint32_t>(mc_edge_has_vertex(v, x, y, z, 0)) +
+         mc_edge_has_vertex(v, x, y, z, 1) + mc_edge_has_vertex(v, x, y, z, 2);
+}
+
+/// Stored tsdf as a float, the voxel index clamped into the volume.
+KFX_HD inline float mc_tsdf_clamped(const VolumeView& v, int x, int y, int z) {
+  const int last = v.res - 1;
+  return static_cast<float>(
+      v.at(mini(maxi(x, 0), last), mini(maxi(y, 0), last), mini(maxi(z, 0), last)).tsdf);
+}
+
+/// Central-difference tsdf gradient at voxel (x, y, z) (stored units per voxel, unnormalised).
+KFX_HD inline Vec3f mc_voxel_gradient(const VolumeView& v, int x, int y, int z) {
+  return {mc_tsdf_clamped(v, x + 1, y, z) - mc_tsdf_clamped(v, x - 1, y, z),
+          mc_tsdf_clamped(v, x, y + 1, z) - mc_tsdf_clamped(v, x, y - 1, z),
+          mc_tsdf_clamped(v, x, y, z + 1) - mc_tsdf_clamped(v, x, y, z - 1)};
+}
+
+/// The vertex on the edge from voxel (x, y, z) along `axis` (which must carry one): the zero
+/// of the tsdf interpolated linearly along the edge, and the unit normal from the tsdf
+/// gradient interpolated the same way (it points to free space, where the tsdf grows).
+KFX_HD inline MeshVertex mc_edge_vertex(const VolumeView& v, int x, int y, int z, int axis) {
+  const int nx = x + (axis == 0), ny = y + (axis == 1), nz = z + (axis == 2);
+  const float a = v.at(x, y, z).tsdf, b = v.at(nx, ny, nz).tsdf;
+  const float t = min_f(max_f(a / (a - b), kMcMinEdgeFraction), 1.0f - kMcMinEdgeFraction);
+  const float vox = v.voxel_m();
+  MeshVertex out;
+  out.p_m = {(x + 0.5f + (axis == 0 ? t : 0.0f)) * vox, (y + 0.5f + (axis == 1 ? t : 0.0f)) * vox,
+             (z + 0.5f + (axis == 2 ? t : 0.0f)) * vox};
+  const Vec3f ga = mc_voxel_gradient(v, x, y, z), gb = mc_voxel_gradient(v, nx, ny, nz);
+  const Vec3f g{ga.x + t * (gb.x - ga.x), ga.y + t * (gb.y - ga.y), ga.z + t * (gb.z - ga.z)};
+  const float length = sqrtf(g.x * g.x + g.y * g.y + g.z * g.z);
+  const float inv = length > 0.0f ? 1.0f / length : 0.0f;
+  out.normal = {g.x * inv, g.y * inv, g.z * inv};
+  return out;
+}
+
+/// Pass 1 for segment (x, y, chunk): every voxel's owned vertex count, and the segment's
+/// triangle count.
+KFX_HD inline void mc_count_column(int x, int y, int chunk, const MarchingCubesArgs& a) {
+  const VolumeView& v = a.volume;
+  uint32_t triangles = 0;
+  int z_begin = 0, z_end = 0;
+  mc_slab(chunk, v.res, z_begin, z_end);
+  for (int z = z_begin; z < z_end; ++z) {
+    const long long voxel = x + static_cast<long long>(y) * v.res + static_cast<long long>(z) * v.res * v.res;
+    // Fast path: a voxel without weight owns nothing and starts no valid cell.
+    if (v.at(x, y, z).weight <= 0) {
+      a.vertex_offset[voxel] = 0;
+      continue;
+    }
+    a.vertex_offset[voxel] = mc_owned_vertex_count(v, x, y, z);
+    triangles += a.table->triangle_count[mc_cell_case(v, x, y, z)];
+  }
+  a.triangle_offset[mc_segment(x, y, chunk, v.res)] = triangles;
+}
+
+/// Index of the vertex on the edge from voxel (x, y, z) along `axis` (pass 2, after the scan):
+/// the voxel's offset plus the vertices it owns on lower axes.
+KFX_HD inline int32_t mc_vertex_index(const MarchingCubesArgs& a, int x, int y, int z, int axis) {
+  const VolumeView& v = a.volume;
+  uint32_t index = a.vertex_offset[x + static_cast<long long>(y) * v.res +
+                                   static_cast<long long>(z) * v.res * v.res];
+  for (int lower = 0; lower < axis; ++lower) index += mc_edge_has_vertex(v, x, y, z, lower);
+  return static_cast<int32_t>(index);
+}
+
+/// Pass 2 for segment (x, y, chunk): writes the vertices its voxels own and the triangles of its
+/// cells.
+KFX_HD inline void mc_write_column(int x, int y, int chunk, const MarchingCubesArgs& a) {
+  const VolumeView& v = a.volume;
+  uint32_t triangle = a.triangle_offset[mc_segment(x, y, chunk, v.res)];
+  int z_begin = 0, z_end = 0;
+  mc_slab(chunk, v.res, z_begin, z_end);
+  for (int z = z_begin; z < z_end; ++z) {
+    if (v.at(x, y, z).weight <= 0) continue;
+    uint32_t vertex = a.vertex_offset[x + static_cast<long long>(y) * v.res +
+                                      static_cast<long long>(z) * v.res * v.res];
+    for (int axis = 0; axis < 3; ++axis) {
+      if (mc_edge_has_vertex(v, x, y, z, axis)) a.vertices[vertex++] = mc_edge_vertex(v, x, y, z, axis);
+    }
+    const int pattern = mc_cell_case(v, x, y, z);
+    const int count = a.table->triangle_count[pattern];
+    for (int t = 0; t < count; ++t) {
+      MeshTriangle out;
+      for (int k = 0; k < 3; ++k) {
+        const int edge = a.table->edges[pattern][3 * t + k];
+        const int c = mc_edge_lower_corner(edge);
+        out.v[k] = mc_vertex_index(a, x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1),
+                                   mc_edge_axis(edge));
+      }
+      a.triangles[triangle++] = out;
+    }
+  }
+}
+
+}  // namespace kfx

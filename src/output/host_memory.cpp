@@ -1,0 +1,36 @@
+#include "output/host_memory.hpp"
+
+#include <fstream>
+#include <sstream>
+
+#include "core/platform.hpp"
+#include "core/volume.hpp"
+
+namespace kfx::output {
+
+size_t volume_host_bytes(int res) {
+  const size_t r = static_cast<size_t>(res);
+  return r * r * r * sizeof(Voxel);
+}
+
+size_t available_host_bytes() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string line;
+  while (std::getline(meminfo, line)) {
+    if (line.rfind("MemAvailable:", 0) != 0) continue;
+    std::istringstream fields(line.substr(13));
+    size_t kib = 0;
+    if (fields >> kib) return kib * 1024;
+  }
+  return 0;
+}
+
+void check_host_memory(size_t bytes, const std::string& what) {
+  const size_t available = available_host_bytes();
+  if (available == 0) return;
+  constexpr double kGiB = 1024.0 * 1024.0 * 1024.0;
+  KFX_CHECK(bytes < available, what << " needs " << bytes / kGiB << " GiB of host memory, "
+                                    << available / kGiB << " GiB are available");
+}
+
+}  // namespace kfx::output

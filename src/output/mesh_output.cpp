@@ -1,0 +1,21 @@
+#include "output/mesh_output.hpp"
+
+#include <iostream>
+
+#include "output/mesh_ply.hpp"
+
+namespace kfx::output {
+
+void write_run_mesh(const std::string& path, const Mesh& mesh, const std::string& source,
+                    bool quiet) {
+  if (mesh.triangles.empty() && !quiet) {
+    std::cerr << "kfx: note: the volume holds no surface (no cell with all 8 corners observed "
+                 "crosses zero); "
+              << path << " is a valid PLY with no faces\n";
+  }
+  write_mesh_ply(path, mesh,
+                 "kfx " + std::string(KFX_VERSION) + " mesh of " + source +
+                     ", volume frame (as trajectory.txt), metres");
+}
+
+}  // namespace kfx::output

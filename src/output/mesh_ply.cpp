@@ -1,0 +1,114 @@
+#include "output/mesh_ply.hpp"
+
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "core/platform.hpp"
+#include "io/binary_output_file.hpp"
+
+namespace kfx::output {
+namespace {
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "the PLY writer copies floats and ints as they lie in memory (little-endian)");
+
+/// Bytes of one face record: the uchar count 3 and three int32 indices.
+constexpr size_t kFaceBytes = 1 + 3 * sizeof(int32_t);
+
+std::string ply_header(size_t vertices, size_t faces, const std::string& comment) {
+  std::ostringstream h;
+  h << "ply\nformat binary_little_endian 1.0\n";
+  if (!comment.empty()) h << "comment " << comment << "\n";
+  h << "element vertex " << vertices << "\n"
+    << "property float x\nproperty float y\nproperty float z\n"
+    << "property float nx\nproperty float ny\nproperty float nz\n"
+    << "element face " << faces << "\n"
+    << "property list uchar int vertex_indices\n"
+    << "end_header\n";
+  return h.str();
+}
+
+}  // namespace
+
+void write_mesh_ply(const std::string& path, const Mesh& mesh, const std::string& comment) {
+  KFX_CHECK(comment.find('\n') == std::string::npos, "PLY comment must be one line");
+  io::BinaryOutputFile file(path, "mesh");
+  const std::string header = ply_header(mesh.vertices.size(), mesh.triangles.size(), comment);
+  std::fwrite(header.data(), 1, header.size(), file.file());
+  if (!mesh.vertices.empty()) {
+    std::fwrite(mesh.vertices.data(), sizeof(MeshVertex), mesh.vertices.size(), file.file());
+  }
+  // Faces in chunks: each is 13 bytes, so they are packed into a buffer first.
+  std::vector<unsigned char> buffer;
+  constexpr size_t kChunk = 1 << 16;
+  for (size_t begin = 0; begin < mesh.triangles.size(); begin += kChunk) {
+    const size_t end = std::min(mesh.triangles.size(), begin + kChunk);
+    buffer.resize((end - begin) * kFaceBytes);
+    unsigned char* out = buffer.data();
+    for (size_t i = begin; i < end; ++i) {
+      *out++ = 3;
+      std::memcpy(out, mesh.triangles[i].v, 3 * sizeof(int32_t));
+      out += 3 * sizeof(int32_t);
+    }
+    std::fwrite(buffer.data(), 1, buffer.size(), file.file());
+  }
+  file.commit();
+}
+
+Mesh read_mesh_ply(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  KFX_CHECK(in, "cannot open mesh '" << path << "'");
+  // Header: the lines write_mesh_ply writes, comments anywhere.
+  const char* expected[] = {"ply", "format binary_little_endian 1.0", "element vertex",
+                            "property float x", "property float y", "property float z",
+                            "property float nx", "property float ny", "property float nz",
+                            "element face", "property list uchar int vertex_indices",
+                            "end_header"};
+  size_t vertices = 0, faces = 0;
+  std::string line;
+  for (const char* want : expected) {
+    do {
+      KFX_CHECK(std::getline(in, line), path << ": PLY header ends before '" << want << "'");
+    } while (line.rfind("comment", 0) == 0);
+    const std::string w = want;
+    if (w == "element vertex" || w == "element face") {
+      KFX_CHECK(line.rfind(w + " ", 0) == 0, path << ": expected '" << w << " N', found '" << line << "'");
+      std::istringstream count(line.substr(w.size() + 1));
+      size_t n = 0;
+      KFX_CHECK(count >> n && count.eof(), path << ": bad count in '" << line << "'");
+      (w == "element vertex" ? vertices : faces) = n;
+    } else {
+      KFX_CHECK(line == w, path << ": expected '" << w << "', found '" << line << "'");
+    }
+  }
+  Mesh mesh;
+  const std::streamoff data_start = in.tellg();
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff want = data_start + static_cast<std::streamoff>(vertices * sizeof(MeshVertex) +
+                                                                        faces * kFaceBytes);
+  KFX_CHECK(size == want, path << ": " << size << " bytes, the header announces " << want);
+  in.seekg(data_start);
+  mesh.vertices.resize(vertices);
+  in.read(reinterpret_cast<char*>(mesh.vertices.data()),
+          static_cast<std::streamsize>(vertices * sizeof(MeshVertex)));
+  mesh.triangles.resize(faces);
+  for (size_t i = 0; i < faces; ++i) {
+    unsigned char count = 0;
+    in.read(reinterpret_cast<char*>(&count), 1);
+    KFX_CHECK(count == 3, path << ": face " << i << " has " << int(count) << " vertices, not 3");
+    in.read(reinterpret_cast<char*>(mesh.triangles[i].v), 3 * sizeof(int32_t));
+    for (int k = 0; k < 3; ++k) {
+      KFX_CHECK(mesh.triangles[i].v[k] >= 0 && static_cast<size_t>(mesh.triangles[i].v[k]) < vertices,
+                path << ": face " << i << " names vertex " << mesh.triangles[i].v[k] << " of "
+                     << vertices);
+    }
+  }
+  KFX_CHECK(in, path << ": truncated");
+  return mesh;
+}
+
+}  // namespace kfx::output

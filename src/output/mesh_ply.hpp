@@ -1,0 +1,19 @@
+#pragma once
+/// The mesh as a PLY file (binary little-endian): `float x y z nx ny nz` per vertex and faces
+/// as `list uchar int vertex_indices`, the form MeshLab, CloudCompare, Open3D and Blender read.
+
+#include <string>
+
+#include "core/mesh.hpp"
+
+namespace kfx::output {
+
+/// Writes `mesh` to `path` (under a temporary name, renamed when complete). `comment` goes
+/// into the header (one line, e.g. the frame and units). Throws kfx::Error naming the file.
+void write_mesh_ply(const std::string& path, const Mesh& mesh, const std::string& comment);
+
+/// Reads a PLY written by write_mesh_ply (exactly that layout; comments allowed). Throws
+/// kfx::Error naming the file and the problem otherwise.
+Mesh read_mesh_ply(const std::string& path);
+
+}  // namespace kfx::output

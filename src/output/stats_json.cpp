@@ -1,0 +1,35 @@
+#include "output/stats_json.hpp"
+
+#include "io/atomic_file.hpp"
+
+namespace kfx::output {
+
+void add_flat_evaluation(nlohmann::json& out, const eval::EvalResult& r) {
+  const eval::ErrorStats& a = r.ate.stats_m;
+  out["ate_rmse_m"] = a.rmse;
+  out["ate_mean_m"] = a.mean;
+  out["ate_median_m"] = a.median;
+  out["ate_std_m"] = a.std;
+  out["ate_min_m"] = a.min;
+  out["ate_max_m"] = a.max;
+  out["ate_pairs"] = a.count;
+  out["ate_flip_y"] = r.options.flip_y;
+  const eval::ErrorStats& c = r.checkpos.stats_m;
+  out["checkpos_rmse_m"] = c.rmse;
+  out["checkpos_mean_m"] = c.mean;
+  out["checkpos_max_m"] = c.max;
+  const eval::ErrorStats& t = r.rpe.trans_m;
+  out["rpe_delta_frames"] = r.rpe.delta_frames;
+  out["rpe_translation_rmse_m"] = t.rmse;
+  out["rpe_translation_median_m"] = t.median;
+  out["rpe_rotation_rmse_deg"] = r.rpe.rot_deg.rmse;
+}
+
+void write_json_document(const std::string& path, nlohmann::json document) {
+  document["schema_version"] = kJsonSchemaVersion;
+  io::AtomicFile file(path);
+  file.stream() << document.dump(2) << "\n";
+  file.commit();
+}
+
+}  // namespace kfx::output

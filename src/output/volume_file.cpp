@@ -1,0 +1,85 @@
+#include "output/volume_file.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "core/platform.hpp"
+#include "io/binary_output_file.hpp"
+
+namespace kfx::output {
+namespace {
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "volume files are copied as they lie in memory (little-endian)");
+static_assert(sizeof(Voxel) == 4, "a voxel is two int16");
+
+constexpr char kMagic[8] = {'K', 'F', 'X', 'T', 'S', 'D', 'F', '\0'};
+/// Largest resolution accepted when reading (2048³ voxels are 32 GiB).
+constexpr uint32_t kMaxResolution = 2048;
+
+}  // namespace
+
+void write_volume_file(const std::string& path, const SavedVolume& v) {
+  const size_t count = static_cast<size_t>(v.res) * v.res * v.res;
+  KFX_CHECK(v.voxels.size() == count,
+            path << ": " << v.voxels.size() << " voxels for resolution " << v.res);
+  io::BinaryOutputFile file(path, "volume");
+  unsigned char header[kVolumeHeaderBytes];
+  const uint32_t version = kVolumeFileVersion, res = static_cast<uint32_t>(v.res);
+  std::memcpy(header, kMagic, 8);
+  std::memcpy(header + 8, &version, 4);
+  std::memcpy(header + 12, &res, 4);
+  std::memcpy(header + 16, &v.size_m, 4);
+  std::memcpy(header + 20, v.T_trajectory_volume.m, 64);
+  std::fwrite(header, 1, sizeof(header), file.file());
+  std::fwrite(v.voxels.data(), sizeof(Voxel), v.voxels.size(), file.file());
+  file.commit();
+}
+
+SavedVolume read_volume_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  KFX_CHECK(in, "cannot open volume '" << path << "'");
+  unsigned char header[kVolumeHeaderBytes];
+  in.read(reinterpret_cast<char*>(header), sizeof(header));
+  KFX_CHECK(in.gcount() == static_cast<std::streamsize>(sizeof(header)),
+            path << ": not a kfx volume (shorter than its " << kVolumeHeaderBytes << "-byte header)");
+  KFX_CHECK(std::memcmp(header, kMagic, 8) == 0, path << ": not a kfx volume (bad magic)");
+  uint32_t version = 0, res = 0;
+  SavedVolume v;
+  std::memcpy(&version, header + 8, 4);
+  std::memcpy(&res, header + 12, 4);
+  std::memcpy(&v.size_m, header + 16, 4);
+  std::memcpy(v.T_trajectory_volume.m, header + 20, 64);
+  KFX_CHECK(version == kVolumeFileVersion,
+            path << ": volume format version " << version << ", this kfx reads "
+                 << kVolumeFileVersion);
+  KFX_CHECK(res >= 2 && res <= kMaxResolution,
+            path << ": resolution " << res << " outside 2 to " << kMaxResolution);
+  KFX_CHECK(std::isfinite(v.size_m) && v.size_m > 0,
+            path << ": volume size " << v.size_m << " m is not a positive number");
+  for (const auto& row : v.T_trajectory_volume.m) {
+    for (float x : row) KFX_CHECK(std::isfinite(x), path << ": frame transform is not finite");
+  }
+  v.res = static_cast<int>(res);
+  const size_t count = static_cast<size_t>(res) * res * res;
+  in.seekg(0, std::ios::end);
+  const std::streamoff size = in.tellg();
+  const std::streamoff want = static_cast<std::streamoff>(kVolumeHeaderBytes + count * sizeof(Voxel));
+  KFX_CHECK(size == want, path << ": " << size << " bytes, a " << res << "^3 volume has " << want);
+  in.seekg(static_cast<std::streamoff>(kVolumeHeaderBytes));
+  v.voxels.resize(count);
+  in.read(reinterpret_cast<char*>(v.voxels.data()),
+          static_cast<std::streamsize>(count * sizeof(Voxel)));
+  KFX_CHECK(in, path << ": cannot read the voxels");
+  return v;
+}
+
+bool any_observed(const std::vector<Voxel>& voxels) {
+  for (const Voxel& v : voxels) {
+    if (v.weight > 0) return true;
+  }
+  return false;
+}
+
+}  // namespace kfx::output

@@ -1,0 +1,46 @@
+#pragma once
+/// A saved TSDF volume (`volume.kfxtsdf`, docs/outputs.md), all little-endian:
+///
+///   offset  size  field
+///        0     8  magic "KFXTSDF\0"
+///        8     4  uint32 format version (1)
+///       12     4  uint32 resolution: voxels per side, res
+///       16     4  float32 size_m: side of the cube in metres
+///       20    64  float32[4][4] T_trajectory_volume, row-major: maps volume-frame points (metres,
+///                 voxel (x, y, z) centred at ((x, y, z) + 0.5) · size_m / res) into the frame
+///                 of trajectory.txt; kfx's trajectory is in the volume frame, so it is identity
+///       84  4·res³  voxels, x fastest then y then z: int16 tsdf (value · 32766, in [−1, 1] of
+///                 the truncation distance), int16 weight (0 = never observed)
+
+#include <string>
+#include <vector>
+
+#include "core/math.hpp"
+#include "core/volume.hpp"
+
+namespace kfx::output {
+
+/// Current format version of volume files.
+constexpr uint32_t kVolumeFileVersion = 1;
+/// Bytes before the voxels.
+constexpr size_t kVolumeHeaderBytes = 84;
+
+/// A TSDF volume on the host with what is needed to place it.
+struct SavedVolume {
+  int res = 0;
+  float size_m = 0.0f;
+  Mat4f T_trajectory_volume = Mat4f::identity();
+  std::vector<Voxel> voxels;  ///< res³
+};
+
+/// Writes `volume` to `path` (temporary name, renamed when complete).
+void write_volume_file(const std::string& path, const SavedVolume& volume);
+
+/// Reads a volume file; throws kfx::Error naming the file and the problem (magic, version,
+/// resolution, size, length).
+SavedVolume read_volume_file(const std::string& path);
+
+/// True when any voxel has weight > 0 (something was integrated).
+bool any_observed(const std::vector<Voxel>& voxels);
+
+}  // namespace kfx::output
