@@ -14,6 +14,7 @@
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
 #include "io/slambench_log.hpp"
+#include "output/renders.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -33,7 +34,12 @@ int count_valid_pixels(const HostImage<uint16_t>& depth_mm) {
                                          [](uint16_t d) { return d != 0; }));
 }
 
-void run(const RunOptions& options, const std::string& out_dir) {
+/// Outputs of `kfx run` beyond the shared run options.
+struct RunOutputs {
+  bool renders = false;  ///< --renders: PNG renders every render_rate frames
+};
+
+void run(const RunOptions& options, const std::string& out_dir, const RunOutputs& outputs) {
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
   std::error_code ec;
@@ -42,6 +48,7 @@ void run(const RunOptions& options, const std::string& out_dir) {
 
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, reader.width_px(),
                     reader.height_px(), prepared.backend);
+  pipeline.set_rendering(outputs.renders);
   const Vec3f initial = pipeline.initial_pose().translation_part();
   const int total_frames = reader.frame_count() < 0 ? options.max_frames
                            : options.max_frames > 0
@@ -89,6 +96,7 @@ void run(const RunOptions& options, const std::string& out_dir) {
     io::write_slambench_log_line(log.stream(), line);
     trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
     summary.add(report);
+    if (report.rendered) output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
     pose_before = report.T_world_cam;
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
@@ -114,8 +122,10 @@ void run(const RunOptions& options, const std::string& out_dir) {
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
     submitted.push_back(Submitted{frame.stamp_s, acquisition_s});
+    const bool renders_now = pipeline.renders(pipeline.frame_count());
     pipeline.submit(frame.depth_mm);
-    if (pipeline.frames_in_flight() > 1) finish(pipeline.collect());
+    // A rendering frame is collected at once: its renders are read before the next submit.
+    while (pipeline.frames_in_flight() > (renders_now ? 0 : 1)) finish(pipeline.collect());
   }
   while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
@@ -188,9 +198,13 @@ void add_run_command(CLI::App& app) {
   auto* command = app.add_subcommand("run", "run KinectFusion over a sequence");
   auto options = std::make_shared<RunOptions>();
   auto out_dir = std::make_shared<std::string>();
+  auto outputs = std::make_shared<RunOutputs>();
   add_run_options(*command, *options);
   command->add_option("-o,--out", *out_dir, "output folder")->required();
-  command->callback([options, out_dir] { run(*options, *out_dir); });
+  command->add_flag("--renders", outputs->renders,
+                    "write SLAMBench's depth, track and volume renders as PNG under DIR/renders/ "
+                    "every render_rate (-z) frames");
+  command->callback([options, out_dir, outputs] { run(*options, *out_dir, *outputs); });
 }
 
 }  // namespace kfx::cli

@@ -88,6 +88,23 @@ struct RaycastParams {
   int block_y_px = 1;
 };
 
+/// Parameters of the renders (SLAMBench's renderDepth, renderTrack, renderVolume).
+struct RenderParams {
+  float depth_near_m = 0.4f;       ///< depth colour map: white below
+  float depth_far_m = 4.0f;        ///< depth colour map: black beyond
+  bool tracked_this_frame = true;  ///< false: the track picture shows "not tracked" everywhere
+  RaycastParams volume_ray;        ///< the volume picture's camera (k) and march; blocks unused
+  Vec3f light_m{1.0f, 1.0f, -1.0f};  ///< point light in the volume frame
+  float ambient = 0.1f;
+};
+
+/// Host copies of the three renders (compute size, opaque RGBA).
+struct Renders {
+  HostImage<Rgba8> depth;
+  HostImage<Rgba8> track;
+  HostImage<Rgba8> volume;
+};
+
 /// Host copies of the maps a renderer or a test wants to look at.
 struct DebugMaps {
   HostImage<float> depth_m;             ///< unfiltered compute-size depth
@@ -131,6 +148,9 @@ class Backend {
   virtual void integrate(const IntegrateParams& params, bool always) = 0;
   /// Raycasts the volume from the current pose; it becomes the ICP reference view.
   virtual void raycast(const RaycastParams& params) = 0;
+  /// Renders the current frame's depth, ICP outcomes and the volume seen from the current pose
+  /// into the backend's render images (visual only; timed as Stage::kRender).
+  virtual void render(const RenderParams& params) = 0;
   /// Waits for the oldest submitted frame not read yet and returns its state after the frame
   /// (frame_stage_ms() then gives that frame's stage times).
   virtual TrackingState read_state() = 0;
@@ -143,6 +163,8 @@ class Backend {
 
   /// Host copies of the intermediate maps (slow; tests and renders).
   virtual DebugMaps read_maps() = 0;
+  /// Host copies of the last render() (waits for it).
+  virtual Renders read_renders() = 0;
   /// Host copy of the whole volume (slow; tests and mesh export).
   virtual std::vector<Voxel> read_volume() = 0;
 };

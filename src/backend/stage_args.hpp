@@ -9,6 +9,7 @@
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
+#include "kernels/render.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx {
@@ -78,6 +79,39 @@ inline RaycastArgs make_raycast_args(VolumeView volume, ImageView<Vec3f> vertex,
   a.two_value_interp = p.two_value_interp;
   a.block_x_px = p.block_x_px;
   a.block_y_px = p.block_y_px;
+  return a;
+}
+
+/// renderDepth of the unfiltered depth into `out`.
+inline RenderDepthArgs make_render_depth_args(ImageView<const float> depth, ImageView<Rgba8> out,
+                                              const RenderParams& p) {
+  RenderDepthArgs a;
+  a.depth_m = depth;
+  a.out = out;
+  a.near_m = p.depth_near_m;
+  a.far_m = p.depth_far_m;
+  return a;
+}
+
+/// renderTrack of the level-0 ICP outcomes into `out`.
+inline RenderTrackArgs make_render_track_args(ImageView<const int8_t> outcome,
+                                              ImageView<Rgba8> out, const RenderParams& p) {
+  RenderTrackArgs a;
+  a.outcome = outcome;
+  a.out = out;
+  a.tracked_this_frame = p.tracked_this_frame;
+  return a;
+}
+
+/// renderVolume from the current pose into `out` (the march writes no vertex or normal map).
+inline RenderVolumeArgs make_render_volume_args(VolumeView volume, ImageView<Rgba8> out,
+                                                const TrackingState* state, const RenderParams& p) {
+  RenderVolumeArgs a;
+  a.ray = make_raycast_args(volume, ImageView<Vec3f>{}, ImageView<Vec3f>{}, state, p.volume_ray);
+  a.k = p.volume_ray.k;
+  a.out = out;
+  a.light_m = p.light_m;
+  a.ambient = p.ambient;
   return a;
 }
 

@@ -14,6 +14,7 @@
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
+#include "kernels/render.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx {
@@ -54,6 +55,9 @@ class CpuBackend final : public Backend {
     ref_vertex_ = HostImage<Vec3f>(w, h);
     ref_normal_ = HostImage<Vec3f>(w, h, Vec3f{kInvalidNormal, 0, 0});
     track_outcome_ = HostImage<int8_t>(w, h);
+    render_depth_ = HostImage<Rgba8>(w, h);
+    render_track_ = HostImage<Rgba8>(w, h);
+    render_volume_ = HostImage<Rgba8>(w, h);
     row_partials_.assign(static_cast<size_t>(h) * kAccumulatorSize, 0.0);
     volume_.assign(static_cast<size_t>(setup.volume_res_vox) * setup.volume_res_vox *
                        setup.volume_res_vox,
@@ -188,6 +192,20 @@ class CpuBackend final : public Backend {
     }
   }
 
+  void render(const RenderParams& p) override {
+    const int w = depth_m_.width(), h = depth_m_.height();
+    const RenderDepthArgs d = make_render_depth_args(depth_m_.view(), render_depth_.view(), p);
+    for_each_pixel(w, h, [&](int x, int y) { render_depth_pixel(x, y, d); });
+    const RenderTrackArgs t = make_render_track_args(track_outcome_.view(), render_track_.view(), p);
+    for_each_pixel(w, h, [&](int x, int y) { render_track_pixel(x, y, t); });
+    const RenderVolumeArgs v =
+        make_render_volume_args(volume_view(), render_volume_.view(), &state_, p);
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) render_volume_pixel(x, y, v);
+    }
+  }
+
   TrackingState read_state() override {
     KFX_CHECK(!finished_.empty(), "read_state() without a submitted frame");
     const FinishedFrame frame = finished_.front();
@@ -212,6 +230,7 @@ class CpuBackend final : public Backend {
   DebugMaps read_maps() override {
     return DebugMaps{depth_m_, level_depth_[0], ref_vertex_, ref_normal_, track_outcome_};
   }
+  Renders read_renders() override { return Renders{render_depth_, render_track_, render_volume_}; }
   std::vector<Voxel> read_volume() override { return volume_; }
 
  private:
@@ -229,6 +248,7 @@ class CpuBackend final : public Backend {
   HostImage<Vec3f> ref_vertex_;
   HostImage<Vec3f> ref_normal_;
   HostImage<int8_t> track_outcome_;
+  HostImage<Rgba8> render_depth_, render_track_, render_volume_;
   std::vector<double> row_partials_;
   std::vector<Voxel> volume_;
   std::vector<uint8_t> brick_touched_;

@@ -70,6 +70,9 @@ class CudaBackend final : public Backend {
     ref_vertex_ = DeviceBuffer<Vec3f>(static_cast<size_t>(w) * h);
     ref_normal_ = DeviceBuffer<Vec3f>(static_cast<size_t>(w) * h);
     track_outcome_ = DeviceBuffer<int8_t>(static_cast<size_t>(w) * h);
+    render_depth_ = DeviceBuffer<Rgba8>(static_cast<size_t>(w) * h);
+    render_track_ = DeviceBuffer<Rgba8>(static_cast<size_t>(w) * h);
+    render_volume_ = DeviceBuffer<Rgba8>(static_cast<size_t>(w) * h);
     // Tuning (bench only): KFX_CUDA_REDUCE_BLOCKS caps the ICP reduction grid,
     // KFX_CUDA_Z_CHUNKS splits each integration column into that many z-ranges.
     const char* blocks_env = std::getenv("KFX_CUDA_REDUCE_BLOCKS");
@@ -81,6 +84,8 @@ class CudaBackend final : public Backend {
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
+    // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
+    KFX_CUDA_CHECK(cudaMemsetAsync(track_outcome_.data(), 0, track_outcome_.bytes(), stream_.get()));
     const long long voxels = static_cast<long long>(setup.volume_res_vox) *
                              setup.volume_res_vox * setup.volume_res_vox;
     volume_ = DeviceBuffer<Voxel>(static_cast<size_t>(voxels));
@@ -252,6 +257,22 @@ class CudaBackend final : public Backend {
     launch(pixel_kernel<RaycastBlockBody, RaycastArgs>, grid_for(w, h, block), block, a, w, h);
   }
 
+  void render(const RenderParams& p) override {
+    if (replaying_) return;
+    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
+    const dim3 block(32, 8);
+    const RenderDepthArgs d = make_render_depth_args(depth_view(), rgba_view(render_depth_), p);
+    launch(pixel_kernel<RenderDepthBody, RenderDepthArgs>, grid_for(w, h, block), block, d, w, h);
+    const RenderTrackArgs t = make_render_track_args(
+        ImageView<const int8_t>{track_outcome_.data(), w, h, w}, rgba_view(render_track_), p);
+    launch(pixel_kernel<RenderTrackBody, RenderTrackArgs>, grid_for(w, h, block), block, t, w, h);
+    const RenderVolumeArgs v =
+        make_render_volume_args(volume_view(), rgba_view(render_volume_), state_.data(), p);
+    const dim3 ray_block(16, 8);
+    launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
+           v, w, h);
+  }
+
   TrackingState read_state() override {
     KFX_CHECK(!pending_.empty(), "read_state() without a submitted frame");
     const int parity = pending_.front();
@@ -282,6 +303,13 @@ class CudaBackend final : public Backend {
     maps.ref_normal = download(ref_normal_, w, h);
     maps.track_outcome = download(track_outcome_, w, h);
     return maps;
+  }
+
+  Renders read_renders() override {
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
+    return Renders{download(render_depth_, w, h), download(render_track_, w, h),
+                   download(render_volume_, w, h)};
   }
 
   std::vector<Voxel> read_volume() override {
@@ -357,6 +385,10 @@ class CudaBackend final : public Backend {
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     return {buffer.data(), w, h, w};
   }
+  ImageView<Rgba8> rgba_view(const DeviceBuffer<Rgba8>& buffer) const {
+    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
+    return {buffer.data(), w, h, w};
+  }
   VolumeView volume_view() const {
     return VolumeView{volume_.data(), setup_.volume_res_vox, setup_.volume_size_m,
                       brick_touched_.data()};
@@ -381,6 +413,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<Vec3f> ref_vertex_;
   DeviceBuffer<Vec3f> ref_normal_;
   DeviceBuffer<int8_t> track_outcome_;
+  DeviceBuffer<Rgba8> render_depth_, render_track_, render_volume_;
   int reduce_blocks_ = 1;
   int z_chunks_ = 16;
   DeviceBuffer<double> partials_;

@@ -9,6 +9,7 @@
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
+#include "kernels/render.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx::cuda {
@@ -54,6 +55,21 @@ struct VertexToNormalBody {
 };
 struct RaycastBlockBody {
   __device__ void operator()(int x, int y, const RaycastArgs& a) const { raycast_block(x, y, a); }
+};
+struct RenderDepthBody {
+  __device__ void operator()(int x, int y, const RenderDepthArgs& a) const {
+    render_depth_pixel(x, y, a);
+  }
+};
+struct RenderTrackBody {
+  __device__ void operator()(int x, int y, const RenderTrackArgs& a) const {
+    render_track_pixel(x, y, a);
+  }
+};
+struct RenderVolumeBody {
+  __device__ void operator()(int x, int y, const RenderVolumeArgs& a) const {
+    render_volume_pixel(x, y, a);
+  }
 };
 
 /// mm → metres, and the frame's largest depth (block max, then one atomic per block; a max is
