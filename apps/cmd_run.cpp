@@ -15,6 +15,7 @@
 #include "io/atomic_file.hpp"
 #include "io/slambench_log.hpp"
 #include "output/renders.hpp"
+#include "output/report_html.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -37,6 +38,7 @@ int count_valid_pixels(const HostImage<uint16_t>& depth_mm) {
 /// Outputs of `kfx run` beyond the shared run options.
 struct RunOutputs {
   bool renders = false;  ///< --renders: PNG renders every render_rate frames
+  bool report = true;    ///< report.html (--no-report: none)
 };
 
 void run(const RunOptions& options, const std::string& out_dir, const RunOutputs& outputs) {
@@ -182,10 +184,23 @@ void run(const RunOptions& options, const std::string& out_dir, const RunOutputs
            std::to_string(k.fy) + " " + std::to_string(k.cx) + " " + std::to_string(k.cy),
        "stamp tx ty tz qx qy qz qw"});
   log.commit();
+  // The ground truth the run was evaluated against, so the folder alone can plot against it.
+  if (!prepared.ground_truth.empty()) {
+    io::write_tum_trajectory(out_dir + "/groundtruth.txt", prepared.ground_truth,
+                             {"ground truth of " + options.input + " (the dataset's frame)",
+                              "stamp tx ty tz qx qy qz qw"});
+  }
   {
     io::AtomicFile stats_file(out_dir + "/stats.json");
     stats_file.stream() << stats.dump(2) << "\n";
     stats_file.commit();
+  }
+  if (outputs.report) {
+    try {
+      output::write_report(out_dir);
+    } catch (const Error& e) {
+      std::cerr << "kfx run: warning: no report.html: " << e.what() << "\n";
+    }
   }
   std::cout << summary.one_line() << "\n"
             << "outputs in " << out_dir
@@ -204,6 +219,7 @@ void add_run_command(CLI::App& app) {
   command->add_flag("--renders", outputs->renders,
                     "write SLAMBench's depth, track and volume renders as PNG under DIR/renders/ "
                     "every render_rate (-z) frames");
+  command->add_flag("!--no-report", outputs->report, "do not write report.html");
   command->callback([options, out_dir, outputs] { run(*options, *out_dir, *outputs); });
 }
 

@@ -17,6 +17,8 @@ void add_bench_command(CLI::App& app);
 void add_settings_command(CLI::App& app);
 /// `kfx sweep PLAN.json --out DIR`: a plan of configurations over sequences, resumable; CSV/JSON.
 void add_sweep_command(CLI::App& app);
+/// `kfx report DIR`: report.html (summary, plots, renders, 3D view) from a finished run's folder.
+void add_report_command(CLI::App& app);
 /// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
 void add_convert_command(CLI::App& app);
 
