@@ -98,7 +98,9 @@ void run(const RunOptions& options, const std::string& out_dir, const RunOutputs
     io::write_slambench_log_line(log.stream(), line);
     trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
     summary.add(report);
-    if (report.rendered) output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
+    if (report.rendered) {
+      output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
+    }
     pose_before = report.T_world_cam;
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();

@@ -53,7 +53,8 @@ TEST(RenderDepth, HueWheelIsContinuousAndStaysInRange) {
   Rgba8 previous = depth_colour(0.0f);
   for (int i = 1; i <= 1000; ++i) {
     const Rgba8 c = depth_colour(i / 1000.0f);
-    EXPECT_LE(std::abs(c.r - previous.r) + std::abs(c.g - previous.g) + std::abs(c.b - previous.b), 6)
+    EXPECT_LE(std::abs(c.r - previous.r) + std::abs(c.g - previous.g) + std::abs(c.b - previous.b),
+              6)
         << i;
     EXPECT_GE(std::min({c.r, c.g, c.b}), 63);
     EXPECT_LE(std::max({c.r, c.g, c.b}), 191);
@@ -62,8 +63,13 @@ TEST(RenderDepth, HueWheelIsContinuousAndStaysInRange) {
 }
 
 TEST(RenderTrack, EachOutcomeHasItsColour) {
-  const int outcomes[] = {kTrackInlier,         kTrackNoInputNormal, kTrackOutsideReference,
-                          kTrackNoReferenceNormal, kTrackTooFar,    kTrackNormalMismatch, 0};
+  const int outcomes[] = {kTrackInlier,
+                          kTrackNoInputNormal,
+                          kTrackOutsideReference,
+                          kTrackNoReferenceNormal,
+                          kTrackTooFar,
+                          kTrackNormalMismatch,
+                          0};
   const Rgba8 expected[] = {{128, 128, 128, 255}, {0, 0, 0, 255},   {255, 0, 0, 255},
                             {0, 255, 0, 255},     {0, 0, 255, 255}, {255, 255, 0, 255},
                             {255, 128, 128, 255}};
@@ -74,7 +80,8 @@ TEST(RenderTrack, EachOutcomeHasItsColour) {
   a.outcome = outcome.view();
   a.out = out.view();
   for (int x = 0; x < 7; ++x) render_track_pixel(x, 0, a);
-  for (int x = 0; x < 7; ++x) EXPECT_TRUE(same(out(x, 0), expected[x])) << x << ": " << str(out(x, 0));
+  for (int x = 0; x < 7; ++x)
+    EXPECT_TRUE(same(out(x, 0), expected[x])) << x << ": " << str(out(x, 0));
   // A frame that was not tracked shows "not tracked" whatever the stale outcomes say.
   a.tracked_this_frame = false;
   for (int x = 0; x < 7; ++x) render_track_pixel(x, 0, a);
@@ -95,8 +102,10 @@ struct WallScene {
     for (int z = 0; z < res; ++z) {
       for (int y = 0; y < res; ++y) {
         for (int x = 0; x < res; ++x) {
-          const float sdf = empty ? 1.0f : std::max(-1.0f, std::min(1.0f, (1.0f - v.centre_m(x, y, z).z) / mu_m));
-          v.at(x, y, z) = Voxel{static_cast<int16_t>(sdf * kTsdfScale), empty ? int16_t{0} : int16_t{1}};
+          const float sdf =
+              empty ? 1.0f : std::max(-1.0f, std::min(1.0f, (1.0f - v.centre_m(x, y, z).z) / mu_m));
+          v.at(x, y, z) =
+              Voxel{static_cast<int16_t>(sdf * kTsdfScale), empty ? int16_t{0} : int16_t{1}};
         }
       }
     }
@@ -144,8 +153,10 @@ TEST(RenderVolume, EmptyVolumeIsBlack) {
 TEST(RunRenders, WritesThreePngsEveryRenderRateFramesAndTimesThemAsRendering) {
   const fs::path out = fs::temp_directory_path() / "kfx_run_renders";
   fs::remove_all(out);
-  const auto r = test::run_kfx("run synthetic:frames=11,width=160,height=120 --backend cpu -q -z 4 "
-                               "--renders --out " + out.string());
+  const auto r = test::run_kfx(
+      "run synthetic:frames=11,width=160,height=120 --backend cpu -q -z 4 "
+      "--renders --out " +
+      out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   for (int f = 0; f < 11; ++f) {
     for (const char* kind : {"depth", "track", "volume"}) {

@@ -52,7 +52,8 @@ class ReportTest : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("kfx_report_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("kfx_report_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -118,8 +119,8 @@ std::string read_text(const fs::path& path) {
 
 TEST_F(ReportTest, RunWritesTheReportAndGroundTruthUnlessAskedNot) {
   const fs::path out = dir_ / "run";
-  const auto r = test::run_kfx("run synthetic:frames=6,width=160,height=120 --backend cpu -q --out " +
-                               out.string());
+  const auto r = test::run_kfx(
+      "run synthetic:frames=6,width=160,height=120 --backend cpu -q --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   ASSERT_TRUE(fs::exists(out / "report.html"));
   EXPECT_TRUE(fs::exists(out / "groundtruth.txt"));
@@ -142,7 +143,10 @@ TEST_F(ReportTest, RunWritesTheReportAndGroundTruthUnlessAskedNot) {
 
   const fs::path quiet = dir_ / "no_report";
   ASSERT_EQ(test::run_kfx("run synthetic:frames=6,width=160,height=120 --backend cpu -q "
-                          "--no-report --out " + quiet.string()).exit_code, 0);
+                          "--no-report --out " +
+                          quiet.string())
+                .exit_code,
+            0);
   EXPECT_FALSE(fs::exists(quiet / "report.html"));
   EXPECT_TRUE(fs::exists(quiet / "stats.json"));
 }

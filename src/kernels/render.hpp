@@ -7,8 +7,8 @@
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "kernels/raycast.hpp"
-#include "kernels/tracking_state.hpp"
 #include "kernels/track.hpp"
+#include "kernels/tracking_state.hpp"
 
 namespace kfx {
 
@@ -27,13 +27,20 @@ KFX_HD inline Rgba8 depth_colour(float h) {
   const float vsf = v * sv * (h - static_cast<float>(sextant));
   const float mid1 = m + vsf, mid2 = v - vsf;
   switch (sextant) {
-    case 0: return rgba_from_unit(v, mid1, m);
-    case 1: return rgba_from_unit(mid2, v, m);
-    case 2: return rgba_from_unit(m, v, mid1);
-    case 3: return rgba_from_unit(m, mid2, v);
-    case 4: return rgba_from_unit(mid1, m, v);
-    case 5: return rgba_from_unit(v, m, mid2);
-    default: return rgba_from_unit(v, m, m);  // h = 1 (d = far): the wheel closes on red
+    case 0:
+      return rgba_from_unit(v, mid1, m);
+    case 1:
+      return rgba_from_unit(mid2, v, m);
+    case 2:
+      return rgba_from_unit(m, v, mid1);
+    case 3:
+      return rgba_from_unit(m, mid2, v);
+    case 4:
+      return rgba_from_unit(mid1, m, v);
+    case 5:
+      return rgba_from_unit(v, m, mid2);
+    default:
+      return rgba_from_unit(v, m, m);  // h = 1 (d = far): the wheel closes on red
   }
 }
 
@@ -65,13 +72,20 @@ KFX_HD inline void render_depth_pixel(int x, int y, const RenderDepthArgs& a) {
 /// mismatch yellow; anything else (0: the pixel was not tracked this frame) pink.
 KFX_HD inline Rgba8 track_colour(int outcome) {
   switch (outcome) {
-    case kTrackInlier: return Rgba8{128, 128, 128, 255};
-    case kTrackNoInputNormal: return Rgba8{0, 0, 0, 255};
-    case kTrackOutsideReference: return Rgba8{255, 0, 0, 255};
-    case kTrackNoReferenceNormal: return Rgba8{0, 255, 0, 255};
-    case kTrackTooFar: return Rgba8{0, 0, 255, 255};
-    case kTrackNormalMismatch: return Rgba8{255, 255, 0, 255};
-    default: return Rgba8{255, 128, 128, 255};
+    case kTrackInlier:
+      return Rgba8{128, 128, 128, 255};
+    case kTrackNoInputNormal:
+      return Rgba8{0, 0, 0, 255};
+    case kTrackOutsideReference:
+      return Rgba8{255, 0, 0, 255};
+    case kTrackNoReferenceNormal:
+      return Rgba8{0, 255, 0, 255};
+    case kTrackTooFar:
+      return Rgba8{0, 0, 255, 255};
+    case kTrackNormalMismatch:
+      return Rgba8{255, 255, 0, 255};
+    default:
+      return Rgba8{255, 128, 128, 255};
   }
 }
 
@@ -79,7 +93,7 @@ KFX_HD inline Rgba8 track_colour(int outcome) {
 struct RenderTrackArgs {
   ImageView<const int8_t> outcome;  ///< level-0 ICP outcome per compute pixel
   ImageView<Rgba8> out;
-  bool tracked_this_frame = true;   ///< false: outcomes are stale, every pixel is "not tracked"
+  bool tracked_this_frame = true;  ///< false: outcomes are stale, every pixel is "not tracked"
 };
 
 /// renderTrack: one pixel's last level-0 ICP outcome as its colour.
@@ -89,8 +103,8 @@ KFX_HD inline void render_track_pixel(int x, int y, const RenderTrackArgs& a) {
 
 /// Arguments of render_volume_pixel.
 struct RenderVolumeArgs {
-  RaycastArgs ray;           ///< volume and march settings (vertex/normal views unused)
-  Intrinsics k;              ///< compute-size intrinsics
+  RaycastArgs ray;  ///< volume and march settings (vertex/normal views unused)
+  Intrinsics k;     ///< compute-size intrinsics
   ImageView<Rgba8> out;
   Vec3f light_m{1.0f, 1.0f, -1.0f};  ///< point light in the volume frame (SLAMBench's)
   float ambient = 0.1f;              ///< added to every lit component

@@ -14,10 +14,17 @@ namespace kfx::output {
 ViewMesh read_view_mesh(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   KFX_CHECK(in, "cannot open mesh '" << path << "'");
-  const char* expected[] = {"ply", "format binary_little_endian 1.0", "element vertex",
-                            "property float x", "property float y", "property float z",
-                            "property float nx", "property float ny", "property float nz",
-                            "element face", "property list uchar int vertex_indices",
+  const char* expected[] = {"ply",
+                            "format binary_little_endian 1.0",
+                            "element vertex",
+                            "property float x",
+                            "property float y",
+                            "property float z",
+                            "property float nx",
+                            "property float ny",
+                            "property float nz",
+                            "element face",
+                            "property list uchar int vertex_indices",
                             "end_header"};
   size_t vertices = 0, faces = 0;
   std::string line;
@@ -95,7 +102,8 @@ ViewMesh cluster(const ViewMesh& mesh, const float origin[3], float cell_m) {
   }
   out.positions_m.resize(sums.size());
   for (size_t v = 0; v < counts.size(); ++v) {
-    for (int a = 0; a < 3; ++a) out.positions_m[3 * v + a] = static_cast<float>(sums[3 * v + a] / counts[v]);
+    for (int a = 0; a < 3; ++a)
+      out.positions_m[3 * v + a] = static_cast<float>(sums[3 * v + a] / counts[v]);
   }
   for (size_t t = 0; t < mesh.triangle_count(); ++t) {
     const uint32_t a = remap[mesh.triangles[3 * t]], b = remap[mesh.triangles[3 * t + 1]],

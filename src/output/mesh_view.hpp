@@ -15,7 +15,7 @@ struct ViewMesh {
   std::vector<uint32_t> triangles;  ///< three vertex indices per triangle
   size_t source_vertices = 0;       ///< counts in mesh.ply, before thinning
   size_t source_triangles = 0;
-  float cell_m = 0.0f;              ///< clustering cell size; 0 when not thinned
+  float cell_m = 0.0f;  ///< clustering cell size; 0 when not thinned
   size_t vertex_count() const { return positions_m.size() / 3; }
   size_t triangle_count() const { return triangles.size() / 3; }
 };

@@ -43,7 +43,8 @@ std::string base64(const void* data, size_t size) {
   std::string out;
   out.reserve((size + 2) / 3 * 4);
   for (size_t i = 0; i < size; i += 3) {
-    const unsigned v = (p[i] << 16) | (i + 1 < size ? p[i + 1] << 8 : 0) | (i + 2 < size ? p[i + 2] : 0);
+    const unsigned v =
+        (p[i] << 16) | (i + 1 < size ? p[i + 1] << 8 : 0) | (i + 2 < size ? p[i + 2] : 0);
     out += kDigits[(v >> 18) & 63];
     out += kDigits[(v >> 12) & 63];
     out += i + 1 < size ? kDigits[(v >> 6) & 63] : '=';
@@ -74,7 +75,8 @@ std::map<std::string, std::vector<double>> read_slambench_log(const std::string&
     std::istringstream header(line);
     for (std::string name; header >> name;) names.push_back(name);
   }
-  KFX_CHECK(!names.empty() && names[0] == "frame", path << ": not a SLAMBench log header: " << line);
+  KFX_CHECK(!names.empty() && names[0] == "frame",
+            path << ": not a SLAMBench log header: " << line);
   std::map<std::string, std::vector<double>> columns;
   int line_number = 1;
   while (std::getline(in, line)) {
@@ -131,7 +133,8 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
   const auto gt = io::read_tum_trajectory(gt_path);
   eval::EvalOptions options;
   if (stats.contains("ate")) options.flip_y = stats["ate"].value("flip_y", false);
-  const eval::EvalResult r = eval::evaluate_trajectories(est, gt, options, "trajectory.txt", gt_path);
+  const eval::EvalResult r =
+      eval::evaluate_trajectories(est, gt, options, "trajectory.txt", gt_path);
   result.has_ground_truth = true;
   Eigen::Matrix3Xd est_m, gt_m;
   eval::paired_positions(est, gt, r.association, options.flip_y, &est_m, &gt_m);
@@ -154,8 +157,9 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
   t["est_frames"] = est_frames;
   t["gt"] = gt_path_json;
   t["errors_m"] = errors;
-  t["note"] = std::string("estimate aligned onto the ground truth as for the ATE (rigid, no scale") +
-              (options.flip_y ? ", estimate y flipped)" : ")");
+  t["note"] =
+      std::string("estimate aligned onto the ground truth as for the ATE (rigid, no scale") +
+      (options.flip_y ? ", estimate y flipped)" : ")");
   return t;
 }
 
@@ -189,17 +193,19 @@ json renders_data(const std::string& run_dir, ReportResult& result) {
 
 json mesh_data(const std::string& run_dir, ReportResult& result) {
   const std::string path = run_dir + "/mesh.ply";
-  if (!fs::exists(path)) return json{{"missing", "no mesh.ply in the folder (run without --no-mesh)"}};
+  if (!fs::exists(path))
+    return json{{"missing", "no mesh.ply in the folder (run without --no-mesh)"}};
   const ViewMesh source = read_view_mesh(path);
   const ViewMesh mesh = thin_for_view(source, kMaxViewTriangles);
   result.has_mesh = true;
-  return json{{"positions", base64(mesh.positions_m.data(), mesh.positions_m.size() * sizeof(float))},
-              {"indices", base64(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t))},
-              {"vertices", mesh.vertex_count()},
-              {"triangles", mesh.triangle_count()},
-              {"source_vertices", mesh.source_vertices},
-              {"source_triangles", mesh.source_triangles},
-              {"thinning_cell_m", mesh.cell_m}};
+  return json{
+      {"positions", base64(mesh.positions_m.data(), mesh.positions_m.size() * sizeof(float))},
+      {"indices", base64(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t))},
+      {"vertices", mesh.vertex_count()},
+      {"triangles", mesh.triangle_count()},
+      {"source_vertices", mesh.source_vertices},
+      {"source_triangles", mesh.source_triangles},
+      {"thinning_cell_m", mesh.cell_m}};
 }
 
 json summary_data(const json& stats, const ReportResult& result) {
@@ -239,7 +245,8 @@ ReportResult write_report(const std::string& run_dir) {
   ReportResult result;
   result.path = run_dir + "/report.html";
   const std::string stats_path = run_dir + "/stats.json";
-  KFX_CHECK(fs::exists(stats_path), "'" << run_dir << "' holds no stats.json: not a finished kfx run");
+  KFX_CHECK(fs::exists(stats_path),
+            "'" << run_dir << "' holds no stats.json: not a finished kfx run");
   json stats;
   try {
     stats = json::parse(read_file_bytes(stats_path));

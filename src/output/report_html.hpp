@@ -10,11 +10,11 @@ namespace kfx::output {
 
 /// What write_report found and left out (for the command's message).
 struct ReportResult {
-  std::string path;        ///< the page written
-  bool has_mesh = false;   ///< mesh.ply was found and shown
+  std::string path;          ///< the page written
+  bool has_mesh = false;     ///< mesh.ply was found and shown
   bool has_3d_view = false;  ///< three.js was found (the 3D view needs it)
   bool has_ground_truth = false;
-  int render_frames = 0;   ///< frames whose renders are shown
+  int render_frames = 0;  ///< frames whose renders are shown
 };
 
 /// Where three.js is looked for: $KFX_THREE_JS_DIR, then Debian's /usr/share/javascript/three.

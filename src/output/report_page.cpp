@@ -9,7 +9,7 @@ const char* report_page_template() {
 <meta charset="utf-8">
 <title>kfx run report</title>
 <style>
-body { font-family: sans-serif; margin: 1.5em auto; max-width: 1100px; color: #222; background: #fafafa; }
+body { font-family: sans-serif; margin: 1.5em auto; padding: 0 1em; max-width: 1100px; color: #222; background: #fafafa; }
 h1 { font-size: 1.5em; margin-bottom: 0.2em; }
 h2 { font-size: 1.15em; border-bottom: 1px solid #ccc; padding-bottom: 0.2em; margin-top: 1.6em; }
 table.summary td { padding: 0.15em 1em 0.15em 0; vertical-align: top; }
@@ -22,6 +22,10 @@ svg.plot { background: #fff; border: 1px solid #ddd; }
 .renders td { text-align: center; font-size: 0.85em; color: #555; }
 .renders img { width: 240px; image-rendering: pixelated; border: 1px solid #ddd; }
 details { margin-top: 0.5em; }
+/* report.html#model: the 3D view alone, filling the window (pictures of the model). */
+body.model-only { margin: 0; padding: 0; max-width: none; }
+body.model-only > *:not(#view3d):not(script) { display: none; }
+body.model-only #view3d { height: 100vh; }
 </style>
 <script>
 // First thing: every uncaught script error is recorded and shown, and marks the page failed.
@@ -66,6 +70,7 @@ window.onerror = function (message, source, line) {
 (function () {
   "use strict";
   var S = KFX.summary;
+  if (window.location.hash === "#model") document.body.classList.add("model-only");
   function el(id) { return document.getElementById(id); }
   function text(s) { return String(s).replace(/&/g, "&amp;").replace(/</g, "&lt;"); }
   function fixed(v, digits) { return (v === undefined || v === null) ? "—" : Number(v).toFixed(digits); }

@@ -4,7 +4,8 @@
 /// the run's data). The script sets body[data-status] to "ok" when every part was drawn, or
 /// "error" with the messages in #errors when any script error happened (the browser test reads
 /// both), and body[data-mesh-pixels] to the pixels of the 3D view that differ from its
-/// background after the first frame.
+/// background after the first frame. Opened as report.html#model it shows the 3D view alone,
+/// filling the window (for pictures of the model).
 
 namespace kfx::output {
 

@@ -196,7 +196,8 @@ class CpuBackend final : public Backend {
     const int w = depth_m_.width(), h = depth_m_.height();
     const RenderDepthArgs d = make_render_depth_args(depth_m_.view(), render_depth_.view(), p);
     for_each_pixel(w, h, [&](int x, int y) { render_depth_pixel(x, y, d); });
-    const RenderTrackArgs t = make_render_track_args(track_outcome_.view(), render_track_.view(), p);
+    const RenderTrackArgs t =
+        make_render_track_args(track_outcome_.view(), render_track_.view(), p);
     for_each_pixel(w, h, [&](int x, int y) { render_track_pixel(x, y, t); });
     const RenderVolumeArgs v =
         make_render_volume_args(volume_view(), render_volume_.view(), &state_, p);

@@ -85,7 +85,8 @@ class CudaBackend final : public Backend {
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
     // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
-    KFX_CUDA_CHECK(cudaMemsetAsync(track_outcome_.data(), 0, track_outcome_.bytes(), stream_.get()));
+    KFX_CUDA_CHECK(
+        cudaMemsetAsync(track_outcome_.data(), 0, track_outcome_.bytes(), stream_.get()));
     const long long voxels = static_cast<long long>(setup.volume_res_vox) *
                              setup.volume_res_vox * setup.volume_res_vox;
     volume_ = DeviceBuffer<Voxel>(static_cast<size_t>(voxels));
