@@ -267,7 +267,7 @@ window.onerror = function (message, source, line) {
     var centre = bounds.getCenter(new THREE.Vector3());
     var radius = Math.max(0.1, bounds.getSize(new THREE.Vector3()).length() / 2);
     // Start above and behind the cameras (which look down +z), looking at the model's centre.
-    camera.position.copy(centre).add(new THREE.Vector3(0, -0.9, -1.6).multiplyScalar(radius * 1.1));
+    camera.position.copy(centre).add(new THREE.Vector3(0, -0.9, -1.6).multiplyScalar(radius * 0.75));
     camera.lookAt(centre);
     var controls = new THREE.OrbitControls(camera, renderer.domElement);
     controls.target.copy(centre);
