@@ -3,7 +3,8 @@
 of mesh.ply's layout is put beside it, `kfx report` makes the page and headless Chromium (WebGL
 through SwiftShader) loads it. Checks: no script error, the 3D view draws the model (the page
 counts its own non-background pixels with the camera path hidden), the plots and renders are
-there; and without mesh.ply the page says so, still works, and draws no model.
+there; and for a run whose tracking fails, without mesh.ply, the page says the mesh is missing,
+still works, draws no model and marks the lost frames.
 
 Usage: test_report_browser.py KFX_BINARY. Exit 77 (skipped) when Chromium is not installed."""
 
@@ -133,15 +134,25 @@ def main():
         check(len(re.findall(r'<img alt="(?:depth|track|volume) \d+"', dom)) == 12,
               "expected 12 renders (frames 0, 5, 10, 15)")
 
-        # Without mesh.ply: the page says so and everything else still works.
-        os.remove(os.path.join(run, "mesh.ply"))
-        subprocess.run([kfx, "report", run], check=True, capture_output=True)
-        dom, log = load_page(chromium, page, tmp)
+        # A run whose tracking always fails (the accept test wants 99 % inliers), without
+        # mesh.ply: the page says the mesh is missing, still works, and marks the lost frames.
+        run2 = os.path.join(tmp, "lost")
+        subprocess.run([kfx, "run", "synthetic:frames=12,width=160,height=120", "--backend", "cpu",
+                        "-q", "--set", "min_inlier_fraction=0.99", "--no-report", "--out", run2],
+                       check=True)
+        subprocess.run([kfx, "report", run2], check=True, capture_output=True)
+        dom, log = load_page(chromium, os.path.join(run2, "report.html"), tmp)
         body = body_attributes(dom)
         check(body.get("data-status") == "ok", f"no-mesh page status {body.get('data-status')!r}")
+        check(not console_errors(log), f"no-mesh page console errors: {console_errors(log)[:5]}")
         check("No mesh: no mesh.ply" in dom, "the no-mesh page does not say the mesh is missing")
         check(int(body.get("data-mesh-pixels", "-1")) == 0, "the no-mesh page draws a model")
-        check(len(re.findall(r'<svg class="plot"', dom)) >= 4, "no-mesh page lost its plots")
+        plots = re.findall(r'<svg class="plot".*?</svg>', dom, re.S)
+        check(len(plots) >= 4, "no-mesh page lost its plots")
+        # Frames 4..11 ran tracking and failed: 8 red lines in each per-frame plot.
+        lost_lines = [len(re.findall(r'class="lost"', p)) for p in plots]
+        check(lost_lines.count(8) >= 2, f"lost-frame lines per plot: {lost_lines}, expected 8 in two")
+        check("tracking failed" in dom, "the trajectory plots do not mark the failed frames")
 
     if failures:
         return 1
