@@ -13,9 +13,12 @@
 
 #include "commands.hpp"
 #include "eval/report.hpp"
+#include "io/trajectory.hpp"
 #include "output/cloud_ply.hpp"
 #include "output/host_memory.hpp"
 #include "output/mesh_output.hpp"
+#include "output/renders.hpp"
+#include "output/report_html.hpp"
 #include "output/run_config.hpp"
 #include "output/run_folder.hpp"
 #include "output/run_trajectory.hpp"
@@ -47,6 +50,8 @@ struct RunOutputs {
   bool mesh = true;          ///< mesh.ply
   bool cloud = false;        ///< cloud.ply
   bool save_volume = false;  ///< volume.kfxtsdf
+  bool renders = false;      ///< PNG renders every render_rate frames under renders/
+  bool report = true;        ///< report.html
   bool overwrite = false;    ///< replace an earlier run's outputs in dir
 };
 
@@ -68,6 +73,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     }
     pipeline.backend().reserve_mesh_extraction();
   }
+  pipeline.set_rendering(outputs.renders);
   const int total_frames = reader.frame_count() < 0 ? options.max_frames
                            : options.max_frames > 0
                                ? std::min(options.max_frames, reader.frame_count())
@@ -98,6 +104,9 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     log.add(report, s.acquisition_s);
     trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
     summary.add(report);
+    if (report.rendered) {
+      output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
+    }
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
       std::cerr << "kfx run: frame " << summary.frames;
@@ -122,8 +131,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
     submitted.push_back(Submitted{frame.stamp_s, acquisition_s});
+    const bool renders_now = pipeline.renders(pipeline.frame_count());
     pipeline.submit(frame.depth_mm);
-    if (pipeline.frames_in_flight() > 1) finish(pipeline.collect());
+    // A rendering frame is collected at once: its renders are read before the next submit.
+    while (pipeline.frames_in_flight() > (renders_now ? 0 : 1)) finish(pipeline.collect());
   }
   while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
@@ -193,7 +204,23 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   output::write_run_trajectory(out_dir + "/trajectory.txt", trajectory, options.input,
                                pipeline.initial_pose(), pipeline.compute_intrinsics());
   log.commit();
+  // The ground truth the run was evaluated against, so the folder alone can plot against it.
+  if (!prepared.ground_truth.empty()) {
+    io::write_tum_trajectory(out_dir + "/groundtruth.txt", prepared.ground_truth,
+                             {"ground truth of " + options.input + " (the dataset's frame)",
+                              "stamp tx ty tz qx qy qz qw"});
+    written += " groundtruth.txt";
+  }
   output::write_json_document(out_dir + "/stats.json", stats);
+  if (outputs.report) {
+    try {
+      output::write_report(out_dir);
+      written += " report.html";
+    } catch (const Error& e) {
+      std::cerr << "kfx run: warning: no report.html: " << e.what() << "\n";
+    }
+  }
+  if (outputs.renders) written += " renders/";
   std::cout << summary.one_line() << "\n"
             << "outputs in " << out_dir << ": " << written << "\n";
 }
@@ -214,6 +241,10 @@ void add_run_command(CLI::App& app) {
                     "also write cloud.ply (points and normals of the last raycast)");
   command->add_flag("--save-volume", outputs->save_volume,
                     "also write the TSDF as volume.kfxtsdf (for kfx mesh)");
+  command->add_flag("--renders", outputs->renders,
+                    "write SLAMBench's depth, track and volume renders as PNG under DIR/renders/ "
+                    "every render_rate (-z) frames");
+  command->add_flag("!--no-report", outputs->report, "do not write report.html");
   command->callback([options, outputs] { run(*options, *outputs); });
 }
 

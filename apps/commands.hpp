@@ -19,6 +19,8 @@ void add_settings_command(CLI::App& app);
 void add_sweep_command(CLI::App& app);
 /// `kfx mesh VOLUME OUT.ply`: the mesh of a volume saved by `kfx run --save-volume`.
 void add_mesh_command(CLI::App& app);
+/// `kfx report DIR`: report.html (summary, plots, renders, 3D view) from a finished run's folder.
+void add_report_command(CLI::App& app);
 /// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
 void add_convert_command(CLI::App& app);
 

@@ -17,6 +17,7 @@ int main(int argc, char** argv) {
   kfx::cli::add_settings_command(app);
   kfx::cli::add_sweep_command(app);
   kfx::cli::add_mesh_command(app);
+  kfx::cli::add_report_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -65,7 +65,8 @@ HostImage<uint16_t> scene_depth() {
 }
 
 /// Drives one backend through a frame of a given kind by hand.
-TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track, bool always) {
+TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track, bool always,
+                        bool render = false) {
   BilateralParams pre;
   for (int i = 0; i < 5; ++i) pre.spatial_weight[i] = std::exp(-((i - 2) * (i - 2)) / 32.0f);
   PyramidParams pyr;
@@ -78,7 +79,7 @@ TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track
   AcceptParams accept;
   accept.compute_pixels = 320 * 240;
   b.upload_depth(depth);
-  b.begin_frame((track ? 1 : 0) | 2 | (always ? 4 : 0) | 8);
+  b.begin_frame((track ? 1 : 0) | 2 | (always ? 4 : 0) | 8 | (render ? 16 : 0));
   b.preprocess(pre);
   if (track) {
     b.build_pyramid(pyr);
@@ -93,6 +94,13 @@ TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track
   }
   b.integrate(integ, always);
   b.raycast(ray);
+  if (render) {
+    RenderParams params;
+    params.tracked_this_frame = track;
+    params.volume_ray = ray;
+    params.volume_ray.far_m = 8.0f;
+    b.render(params);
+  }
   b.end_frame();
   return b.read_state();
 }
@@ -144,6 +152,41 @@ TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
   for (int r = 0; r < 3; ++r) {
     EXPECT_NEAR(sc.T_world_cam.m[r][3], sg.T_world_cam.m[r][3], kTrackedPoseTol_m) << r;
   }
+}
+
+TEST(BackendParity, RendersAgree) {
+  KFX_REQUIRE_CUDA();
+  auto cpu = make_backend(BackendKind::kCpu, small_setup());
+  auto gpu = make_backend(BackendKind::kCuda, small_setup());
+  const Mat4f start = Mat4f::translation(Vec3f{2.0f, 2.0f, 0.0f});
+  cpu->reset(start);
+  gpu->reset(start);
+  const HostImage<uint16_t> depth = scene_depth();
+  for (int f = 0; f < 4; ++f) {
+    run_frame(*cpu, depth, false, true);
+    run_frame(*gpu, depth, false, true);
+  }
+  run_frame(*cpu, depth, true, false, true);
+  run_frame(*gpu, depth, true, false, true);
+  const Renders c = cpu->read_renders(), g = gpu->read_renders();
+  auto differ = [](Rgba8 a, Rgba8 b, int tol) {
+    return std::abs(a.r - b.r) > tol || std::abs(a.g - b.g) > tol || std::abs(a.b - b.b) > tol ||
+           a.a != b.a;
+  };
+  int depth_mismatch = 0, track_mismatch = 0, volume_mismatch = 0, lit = 0, inliers = 0;
+  for (int i = 0; i < 320 * 240; ++i) {
+    depth_mismatch += differ(c.depth.pixels()[i], g.depth.pixels()[i], 0);  // same depth in
+    track_mismatch += differ(c.track.pixels()[i], g.track.pixels()[i], 0);
+    inliers += c.track.pixels()[i].r == 128 && c.track.pixels()[i].b == 128;
+    // Shading from normals that agree within the raycast's tolerance: a few levels of 255.
+    volume_mismatch += differ(c.volume.pixels()[i], g.volume.pixels()[i], 3);
+    lit += c.volume.pixels()[i].r > 0;
+  }
+  EXPECT_GT(inliers, 320 * 240 / 2);
+  EXPECT_GT(lit, 320 * 240 / 2);
+  EXPECT_EQ(depth_mismatch, 0);
+  EXPECT_LE(track_mismatch, kMaxPixelMismatchFraction * 320 * 240);
+  EXPECT_LE(volume_mismatch, kMaxPixelMismatchFraction * 320 * 240);
 }
 
 TEST(BackendParity, SyntheticTrajectoriesAgree) {

@@ -20,8 +20,9 @@
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
-#include "kernels/track.hpp"
+#include "kernels/render.hpp"
 #include "kernels/marching_cubes.hpp"
+#include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
 
 namespace kfx {
@@ -50,6 +51,13 @@ enum class Stage : int { kPreprocess = 0, kTrack, kIntegrate, kRaycast, kRender,
 
 /// Stage names as reported ("preprocess", "track", ...).
 const char* stage_name(Stage stage);
+
+/// Host copies of the three renders (compute size, opaque RGBA).
+struct Renders {
+  HostImage<Rgba8> depth;
+  HostImage<Rgba8> track;
+  HostImage<Rgba8> volume;
+};
 
 /// Host copies of the maps a renderer or a test wants to look at.
 struct DebugMaps {
@@ -102,6 +110,9 @@ class Backend {
   virtual void integrate(const IntegrateParams& params, bool always) = 0;
   /// Raycasts the volume from the current pose; it becomes the ICP reference view.
   virtual void raycast(const RaycastParams& params) = 0;
+  /// Renders the current frame's depth, ICP outcomes and the volume seen from the current pose
+  /// into the backend's render images (visual only; timed as Stage::kRender).
+  virtual void render(const RenderParams& params) = 0;
   /// Waits for the oldest submitted frame not read yet and returns its state after the frame
   /// (frame_stage_ms() then gives that frame's stage times).
   virtual TrackingState read_state() = 0;
@@ -114,6 +125,8 @@ class Backend {
 
   /// Host copies of the intermediate maps (slow; tests and renders).
   virtual DebugMaps read_maps() = 0;
+  /// Host copies of the last render() (waits for it).
+  virtual Renders read_renders() = 0;
   /// Host copy of the whole volume (slow; tests and mesh export).
   virtual std::vector<Voxel> read_volume() = 0;
 

@@ -26,6 +26,9 @@ struct FrameBuffers {
         ref_vertex(setup.compute_width_px(), setup.compute_height_px()),
         ref_normal(setup.compute_width_px(), setup.compute_height_px()),
         track_outcome(setup.compute_width_px(), setup.compute_height_px()),
+        render_depth(setup.compute_width_px(), setup.compute_height_px()),
+        render_track(setup.compute_width_px(), setup.compute_height_px()),
+        render_volume(setup.compute_width_px(), setup.compute_height_px()),
         volume(voxel_count(setup)),
         brick_touched(brick_count(setup)),
         volume_res_vox(setup.volume_res_vox),
@@ -59,6 +62,9 @@ struct FrameBuffers {
   Image<Vec3f> ref_vertex;       ///< raycast vertices (volume frame): the ICP reference
   Image<Vec3f> ref_normal;       ///< raycast normals (volume frame)
   Image<int8_t> track_outcome;   ///< last level-0 ICP outcome per pixel
+  Image<Rgba8> render_depth;     ///< the renders (Backend::render), opaque RGBA
+  Image<Rgba8> render_track;
+  Image<Rgba8> render_volume;
   Array<Voxel> volume;           ///< res³ voxels, x fastest
   Array<uint8_t> brick_touched;  ///< one flag per 8³ brick (VolumeView::brick_touched)
   int volume_res_vox = 0;

@@ -485,6 +485,15 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.raycast.interp = approx.raycast_interp;
   p.raycast.block_x_px = approx.raycast_block_px[0];
   p.raycast.block_y_px = approx.raycast_block_px[1];
+  // SLAMBench's renders: depth over [near, far], the volume marched exactly (whatever the
+  // raycast approximations) out to twice the far plane, lit by a point light at (1, 1, −1) m.
+  p.render.depth_near_m = config.raycast.near_m;
+  p.render.depth_far_m = config.raycast.far_m;
+  p.render.volume_ray = p.raycast;
+  p.render.volume_ray.far_m = 2.0f * config.raycast.far_m;
+  p.render.volume_ray.block_x_px = p.render.volume_ray.block_y_px = 1;
+  p.render.volume_ray.constant_step_m = 0.0f;
+  p.render.volume_ray.interp = RaycastInterp::kTrilinear;
   return p;
 }
 

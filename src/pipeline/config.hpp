@@ -13,6 +13,7 @@
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
+#include "kernels/render.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx {
@@ -95,6 +96,7 @@ struct StageParams {
   AcceptParams accept;
   IntegrateParams integrate;
   RaycastParams raycast;
+  RenderParams render;  ///< the pictures of --renders (visual only)
 };
 
 /// The stage settings of `config` for compute-size intrinsics `compute_k` and a compute image

@@ -34,6 +34,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
 
   params_ = make_stage_params(config_, compute_k_, cw, ch);
 
+
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
 }
@@ -63,8 +64,9 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   report.raycast = f > 2 && f % config_.approx.raycast_rate == 0;
   if (report.raycast) have_reference_ = true;
   // Which stages run depends on the frame number only: the shape names the sequence.
+  report.rendered = renders(f);
   const int shape = (track ? 1 : 0) | (may_integrate ? 2 : 0) | (always ? 4 : 0) |
-                    (report.raycast ? 8 : 0);
+                    (report.raycast ? 8 : 0) | (report.rendered ? 16 : 0);
   b.begin_frame(shape);
 
   b.begin_stage(Stage::kPreprocess);
@@ -100,6 +102,15 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   b.begin_stage(Stage::kRaycast);
   if (report.raycast) b.raycast(params_.raycast);
   b.end_stage(Stage::kRaycast);
+
+  // Visual only: timed as rendering, outside the computation time (collect() sums the rest).
+  b.begin_stage(Stage::kRender);
+  if (report.rendered) {
+    RenderParams params = params_.render;
+    params.tracked_this_frame = track;
+    b.render(params);
+  }
+  b.end_stage(Stage::kRender);
   b.end_frame();
   // What the host knows now; collect() completes it from the backend's state.
   in_flight_.push_back(PendingFrame{report, track, may_integrate, always});

@@ -20,6 +20,7 @@ struct FrameReport {
   bool tracked = false;       ///< accept test passed
   bool integrated = false;    ///< depth fused into the volume
   bool raycast = false;       ///< reference view refreshed
+  bool rendered = false;      ///< the three renders were made (read them before the next submit)
   Mat4f T_world_cam;          ///< pose after the frame
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms{};  ///< per-stage time
   double computation_ms = 0;  ///< preprocess + track + integrate + raycast
@@ -43,6 +44,12 @@ class Pipeline {
   void submit(const HostImage<uint16_t>& depth_mm);
   /// Waits for the oldest submitted frame and returns its report.
   FrameReport collect();
+  /// Turns the renders on or off: when on, every frame f with f % render.rate == 0 renders
+  /// (Stage::kRender, outside the computation time); read them with backend().read_renders()
+  /// after collecting that frame and before submitting the next.
+  void set_rendering(bool on) { rendering_ = on; }
+  /// True when frame f renders (rendering on and f a multiple of render.rate).
+  bool renders(int frame) const { return rendering_ && frame % config_.render.rate == 0; }
   /// Frames submitted but not collected.
   int frames_in_flight() const { return static_cast<int>(in_flight_.size()); }
 
@@ -70,6 +77,7 @@ class Pipeline {
   std::deque<PendingFrame> in_flight_;  ///< submitted, not yet collected
   int frame_ = 0;
   bool have_reference_ = false;  ///< a raycast has run: frames can be tracked
+  bool rendering_ = false;
 };
 
 }  // namespace kfx

@@ -16,6 +16,7 @@
 #include "kernels/marching_cubes.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
+#include "kernels/render.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx {
@@ -179,6 +180,22 @@ class CpuBackend final : public Backend {
     }
   }
 
+  void render(const RenderParams& p) override {
+    const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
+    const RenderDepthArgs d =
+        make_render_depth_args(buffers_.depth_m.view(), buffers_.render_depth.view(), p);
+    for_each_pixel(w, h, [&](int x, int y) { render_depth_pixel(x, y, d); });
+    const RenderTrackArgs t =
+        make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
+    for_each_pixel(w, h, [&](int x, int y) { render_track_pixel(x, y, t); });
+    const RenderVolumeArgs v =
+        make_render_volume_args(buffers_.volume_view(), buffers_.render_volume.view(), &state_, p);
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) render_volume_pixel(x, y, v);
+    }
+  }
+
   TrackingState read_state() override {
     KFX_CHECK(!finished_.empty(), "read_state() without a submitted frame");
     const FinishedFrame frame = finished_.front();
@@ -203,6 +220,9 @@ class CpuBackend final : public Backend {
   DebugMaps read_maps() override {
     return DebugMaps{buffers_.depth_m, buffers_.level_depth[0], buffers_.ref_vertex,
                      buffers_.ref_normal, buffers_.track_outcome};
+  }
+  Renders read_renders() override {
+    return Renders{buffers_.render_depth, buffers_.render_track, buffers_.render_volume};
   }
   std::vector<Voxel> read_volume() override { return buffers_.volume; }
 

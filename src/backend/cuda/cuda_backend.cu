@@ -71,6 +71,9 @@ class CudaBackend final : public Backend {
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
+    // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
+    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0,
+                                   buffers_.track_outcome.bytes(), stream_.get()));
     state_ = DeviceBuffer<TrackingState>(1);
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
@@ -237,6 +240,22 @@ class CudaBackend final : public Backend {
     launch(pixel_kernel<RaycastBlockBody, RaycastArgs>, grid_for(w, h, block), block, a, w, h);
   }
 
+  void render(const RenderParams& p) override {
+    if (replaying_) return;
+    const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
+    const dim3 block(32, 8);
+    const RenderDepthArgs d = make_render_depth_args(buffers_.depth_m.view(), buffers_.render_depth.view(), p);
+    launch(pixel_kernel<RenderDepthBody, RenderDepthArgs>, grid_for(w, h, block), block, d, w, h);
+    const RenderTrackArgs t =
+        make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
+    launch(pixel_kernel<RenderTrackBody, RenderTrackArgs>, grid_for(w, h, block), block, t, w, h);
+    const RenderVolumeArgs v =
+        make_render_volume_args(buffers_.volume_view(), buffers_.render_volume.view(), state_.data(), p);
+    const dim3 ray_block(16, 8);
+    launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
+           v, w, h);
+  }
+
   TrackingState read_state() override {
     KFX_CHECK(!pending_.empty(), "read_state() without a submitted frame");
     const int parity = pending_.front();
@@ -266,6 +285,12 @@ class CudaBackend final : public Backend {
     maps.ref_normal = download(buffers_.ref_normal);
     maps.track_outcome = download(buffers_.track_outcome);
     return maps;
+  }
+
+  Renders read_renders() override {
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    return Renders{download(buffers_.render_depth), download(buffers_.render_track),
+                   download(buffers_.render_volume)};
   }
 
   std::vector<Voxel> read_volume() override {

@@ -10,6 +10,7 @@
 #include "kernels/marching_cubes.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
+#include "kernels/render.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx::cuda {
@@ -55,6 +56,21 @@ struct VertexToNormalBody {
 };
 struct RaycastBlockBody {
   __device__ void operator()(int x, int y, const RaycastArgs& a) const { raycast_block(x, y, a); }
+};
+struct RenderDepthBody {
+  __device__ void operator()(int x, int y, const RenderDepthArgs& a) const {
+    render_depth_pixel(x, y, a);
+  }
+};
+struct RenderTrackBody {
+  __device__ void operator()(int x, int y, const RenderTrackArgs& a) const {
+    render_track_pixel(x, y, a);
+  }
+};
+struct RenderVolumeBody {
+  __device__ void operator()(int x, int y, const RenderVolumeArgs& a) const {
+    render_volume_pixel(x, y, a);
+  }
 };
 
 /// Marching cubes: one thread per column segment (x, y, z slab = blockIdx.z); pass 1 (count)

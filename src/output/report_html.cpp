@@ -1,0 +1,301 @@
+#include "output/report_html.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+
+#include "core/platform.hpp"
+#include "eval/report.hpp"
+#include "io/atomic_file.hpp"
+#include "io/trajectory.hpp"
+#include "output/mesh_view.hpp"
+#include "output/report_page.hpp"
+#include "pipeline/config.hpp"
+
+namespace kfx::output {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+/// The 3D view shows at most this many triangles (a browser on a laptop stays fluid).
+constexpr size_t kMaxViewTriangles = 300000;
+/// The page shows the renders of at most this many frames, evenly spread over the run.
+constexpr int kMaxRenderFrames = 8;
+
+std::string read_file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  KFX_CHECK(in, "cannot read '" << path << "'");
+  std::ostringstream bytes;
+  bytes << in.rdbuf();
+  return bytes.str();
+}
+
+std::string base64(const void* data, size_t size) {
+  static const char* kDigits = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+  const auto* p = static_cast<const unsigned char*>(data);
+  std::string out;
+  out.reserve((size + 2) / 3 * 4);
+  for (size_t i = 0; i < size; i += 3) {
+    const unsigned v =
+        (p[i] << 16) | (i + 1 < size ? p[i + 1] << 8 : 0) | (i + 2 < size ? p[i + 2] : 0);
+    out += kDigits[(v >> 18) & 63];
+    out += kDigits[(v >> 12) & 63];
+    out += i + 1 < size ? kDigits[(v >> 6) & 63] : '=';
+    out += i + 2 < size ? kDigits[v & 63] : '=';
+  }
+  return out;
+}
+
+/// Text safe inside a <script> element: "</" never appears (JSON and JS read "<\/" as "</").
+std::string script_safe(const std::string& text) {
+  std::string out;
+  out.reserve(text.size());
+  for (size_t i = 0; i < text.size(); ++i) {
+    out += text[i];
+    if (text[i] == '<' && i + 1 < text.size() && text[i + 1] == '/') out += '\\';
+  }
+  return out;
+}
+
+/// slambench.log as columns by header name, one value per frame.
+std::map<std::string, std::vector<double>> read_slambench_log(const std::string& path) {
+  std::ifstream in(path);
+  KFX_CHECK(in, "cannot read '" << path << "'");
+  std::string line;
+  KFX_CHECK(std::getline(in, line), path << ": empty log");
+  std::vector<std::string> names;
+  {
+    std::istringstream header(line);
+    for (std::string name; header >> name;) names.push_back(name);
+  }
+  KFX_CHECK(!names.empty() && names[0] == "frame",
+            path << ": not a SLAMBench log header: " << line);
+  std::map<std::string, std::vector<double>> columns;
+  int line_number = 1;
+  while (std::getline(in, line)) {
+    ++line_number;
+    if (line.empty()) continue;
+    std::istringstream fields(line);
+    for (const auto& name : names) {
+      double v = 0;
+      KFX_CHECK(fields >> v, path << " line " << line_number << ": expected " << names.size()
+                                  << " numbers (column '" << name << "' missing or bad)");
+      columns[name].push_back(v);
+    }
+  }
+  return columns;
+}
+
+/// The settings that differ from the preset's, as "key=value".
+std::vector<std::string> changed_settings(const json& stats) {
+  std::vector<std::string> changed;
+  if (!stats.contains("config") || !stats.contains("preset")) return changed;
+  PipelineConfig preset;
+  try {
+    preset = make_preset(stats["preset"].get<std::string>());
+  } catch (const Error&) {
+    return changed;  // a preset this kfx does not know: list nothing rather than guess
+  }
+  for (const auto& field : config_fields()) {
+    const auto& section = stats["config"].value(field.section, json::object());
+    if (!section.contains(field.key)) continue;
+    const std::string value = section[field.key].get<std::string>();
+    if (value != field.format(preset)) changed.push_back(field.key + "=" + value);
+  }
+  return changed;
+}
+
+json position(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); }
+
+/// Trajectory plots and the translational error: aligned onto the ground truth when there is
+/// one (as the ATE does), else the estimate alone in the volume frame.
+json trajectory_data(const std::vector<io::StampedPose>& est, const std::string& gt_path,
+                     const json& stats, ReportResult& result) {
+  json t;
+  json path = json::array();
+  for (const auto& p : est) path.push_back(json::array({p.t[0], p.t[1], p.t[2]}));
+  t["volume_path"] = path;  // the 3D view: same frame as mesh.ply
+  if (!fs::exists(gt_path)) {
+    t["frame"] = "volume";
+    t["est"] = path;
+    t["est_frames"] = json::array();
+    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(i);
+    t["note"] = "no groundtruth.txt in the folder: the estimate alone, in the volume frame";
+    return t;
+  }
+  const auto gt = io::read_tum_trajectory(gt_path);
+  eval::EvalOptions options;
+  if (stats.contains("ate")) options.flip_y = stats["ate"].value("flip_y", false);
+  const eval::EvalResult r =
+      eval::evaluate_trajectories(est, gt, options, "trajectory.txt", gt_path);
+  result.has_ground_truth = true;
+  Eigen::Matrix3Xd est_m, gt_m;
+  eval::paired_positions(est, gt, r.association, options.flip_y, &est_m, &gt_m);
+  const Eigen::Matrix3Xd aligned = r.ate.alignment.apply(est_m);
+  json est_aligned = json::array(), est_frames = json::array(), errors = json::array();
+  size_t gt_first = gt.size(), gt_last = 0;
+  for (size_t i = 0; i < r.association.pairs.size(); ++i) {
+    est_aligned.push_back(position(aligned.col(i)));
+    est_frames.push_back(r.association.pairs[i].est_index);
+    errors.push_back(r.ate.errors_m[i]);
+    gt_first = std::min(gt_first, r.association.pairs[i].gt_index);
+    gt_last = std::max(gt_last, r.association.pairs[i].gt_index);
+  }
+  json gt_path_json = json::array();
+  for (size_t i = gt_first; i <= gt_last && i < gt.size(); ++i) {
+    gt_path_json.push_back(json::array({gt[i].t[0], gt[i].t[1], gt[i].t[2]}));
+  }
+  t["frame"] = "ground truth";
+  t["est"] = est_aligned;
+  t["est_frames"] = est_frames;
+  t["gt"] = gt_path_json;
+  t["errors_m"] = errors;
+  t["note"] =
+      std::string("estimate aligned onto the ground truth as for the ATE (rigid, no scale") +
+      (options.flip_y ? ", estimate y flipped)" : ")");
+  return t;
+}
+
+json renders_data(const std::string& run_dir, ReportResult& result) {
+  json out = json::array();
+  const fs::path folder = fs::path(run_dir) / "renders";
+  if (!fs::is_directory(folder)) return out;
+  std::map<int, std::map<std::string, std::string>> frames;  // frame → kind → path
+  const std::regex name(R"((depth|track|volume)_(\d{6})\.png)");
+  for (const auto& entry : fs::directory_iterator(folder)) {
+    std::smatch m;
+    const std::string file = entry.path().filename().string();
+    if (std::regex_match(file, m, name)) frames[std::stoi(m[2])][m[1]] = entry.path().string();
+  }
+  std::vector<int> all;
+  for (const auto& [frame, kinds] : frames) all.push_back(frame);
+  const int n = static_cast<int>(all.size());
+  const int shown = std::min(n, kMaxRenderFrames);
+  for (int i = 0; i < shown; ++i) {
+    const int frame = all[shown == 1 ? 0 : static_cast<size_t>(i) * (n - 1) / (shown - 1)];
+    json item{{"frame", frame}};
+    for (const auto& [kind, path] : frames[frame]) {
+      const std::string bytes = read_file_bytes(path);
+      item[kind] = "data:image/png;base64," + base64(bytes.data(), bytes.size());
+    }
+    out.push_back(item);
+  }
+  result.render_frames = shown;
+  return out;
+}
+
+json mesh_data(const std::string& run_dir, ReportResult& result) {
+  const std::string path = run_dir + "/mesh.ply";
+  if (!fs::exists(path))
+    return json{{"missing", "no mesh.ply in the folder (run without --no-mesh)"}};
+  const ViewMesh source = read_view_mesh(path);
+  const ViewMesh mesh = thin_for_view(source, kMaxViewTriangles);
+  result.has_mesh = true;
+  return json{
+      {"positions", base64(mesh.positions_m.data(), mesh.positions_m.size() * sizeof(float))},
+      {"indices", base64(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t))},
+      {"vertices", mesh.vertex_count()},
+      {"triangles", mesh.triangle_count()},
+      {"source_vertices", mesh.source_vertices},
+      {"source_triangles", mesh.source_triangles},
+      {"thinning_cell_m", mesh.cell_m}};
+}
+
+json summary_data(const json& stats, const ReportResult& result) {
+  json s;
+  s["input"] = stats.value("input", "");
+  s["input_description"] = stats.value("input_description", "");
+  s["backend"] = stats.value("backend", "");
+  s["device"] = stats.value("device", "");
+  s["preset"] = stats.value("preset", "");
+  s["settings_changed"] = changed_settings(stats);
+  s["config"] = stats.value("config", json::object());
+  s["frames"] = stats.value("frames", 0);
+  s["tracked"] = stats.value("tracked", 0);
+  s["integrated"] = stats.value("integrated", 0);
+  s["frames_per_second"] = stats.value("frames_per_second", 0.0);
+  s["kfx_version"] = stats.value("kfx_version", "");
+  if (stats.contains("ate")) {
+    s["ate_rmse_m"] = stats["ate"]["ate"].value("rmse_m", 0.0);
+    s["rpe_trans_rmse_m"] = stats["ate"]["rpe"].value("trans_rmse_m", 0.0);
+    s["rpe_rot_rmse_deg"] = stats["ate"]["rpe"].value("rot_rmse_deg", 0.0);
+    s["rpe_delta_frames"] = stats["ate"]["rpe"].value("delta_frames", 1);
+  } else if (stats.contains("ate_error")) {
+    s["ate_error"] = stats["ate_error"];
+  }
+  s["ground_truth"] = result.has_ground_truth;
+  return s;
+}
+
+}  // namespace
+
+std::string find_three_js_dir() {
+  if (const char* dir = std::getenv("KFX_THREE_JS_DIR")) return dir;
+  return "/usr/share/javascript/three";
+}
+
+ReportResult write_report(const std::string& run_dir) {
+  ReportResult result;
+  result.path = run_dir + "/report.html";
+  const std::string stats_path = run_dir + "/stats.json";
+  KFX_CHECK(fs::exists(stats_path),
+            "'" << run_dir << "' holds no stats.json: not a finished kfx run");
+  json stats;
+  try {
+    stats = json::parse(read_file_bytes(stats_path));
+  } catch (const json::exception& e) {
+    KFX_FAIL(stats_path << ": not valid JSON (" << e.what() << ")");
+  }
+  const auto est = io::read_tum_trajectory(run_dir + "/trajectory.txt");
+  const auto log = read_slambench_log(run_dir + "/slambench.log");
+
+  json data;
+  try {
+    data["trajectory"] = trajectory_data(est, run_dir + "/groundtruth.txt", stats, result);
+  } catch (const Error& e) {
+    data["trajectory"] = trajectory_data(est, "", stats, result);
+    data["trajectory"]["note"] = std::string("ground truth not usable: ") + e.what();
+  }
+  data["log"] = log;
+  data["tracking_rate"] = 1;
+  if (stats.contains("config") && stats["config"].contains("tracking")) {
+    data["tracking_rate"] = std::stoi(stats["config"]["tracking"].value("tracking_rate", "1"));
+  }
+  data["renders"] = renders_data(run_dir, result);
+  data["mesh"] = mesh_data(run_dir, result);
+  data["summary"] = summary_data(stats, result);
+
+  const std::string three_dir = find_three_js_dir();
+  std::string three;
+  const std::string three_main = three_dir + "/three.min.js";
+  const std::string three_orbit = three_dir + "/examples/js/controls/OrbitControls.js";
+  if (fs::exists(three_main) && fs::exists(three_orbit)) {
+    three = read_file_bytes(three_main) + "\n" + read_file_bytes(three_orbit);
+    result.has_3d_view = true;
+  }
+  data["has_three"] = result.has_3d_view;
+  data["three_dir"] = three_dir;
+
+  std::string page = report_page_template();
+  auto substitute = [&page](const std::string& marker, const std::string& text) {
+    const size_t at = page.find(marker);
+    KFX_CHECK(at != std::string::npos, "report template lacks " << marker);
+    page.replace(at, marker.size(), text);
+  };
+  // The data first: three.js's own text must not be searched for markers.
+  substitute("/*KFX_DATA*/", "const KFX = " + script_safe(data.dump()) + ";");
+  substitute("/*KFX_THREE*/", script_safe(three));
+  io::AtomicFile file(result.path);
+  file.stream() << page;
+  file.commit();
+  return result;
+}
+
+}  // namespace kfx::output
