@@ -52,6 +52,8 @@ void run(const RunOptions& options, const std::string& out_dir) {
               << "kfx run: backend " << pipeline.backend().name() << " ("
               << pipeline.backend().device_name() << "), preset " << options.preset << "\n";
   }
+  // Always said, even with -q: wrong intrinsics silently spoil a whole run.
+  std::cerr << "kfx run: " << prepared.intrinsics_note << "\n";
 
   io::AtomicFile log(out_dir + "/slambench.log");
   io::write_slambench_log_header(log.stream());
@@ -92,9 +94,10 @@ void run(const RunOptions& options, const std::string& out_dir) {
     pose_before = report.T_world_cam;
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
-      std::cerr << "kfx run: frame " << summary.frames;
+      // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
+      std::cerr << "kfx run: frame " << report.index << " done (" << summary.frames;
       if (total_frames > 0) std::cerr << "/" << total_frames;
-      std::cerr << ", tracked " << summary.tracked << ", " << summary.frames_per_second()
+      std::cerr << " frames), tracked " << summary.tracked << ", " << summary.frames_per_second()
                 << " frames/s computation\n";
     }
   };
@@ -140,11 +143,15 @@ void run(const RunOptions& options, const std::string& out_dir) {
   }
   stats["config"] = config_json;
   if (!prepared.ground_truth.empty()) {
+    // Labels name files, so messages never read "ground truth ground truth".
+    const std::string gt_label = options.ground_truth_path.empty()
+                                     ? "the ground truth found with " + options.input
+                                     : options.ground_truth_path;
     eval::EvalOptions eval_options;
     eval_options.flip_y = prepared.evaluate_flip_y;
     try {
       const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth,
-                                                      eval_options, "trajectory", "ground truth");
+                                                      eval_options, "trajectory.txt", gt_label);
       stats["ate"] = eval::to_json(result);
       if (!options.quiet) std::cerr << eval::format_report(result);
       summary.ate_rmse_m = result.ate.stats_m.rmse;

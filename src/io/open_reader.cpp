@@ -38,6 +38,7 @@ class GroundTruthOverride : public Reader {
   std::optional<Intrinsics> default_intrinsics() const override {
     return inner_->default_intrinsics();
   }
+  std::string intrinsics_source() const override { return inner_->intrinsics_source(); }
   std::vector<StampedPose> ground_truth() const override { return ground_truth_; }
   std::string description() const override {
     return inner_->description() + " with ground truth from '" + path_ + "' (" +
@@ -126,7 +127,14 @@ std::vector<StampedPose> load_ground_truth(const ReaderOptions& options,
                                            const std::string& found_path, std::string* used_path) {
   *used_path = options.ground_truth_path.empty() ? found_path : options.ground_truth_path;
   if (used_path->empty()) return {};
-  return read_tum_trajectory(*used_path);
+  std::vector<StampedPose> poses = read_tum_trajectory(*used_path);
+  // An empty ground truth would silently mean "no ATE"; `kfx eval` refuses the same file.
+  KFX_CHECK(!poses.empty(), "ground-truth trajectory '"
+                                << *used_path << "' holds no pose (no data line)"
+                                << (options.ground_truth_path.empty()
+                                        ? "; remove it to run without ground truth"
+                                        : ""));
+  return poses;
 }
 
 std::unique_ptr<Reader> open_reader(const std::string& input, const ReaderOptions& options) {

@@ -175,7 +175,7 @@ PngHeader read_png_header(const std::string& path) {
   return start_reading(handle, &source, state, path);
 }
 
-HostImage<uint16_t> read_png_gray16(const std::string& path) {
+HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth) {
   const std::vector<unsigned char> bytes = read_whole_file(path);
   PngErrorState state{};
   PngReadHandle handle(&state, path);
@@ -185,6 +185,7 @@ HostImage<uint16_t> read_png_gray16(const std::string& path) {
                 png_get_color_type(handle.png(), handle.info()) == PNG_COLOR_TYPE_GRAY,
             "cannot read PNG '" << path << "': expected a single-channel grayscale image, found "
                                 << header.channels << " channels");
+  if (bit_depth != nullptr) *bit_depth = header.bit_depth;
   const int width = header.width_px;
   const int height = header.height_px;
   HostImage<uint16_t> image(width, height);

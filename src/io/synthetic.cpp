@@ -395,6 +395,9 @@ class SyntheticReader final : public Reader {
   int height_px() const override { return scene_.options().height_px; }
   int frame_count() const override { return scene_.options().frames; }
   std::optional<Intrinsics> default_intrinsics() const override { return scene_.intrinsics(); }
+  std::string intrinsics_source() const override {
+    return "the synthetic scene's own camera (exact)";
+  }
 
   std::vector<StampedPose> ground_truth() const override {
     std::vector<StampedPose> poses;
