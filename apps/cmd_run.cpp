@@ -70,6 +70,7 @@ void run(const RunOptions& options, const std::string& out_dir) {
     double acquisition_s;
   };
   std::deque<Submitted> submitted;
+  int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameReport& report) {
     const Submitted s = submitted.front();
@@ -92,6 +93,18 @@ void run(const RunOptions& options, const std::string& out_dir) {
     trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
     summary.add(report);
     pose_before = report.T_world_cam;
+    // Tracking loss and recovery as they happen (slambench.log has the per-frame flag).
+    const bool lost = report.tracking_ran && !report.tracked;
+    if (lost && lost_since < 0) {
+      lost_since = report.index;
+      std::cerr << "kfx run: frame " << report.index
+                << ": tracking lost (pose kept, frame not integrated)\n";
+    } else if (report.tracked && lost_since >= 0) {
+      std::cerr << "kfx run: frame " << report.index << ": tracking recovered after "
+                << report.index - lost_since << " lost frame(s) (" << lost_since << "-"
+                << report.index - 1 << ")\n";
+      lost_since = -1;
+    }
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
       // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
