@@ -227,5 +227,20 @@ TEST(Hardening, ErrorsAndProgressNumberFramesFromZero) {
   EXPECT_NE(r.output.find("kfx run: frame 0 done (1/3 frames)"), std::string::npos) << r.output;
 }
 
+// ---- Regression tests for fuzzing findings (scripts/fuzz) --------------------------------
+
+// fuzz_tum_listing / fuzz_icl_listing: a listing line naming a folder made libstdc++ throw
+// std::ios_failure out of the PNG reader (terminate in the reader's constructor probe).
+TEST(FuzzFindings, ListedDepthPathThatIsAFolderIsABadFrame) {
+  TempDir dir;
+  const std::string folder = make_tum_folder(dir, "folder_listed", 2);
+  write_text(fs::path(folder) / "depth.txt", "100 depth/100.png\n101 depth\n");
+  const auto reader = open_reader(folder);
+  expect_ok_frame(*reader);
+  expect_bad_frame(*reader, {"frame 1", "line 2"});
+  expect_error([&] { read_png_gray16(folder); }, {folder, "not a regular file"});
+  expect_error([&] { read_png_header(folder); }, {folder, "not a regular file"});
+}
+
 }  // namespace
 }  // namespace kfx::io
