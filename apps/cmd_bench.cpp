@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "count_check.hpp"
 #include "eval/report.hpp"
 #include "output/stats_json.hpp"
 #include "pipeline/pipeline.hpp"
@@ -35,7 +36,8 @@ void bench(const BenchOptions& options) {
                     prepared.reader->height_px(), prepared.backend);
   std::cerr << "kfx bench: " << prepared.reader->description() << ", " << frames.size()
             << " frames in memory, backend " << pipeline.backend().name() << " ("
-            << pipeline.backend().device_name() << ")\n";
+            << pipeline.backend().device_name() << ")\n"
+            << "kfx bench: " << prepared.intrinsics_note << "\n";
 
   // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
   const TimedPasses timed = run_timed_passes(
@@ -98,10 +100,10 @@ void add_bench_command(CLI::App& app) {
   auto options = std::make_shared<BenchOptions>();
   add_run_options(*command, options->run);
   command->add_option("--repeat", options->repeat, "timed passes over the sequence")
-      ->check(CLI::PositiveNumber)
+      ->check(count_at_least(1, ""))
       ->capture_default_str();
   command->add_option("--warmup", options->warmup_frames, "warm-up frames before timing")
-      ->check(CLI::NonNegativeNumber)
+      ->check(count_at_least(0, ""))
       ->capture_default_str();
   command->add_option("--json", options->json_path, "also write the results as JSON here");
   command->callback([options] { bench(*options); });

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "count_check.hpp"
 #include "core/platform.hpp"
 #include "io/convert.hpp"
 #include "io/reader.hpp"
@@ -46,7 +47,7 @@ void add_convert_command(CLI::App& app) {
   sub->add_option("OUT", args->output, "Output .raw file")->required();
   sub->add_option("--frames", args->frames, "Convert at most this many frames (0 = all)")
       ->capture_default_str()
-      ->check(CLI::NonNegativeNumber);
+      ->check(count_at_least(0, "0 = all frames"));
   sub->add_option("--ratio", args->ratio, "Subsampling ratio (compute-size ratio)")
       ->capture_default_str()
       ->check(CLI::IsMember({1, 2, 4, 8}));

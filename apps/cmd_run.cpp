@@ -83,6 +83,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
               << "kfx run: backend " << pipeline.backend().name() << " ("
               << pipeline.backend().device_name() << "), preset " << options.preset << "\n";
   }
+  // Always said, even with -q: wrong intrinsics silently spoil a whole run.
+  std::cerr << "kfx run: " << prepared.intrinsics_note << "\n";
 
   output::SlambenchLogWriter log(out_dir + "/slambench.log", pipeline.initial_pose());
   RunSummary summary;
@@ -97,6 +99,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     double acquisition_s;
   };
   std::deque<Submitted> submitted;
+  int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameReport& report) {
     const Submitted s = submitted.front();
@@ -107,11 +110,24 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     if (report.rendered) {
       output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
     }
+    // Tracking loss and recovery as they happen (slambench.log has the per-frame flag).
+    const bool lost = report.tracking_ran && !report.tracked;
+    if (lost && lost_since < 0) {
+      lost_since = report.index;
+      std::cerr << "kfx run: frame " << report.index
+                << ": tracking lost (pose kept, frame not integrated)\n";
+    } else if (report.tracked && lost_since >= 0) {
+      std::cerr << "kfx run: frame " << report.index << ": tracking recovered after "
+                << report.index - lost_since << " lost frame(s) (" << lost_since << "-"
+                << report.index - 1 << ")\n";
+      lost_since = -1;
+    }
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
-      std::cerr << "kfx run: frame " << summary.frames;
+      // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
+      std::cerr << "kfx run: frame " << report.index << " done (" << summary.frames;
       if (total_frames > 0) std::cerr << "/" << total_frames;
-      std::cerr << ", tracked " << summary.tracked << ", " << summary.frames_per_second()
+      std::cerr << " frames), tracked " << summary.tracked << ", " << summary.frames_per_second()
                 << " frames/s computation\n";
     }
   };
@@ -159,11 +175,15 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   }
   stats["config"] = config_json;
   if (!prepared.ground_truth.empty()) {
+    // Labels name files, so messages never read "ground truth ground truth".
+    const std::string gt_label = options.ground_truth_path.empty()
+                                     ? "the ground truth found with " + options.input
+                                     : options.ground_truth_path;
     eval::EvalOptions eval_options;
     eval_options.flip_y = prepared.evaluate_flip_y;
     try {
       const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth,
-                                                      eval_options, "trajectory", "ground truth");
+                                                      eval_options, "trajectory.txt", gt_label);
       output::add_flat_evaluation(stats, result);
       if (!options.quiet) std::cerr << eval::format_report(result);
       summary.ate_rmse_m = result.ate.stats_m.rmse;

@@ -17,6 +17,7 @@
 #include <sstream>
 
 #include "commands.hpp"
+#include "count_check.hpp"
 #include "core/platform.hpp"
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
@@ -450,13 +451,13 @@ void add_sweep_command(CLI::App& app) {
   command->add_option("--only", o->only, "run only these run names or groups (and their baselines)")
       ->delimiter(',');
   command->add_option("--frames", o->max_frames, "at most N frames per sequence (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(count_at_least(0, "0 = all frames"));
   command->add_option("--repeat", o->repeat, "timed passes per run (default: the plan's, else 1)")
-      ->check(CLI::PositiveNumber);
+      ->check(count_at_least(1, ""));
   command
       ->add_option("--warmup", o->warmup_frames,
                    "untimed warm-up frames per run (default: the plan's, else 10)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(count_at_least(0, ""));
   command->add_option("--commit", o->commit,
                       "commit to record (default: git rev-parse --short HEAD, else unknown)");
   command

@@ -1,7 +1,9 @@
 /// kfx: one command-line tool with subcommands (run, eval, convert, ...).
 
+#include <cstring>
 #include <exception>
 #include <iostream>
+#include <string>
 
 #include "commands.hpp"
 #include "core/platform.hpp"
@@ -18,6 +20,20 @@ int main(int argc, char** argv) {
   kfx::cli::add_sweep_command(app);
   kfx::cli::add_mesh_command(app);
   kfx::cli::add_report_command(app);
+  // CLI11 reports an unknown first word only as an unexpected argument; name it plainly.
+  if (argc > 1 && argv[1][0] != '-') {
+    std::string known;
+    bool found = false;
+    for (const CLI::App* sub : app.get_subcommands([](CLI::App*) { return true; })) {
+      found = found || sub->get_name() == argv[1];
+      known += (known.empty() ? "" : ", ") + sub->get_name();
+    }
+    if (!found) {
+      std::cerr << "kfx: error: unknown subcommand '" << argv[1] << "'; the subcommands are "
+                << known << " (kfx --help)\n";
+      return 2;
+    }
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,8 +1,10 @@
 #include "run_options.hpp"
 
 #include <set>
+#include <sstream>
 
 #include "core/platform.hpp"
+#include "count_check.hpp"
 
 namespace kfx::cli {
 
@@ -33,7 +35,7 @@ void add_run_options(CLI::App& command, RunOptions& o) {
         "(SLAMBench) " + field.help + " [" + key + "]");
   }
   command.add_option("--frames", o.max_frames, "process at most N frames (0 = all)")
-      ->check(CLI::NonNegativeNumber);
+      ->check(count_at_least(0, "0 = all frames"));
   command.add_option_function<std::string>(
       "--depth-scale",
       [&o](const std::string& value) { o.assignments.push_back("depth_scale=" + value); },
@@ -70,12 +72,24 @@ PreparedRun prepare_run(const RunOptions& o) {
 
   const auto& k = run.config.input.camera_px;
   const auto defaults = run.reader->default_intrinsics();
+  std::string source;
   if (k[0] != 0 || k[1] != 0) {
     run.input_intrinsics = Intrinsics{k[0], k[1], k[2], k[3]};
+    source = "given by the user (-k / camera)";
   } else {
     KFX_CHECK(defaults.has_value(), o.input << ": this input has no default intrinsics; give them "
                                                "with -k fx,fy,cx,cy (pixels, input size)");
     run.input_intrinsics = *defaults;
+    source = run.reader->intrinsics_source();
+    if (source.empty()) source = "the input's default";
+  }
+  {
+    const Intrinsics& c = run.input_intrinsics;
+    std::ostringstream note;
+    note << "intrinsics fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy
+         << " px at " << run.reader->width_px() << "x" << run.reader->height_px() << ": "
+         << source;
+    run.intrinsics_note = note.str();
   }
   // SLAMBench runs ICL-NUIM with +fy where the true camera has −fy: that mirrors the world in
   // y, so evaluation must flip y back.

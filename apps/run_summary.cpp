@@ -24,6 +24,7 @@ double mean_of(const std::vector<double>& values) {
 void RunSummary::add(const FrameReport& report) {
   ++frames;
   tracked += report.tracked ? 1 : 0;
+  lost += report.tracking_ran && !report.tracked ? 1 : 0;
   integrated += report.integrated ? 1 : 0;
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
     stage_ms[s].push_back(report.stage_ms[s]);
@@ -40,6 +41,7 @@ nlohmann::json RunSummary::to_json() const {
   nlohmann::json j;
   j["frames"] = frames;
   j["tracked"] = tracked;
+  j["lost"] = lost;
   j["integrated"] = integrated;
   j["frames_per_second"] = frames_per_second();
   j["frames_per_second_definition"] = "1 / mean computation time (preprocess + track + "
@@ -57,6 +59,7 @@ std::string RunSummary::one_line() const {
   std::snprintf(buffer, sizeof(buffer), "%d frames, %d tracked, %d integrated, %.1f frames/s",
                 frames, tracked, integrated, frames_per_second());
   std::string line = buffer;
+  if (lost > 0) line += ", " + std::to_string(lost) + " lost";
   if (ate_rmse_m >= 0) {
     std::snprintf(buffer, sizeof(buffer), ", ATE RMSE %.2f cm", ate_rmse_m * 100.0);
     line += buffer;

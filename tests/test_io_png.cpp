@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/platform.hpp"
+#include "io/atomic_file.hpp"
 #include "io/png.hpp"
 #include "io_test_support.hpp"
 
@@ -45,7 +46,7 @@ TEST(IoPng, Gray16RoundTripIsExactAndLeavesNoTemporaryFile) {
   const std::string path = dir.file("depth.png");
   const HostImage<uint16_t> image = test_image();
   write_png_gray16(path, image);
-  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(path)));
   const HostImage<uint16_t> back = read_png_gray16(path);
   ASSERT_EQ(back.width(), 8);
   ASSERT_EQ(back.height(), 6);
@@ -156,10 +157,10 @@ TEST(IoPng, FailedWriteLeavesNoFile) {
   const std::string path = dir.file("no_such_folder/out.png");
   expect_error([&] { write_png_gray16(path, test_image()); }, {path});
   EXPECT_FALSE(fs::exists(path));
-  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(path)));
   expect_error([&] { write_png_gray16(dir.file("empty.png"), HostImage<uint16_t>()); },
                {"empty.png", "invalid image size"});
-  EXPECT_FALSE(fs::exists(dir.file("empty.png.tmp")));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(dir.file("empty.png"))));
 }
 
 }  // namespace

@@ -13,6 +13,7 @@
 #include <vector>
 
 #include "core/platform.hpp"
+#include "io/atomic_file.hpp"
 #include "io/convert.hpp"
 #include "io/png.hpp"
 #include "io/reader.hpp"
@@ -78,7 +79,7 @@ TEST(IoRaw, RoundTripWithSidecar) {
     EXPECT_FALSE(fs::exists(path));  // not before close()
     writer.close();
   }
-  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(path)));
   RawSidecar sidecar;
   sidecar.stamps_s = {1305031102.160407, 1305031102.19433, 1305031102.226738};
   sidecar.intrinsics = Intrinsics{258.65f, 258.25f, 159.3f, 127.65f};
@@ -248,12 +249,12 @@ TEST(IoRaw, WriterLeavesNothingUnlessClosedAndRefusesSizeChanges) {
   {
     RawWriter writer(path);
     writer.write_frame(depth_image(0));
-    EXPECT_TRUE(fs::exists(path + ".tmp"));
+    EXPECT_TRUE(fs::exists(temp_files::name_for(path)));
     expect_error([&] { writer.write_frame(depth_image(1, 4, 4)); },
                  {path, "frame 1", "4x4", "8x6"});
   }
   EXPECT_FALSE(fs::exists(path));
-  EXPECT_FALSE(fs::exists(path + ".tmp"));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(path)));
   expect_error([&] { RawWriter writer(dir.file("no/such/folder.raw")); }, {"no/such/folder.raw"});
 }
 
@@ -357,12 +358,12 @@ TEST(IoConvert, BadFrameStopsTheConversionAndLeavesNoOutput) {
   expect_error([&] { convert_to_raw(*open_reader(folder), out, ConvertOptions{}); },
                {out, "frame 1", "11.5.png", "missing"});
   EXPECT_FALSE(fs::exists(out));
-  EXPECT_FALSE(fs::exists(out + ".tmp"));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(out)));
   EXPECT_FALSE(fs::exists(raw_sidecar_path(out)));
   ConvertOptions bad_ratio;
   bad_ratio.ratio = 3;
   expect_error([&] { convert_to_raw(*open_reader(folder), out, bad_ratio); }, {"1, 2, 4 or 8"});
-  EXPECT_FALSE(fs::exists(out + ".tmp"));
+  EXPECT_FALSE(fs::exists(temp_files::name_for(out)));
 }
 
 TEST(IoConvert, SyntheticInputKeepsItsRecommendedSettings) {

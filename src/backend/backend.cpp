@@ -2,7 +2,10 @@
 
 #include "backend/backend.hpp"
 
+#include <new>
+
 #include "backend/frame_buffers.hpp"
+#include "backend/memory_budget.hpp"
 
 namespace kfx {
 
@@ -10,7 +13,27 @@ namespace kfx {
 // Defined in src/backend/cuda/.
 bool cuda_device_present(std::string* why_not);
 std::unique_ptr<Backend> make_cuda_backend(const BackendSetup& setup);
+uint64_t cuda_free_bytes();
 #endif
+
+namespace {
+
+/// The CPU backend after checking that its buffers fit in the host's available memory.
+std::unique_ptr<Backend> make_checked_cpu_backend(const BackendSetup& setup) {
+  const uint64_t needed = backend_bytes_needed(setup);
+  check_memory_fits(setup, needed, host_bytes_available(),
+                    "the host's available memory (MemAvailable in /proc/meminfo)");
+  try {
+    return make_cpu_backend(setup);
+  } catch (const std::bad_alloc&) {
+    // The estimate fitted but the allocation failed (overcommit limits, other processes).
+    KFX_FAIL("not enough host memory: the CPU backend could not allocate its buffers (about "
+             << static_cast<double>(needed) / (1024.0 * 1024.0 * 1024.0) << " GiB for a "
+             << setup.volume_res_vox << "^3 volume)");
+  }
+}
+
+}  // namespace
 
 const char* stage_name(Stage stage) {
   switch (stage) {
@@ -47,16 +70,19 @@ bool cuda_available(std::string* why_not) {
 }
 
 std::unique_ptr<Backend> make_backend(BackendKind kind, const BackendSetup& setup) {
-  if (kind == BackendKind::kCpu) return make_cpu_backend(setup);
+  if (kind == BackendKind::kCpu) return make_checked_cpu_backend(setup);
   std::string why_not;
   const bool have_cuda = cuda_available(&why_not);
   if (kind == BackendKind::kCuda) {
     KFX_CHECK(have_cuda, "the CUDA backend was requested but " << why_not);
   }
 #if defined(KFX_HAVE_CUDA)
-  if (have_cuda) return make_cuda_backend(setup);
+  if (have_cuda) {
+    check_memory_fits(setup, backend_bytes_needed(setup), cuda_free_bytes(), "free GPU memory");
+    return make_cuda_backend(setup);
+  }
 #endif
-  return make_cpu_backend(setup);
+  return make_checked_cpu_backend(setup);
 }
 
 }  // namespace kfx

@@ -59,7 +59,7 @@ EvalResult evaluate_trajectories(const std::vector<io::StampedPose>& est,
                            << ")");
   KFX_CHECK(pairs >= kMinEvalPairs, "eval: only "
                                         << pairs << " estimate pose(s) of " << est_label
-                                        << " pair with ground truth " << gt_label << " within "
+                                        << " pair with a pose of " << gt_label << " within "
                                         << options.max_dt_s << " s; at least " << kMinEvalPairs
                                         << " are needed (estimate stamps " << stamp_range(est)
                                         << ", ground-truth stamps " << stamp_range(gt) << ")");
@@ -70,6 +70,34 @@ EvalResult evaluate_trajectories(const std::vector<io::StampedPose>& est,
   result.ate = compute_ate(est, gt, result.association, options.flip_y);
   result.checkpos = compute_checkpos(est, gt, result.association, options.flip_y);
   result.rpe = compute_rpe(est, gt, result.association, options.rpe_delta_frames, options.flip_y);
+  // Finite inputs can still overflow (positions of 1e308 square to inf): an RMSE of inf or NaN
+  // is no result, so name the file with the largest position instead of printing it.
+  const double figures[] = {result.ate.stats_m.rmse, result.checkpos.stats_m.rmse,
+                            result.rpe.trans_m.rmse, result.rpe.rot_deg.rmse};
+  if (!std::all_of(std::begin(figures), std::end(figures),
+                   [](double v) { return std::isfinite(v); })) {
+    const auto largest = [](const std::vector<io::StampedPose>& poses, double* stamp_s) {
+      double most = 0.0;
+      for (const io::StampedPose& p : poses) {
+        for (double t : p.t) {
+          if (std::fabs(t) >= most) {
+            most = std::fabs(t);
+            *stamp_s = p.stamp_s;
+          }
+        }
+      }
+      return most;
+    };
+    double est_stamp = 0.0, gt_stamp = 0.0;
+    const double est_most = largest(est, &est_stamp);
+    const double gt_most = largest(gt, &gt_stamp);
+    const bool est_worse = est_most >= gt_most;
+    KFX_FAIL("eval: the errors are not finite numbers (positions too large to square); the "
+             "largest position component is "
+             << (est_worse ? est_most : gt_most) << " m in "
+             << (est_worse ? est_label : gt_label) << " at stamp " << std::fixed
+             << (est_worse ? est_stamp : gt_stamp));
+  }
   result.est_orientation_identity =
       std::all_of(result.association.pairs.begin(), result.association.pairs.end(),
                   [&](const PosePair& p) { return is_identity_orientation(est[p.est_index]); });

@@ -1,7 +1,9 @@
 #pragma once
-/// A binary output file (PNG, SLAMBench .raw) written under `path + ".tmp"` and renamed into place
-/// only on commit(), so a failed run never leaves a file that looks finished. (Text outputs use
-/// AtomicFile from io/atomic_file.hpp.)
+/// A binary output file (PNG, SLAMBench .raw) written under `path.<pid>.tmp` and renamed into
+/// place only on commit(), so a failed run never leaves a file that looks finished. The
+/// temporary is removed on SIGINT/SIGTERM/SIGHUP, and stale ones of dead kfx processes are
+/// removed when the same path is written again. (Text outputs use AtomicFile from
+/// io/atomic_file.hpp; they are small and the log's partial file is meant to survive a kill.)
 
 #include <cstdio>
 #include <string>
@@ -12,7 +14,8 @@ namespace kfx::io {
 /// commit(); destroyed uncommitted, it removes the temporary file.
 class BinaryOutputFile {
  public:
-  /// Creates `path + ".tmp"`. Throws kfx::Error naming `path` (what: e.g. "PNG") on failure.
+  /// Creates `path.<pid>.tmp`, first removing stale temporaries of `path` left by dead
+  /// processes. Throws kfx::Error naming `path` (what: e.g. "PNG") on failure.
   BinaryOutputFile(std::string path, const char* what);
   ~BinaryOutputFile();
   BinaryOutputFile(const BinaryOutputFile&) = delete;
@@ -35,6 +38,7 @@ class BinaryOutputFile {
   std::string temp_path_;
   std::string what_;
   std::FILE* file_ = nullptr;
+  int slot_ = -1;  ///< temp_files slot: removed if the process is interrupted
 };
 
 }  // namespace kfx::io

@@ -205,6 +205,9 @@ class IclNativeReader : public Reader {
   int height_px() const override { return kHeightPx; }
   int frame_count() const override { return count_; }
   std::optional<Intrinsics> default_intrinsics() const override { return kIclNuimIntrinsics; }
+  std::string intrinsics_source() const override {
+    return "ICL-NUIM's true camera (negative fy), the default for ICL-NUIM folders";
+  }
   std::vector<StampedPose> ground_truth() const override { return ground_truth_; }
   std::string description() const override {
     std::ostringstream out;

@@ -39,6 +39,7 @@ class GroundTruthOverride : public Reader {
   std::optional<Intrinsics> default_intrinsics() const override {
     return inner_->default_intrinsics();
   }
+  std::string intrinsics_source() const override { return inner_->intrinsics_source(); }
   std::vector<StampedPose> ground_truth() const override { return ground_truth_; }
   std::string description() const override {
     return inner_->description() + " with ground truth from '" + path_ + "' (" +

@@ -13,6 +13,7 @@
 #include <csetjmp>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <vector>
@@ -144,10 +145,22 @@ class PngWriteHandle {
 };
 
 std::vector<unsigned char> read_whole_file(const std::string& path) {
+  // A folder opens as a stream but its first read throws std::ios_failure (found by fuzzing a
+  // listing that names a folder): refuse anything but a regular file first.
+  std::error_code error;
+  KFX_CHECK(std::filesystem::is_regular_file(path, error),
+            "cannot read PNG '" << path << "': "
+                                << (std::filesystem::exists(path, error)
+                                        ? "not a regular file"
+                                        : "cannot open the file: no such file"));
   std::ifstream in(path, std::ios::binary);
   KFX_CHECK(in.good(), "cannot read PNG '" << path << "': cannot open the file");
-  std::vector<unsigned char> bytes((std::istreambuf_iterator<char>(in)),
-                                   std::istreambuf_iterator<char>());
+  std::vector<unsigned char> bytes;
+  try {
+    bytes.assign(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  } catch (const std::exception& e) {
+    KFX_FAIL("cannot read PNG '" << path << "': read error: " << e.what());
+  }
   KFX_CHECK(!in.bad(), "cannot read PNG '" << path << "': read error");
   return bytes;
 }
@@ -175,7 +188,7 @@ PngHeader read_png_header(const std::string& path) {
   return start_reading(handle, &source, state, path);
 }
 
-HostImage<uint16_t> read_png_gray16(const std::string& path) {
+HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth) {
   const std::vector<unsigned char> bytes = read_whole_file(path);
   PngErrorState state{};
   PngReadHandle handle(&state, path);
@@ -185,6 +198,7 @@ HostImage<uint16_t> read_png_gray16(const std::string& path) {
                 png_get_color_type(handle.png(), handle.info()) == PNG_COLOR_TYPE_GRAY,
             "cannot read PNG '" << path << "': expected a single-channel grayscale image, found "
                                 << header.channels << " channels");
+  if (bit_depth != nullptr) *bit_depth = header.bit_depth;
   const int width = header.width_px;
   const int height = header.height_px;
   HostImage<uint16_t> image(width, height);

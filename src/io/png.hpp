@@ -24,7 +24,8 @@ PngHeader read_png_header(const std::string& path);
 /// Reads a single-channel grayscale PNG. 16-bit samples are returned as stored; 8-bit (and 1, 2,
 /// 4-bit) samples keep their values (0..255, not rescaled). Colour, palette and gray+alpha images
 /// are refused. Throws kfx::Error naming the file for a missing, truncated or corrupt file.
-HostImage<uint16_t> read_png_gray16(const std::string& path);
+/// When `bit_depth` is given it receives the bits per sample as stored (1, 2, 4, 8 or 16).
+HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth = nullptr);
 
 /// Writes `image` as a 16-bit grayscale PNG, atomically. Throws kfx::Error naming the file.
 void write_png_gray16(const std::string& path, const HostImage<uint16_t>& image);

@@ -53,6 +53,21 @@ std::vector<DepthListEntry> read_depth_listing(const std::string& listing_path,
     }
     entry.stamp_s = parse_double_field(line, stamp_field, listing_path, "timestamp");
     entry.depth_path = join(folder, line.fields[stamp_field + 1]);
+    // Frames run in listing order, so stamps must increase: a repeated or earlier stamp is a
+    // duplicated or shuffled line that would feed the tracker frames out of order.
+    if (!entries.empty() && !(entry.stamp_s > entries.back().stamp_s)) {
+      const DepthListEntry& previous = entries.back();
+      KFX_CHECK(entry.stamp_s != previous.stamp_s || entry.depth_path != previous.depth_path,
+                "line " << line.line_number << " of depth listing '" << listing_path
+                        << "' duplicates line " << previous.line_number << " (stamp "
+                        << line.fields[stamp_field] << ", '" << line.fields[stamp_field + 1]
+                        << "')");
+      KFX_FAIL("line " << line.line_number << " of depth listing '" << listing_path
+                       << "': timestamp " << line.fields[stamp_field]
+                       << (entry.stamp_s == previous.stamp_s ? " repeats" : " is earlier than")
+                       << " the stamp of line " << previous.line_number
+                       << "; stamps must increase down the listing");
+    }
     entries.push_back(std::move(entry));
   }
   KFX_CHECK(!entries.empty(), "depth listing '" << listing_path << "' lists no frames");
@@ -85,6 +100,7 @@ PngSequenceReader::PngSequenceReader(PngSequenceSpec spec) : spec_(std::move(spe
       const PngHeader header = read_png_header(entry.depth_path);
       width_px_ = header.width_px;
       height_px_ = header.height_px;
+      bit_depth_ = header.bit_depth;
       return;
     } catch (const Error& e) {
       if (first_problem.empty()) first_problem = e.what();
@@ -113,8 +129,9 @@ ReadResult PngSequenceReader::next(Frame& frame) {
     return bad("depth image '" + entry.depth_path + "' is missing");
   }
   HostImage<uint16_t> raw;
+  int bit_depth = 0;
   try {
-    raw = read_png_gray16(entry.depth_path);
+    raw = read_png_gray16(entry.depth_path, &bit_depth);
   } catch (const Error& e) {
     return bad(e.what());
   }
@@ -122,6 +139,14 @@ ReadResult PngSequenceReader::next(Frame& frame) {
     std::ostringstream problem;
     problem << "depth image '" << entry.depth_path << "' is " << raw.width() << "x" << raw.height()
             << " but the sequence is " << width_px_ << "x" << height_px_;
+    return bad(problem.str());
+  }
+  // An 8-bit image among 16-bit ones holds values on another scale (0..255, not depth units):
+  // converting it would give a silently wrong frame.
+  if (bit_depth != bit_depth_) {
+    std::ostringstream problem;
+    problem << "depth image '" << entry.depth_path << "' has " << bit_depth
+            << "-bit samples but the sequence is " << bit_depth_ << "-bit";
     return bad(problem.str());
   }
   if (frame.depth_mm.width() != width_px_ || frame.depth_mm.height() != height_px_) {

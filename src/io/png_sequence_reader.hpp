@@ -20,7 +20,8 @@ struct DepthListEntry {
 /// Reads a depth listing of `folder`: either 2 fields per line (`stamp path`, TUM depth.txt) or
 /// 4 (`stamp path stamp path`, TUM associate.py output or ICL-NUIM associations.txt), in which
 /// case the path under `depth/` is the depth image. Throws kfx::Error naming the file and line
-/// on a malformed line, or when it lists no frames.
+/// on a malformed line, a line whose stamp does not increase (duplicated or out of order), or
+/// when it lists no frames.
 std::vector<DepthListEntry> read_depth_listing(const std::string& listing_path,
                                                const std::string& folder);
 
@@ -32,6 +33,7 @@ struct PngSequenceSpec {
   std::vector<DepthListEntry> entries;
   double depth_scale_per_m = 5000.0;  ///< raw PNG units per metre
   std::optional<Intrinsics> intrinsics;
+  std::string intrinsics_source;  ///< where `intrinsics` come from and why (for the user)
   std::vector<StampedPose> ground_truth;
   std::string ground_truth_path;  ///< "" when there is none
 };
@@ -49,6 +51,7 @@ class PngSequenceReader : public Reader {
   int height_px() const override { return height_px_; }
   int frame_count() const override { return static_cast<int>(spec_.entries.size()); }
   std::optional<Intrinsics> default_intrinsics() const override { return spec_.intrinsics; }
+  std::string intrinsics_source() const override { return spec_.intrinsics_source; }
   std::vector<StampedPose> ground_truth() const override { return spec_.ground_truth; }
   std::string description() const override;
 
@@ -58,6 +61,7 @@ class PngSequenceReader : public Reader {
   size_t next_ = 0;
   int width_px_ = 0;
   int height_px_ = 0;
+  int bit_depth_ = 0;  ///< bits per sample of the first readable image; every frame must match
 };
 
 /// The depth scale to use: `options_scale` when non-zero (must be finite and > 0, else

@@ -49,6 +49,9 @@ class Reader {
   virtual int frame_count() const = 0;
   /// The format's intrinsics at input resolution, if it defines them.
   virtual std::optional<Intrinsics> default_intrinsics() const = 0;
+  /// Where default_intrinsics() come from and why, for the user ("TUM freiburg 1 camera, named
+  /// by the folder 'x'"); "" when there are none.
+  virtual std::string intrinsics_source() const { return ""; }
   /// Ground-truth poses (camera to world), empty when there are none.
   virtual std::vector<StampedPose> ground_truth() const = 0;
   /// One line describing the source, e.g. "TUM RGB-D folder X (798 frames)".

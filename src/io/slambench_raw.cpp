@@ -173,6 +173,10 @@ class RawReader : public Reader {
     return sidecar_ ? sidecar_->recommended_settings
                     : std::vector<std::pair<std::string, std::string>>{};
   }
+  std::string intrinsics_source() const override {
+    if (!sidecar_ || !sidecar_->intrinsics) return "";
+    return "stored in the sidecar '" + raw_sidecar_path(path_) + "'";
+  }
   std::string description() const override {
     std::ostringstream out;
     out << "SLAMBench raw '" << path_ << "' (" << frame_count_ << " frames, " << width_px_ << "x"

@@ -21,7 +21,7 @@ constexpr long long kMaxFrames = 1000000;
 constexpr long long kMinSidePx = 16;
 constexpr long long kMaxSidePx = 8192;
 constexpr double kMaxSpeed = 4.0;
-constexpr const char* kAllowedKeys = "frames, width, height, seed, noise, speed";
+constexpr const char* kAllowedKeys = "frames, width, height, seed, noise, speed, jump, blank";
 
 // ---- Camera loop -----------------------------------------------------------------------------
 
@@ -126,6 +126,20 @@ long long parse_int(const std::string& spec, const std::string& key, const std::
   return v;
 }
 
+/// Parses a frame stretch "A-B" or "A" into first and last.
+void parse_stretch(const std::string& spec, const std::string& key, const std::string& value,
+                   int* first, int* last) {
+  const size_t dash = value.find('-', 1);
+  *first = static_cast<int>(parse_int(spec, key, trim(value.substr(0, dash)), 0, kMaxFrames - 1));
+  *last = dash == std::string::npos
+              ? *first
+              : static_cast<int>(
+                    parse_int(spec, key, trim(value.substr(dash + 1)), 0, kMaxFrames - 1));
+  KFX_CHECK(*first <= *last, "synthetic spec '" << spec << "': " << key << " must be a frame A or "
+                                                << "a stretch A-B with A <= B, got '" << value
+                                                << "'");
+}
+
 }  // namespace
 
 SyntheticOptions parse_synthetic_spec(const std::string& spec) {
@@ -169,6 +183,10 @@ SyntheticOptions parse_synthetic_spec(const std::string& spec) {
                                                   << spec << "': noise must be 0 (exact depth) "
                                                   << "or 1 (Kinect-like), got '" << value << "'");
       opt.noise = value == "1";
+    } else if (key == "jump") {
+      parse_stretch(spec, key, value, &opt.jump_first, &opt.jump_last);
+    } else if (key == "blank") {
+      parse_stretch(spec, key, value, &opt.blank_first, &opt.blank_last);
     } else if (key == "speed") {
       errno = 0;
       char* end = nullptr;
@@ -283,7 +301,8 @@ double loop_phase(int frame, double speed) {
 }  // namespace
 
 void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
-  const LoopState s = loop_state(loop_phase(frame, options_.speed));
+  LoopState s = loop_state(loop_phase(frame, options_.speed));
+  if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   double q[4];
   loop_quaternion(s, q);
   const double x = q[0], y = q[1], z = q[2], w = q[3];
@@ -300,7 +319,8 @@ void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
 }
 
 StampedPose SyntheticScene::stamped_pose(int frame) const {
-  const LoopState s = loop_state(loop_phase(frame, options_.speed));
+  LoopState s = loop_state(loop_phase(frame, options_.speed));
+  if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   StampedPose out;
   out.stamp_s = stamp_s(frame);
   for (int i = 0; i < 3; ++i) out.t[i] = s.p[i];
@@ -322,6 +342,10 @@ Mat4f SyntheticScene::pose_matrix(int frame) const {
 void SyntheticScene::render(int frame, HostImage<uint16_t>& depth_mm) const {
   const int w = options_.width_px, h = options_.height_px;
   if (depth_mm.width() != w || depth_mm.height() != h) depth_mm = HostImage<uint16_t>(w, h);
+  if (options_.blank(frame)) {
+    std::fill(depth_mm.pixels().begin(), depth_mm.pixels().end(), uint16_t{0});
+    return;
+  }
   double R[3][3], t[3];
   pose(frame, R, t);
   const double f = 525.0 * w / 640.0, cx = (w - 1) / 2.0, cy = (h - 1) / 2.0;
@@ -395,6 +419,9 @@ class SyntheticReader final : public Reader {
   int height_px() const override { return scene_.options().height_px; }
   int frame_count() const override { return scene_.options().frames; }
   std::optional<Intrinsics> default_intrinsics() const override { return scene_.intrinsics(); }
+  std::string intrinsics_source() const override {
+    return "the synthetic scene's own camera (exact)";
+  }
 
   std::vector<StampedPose> ground_truth() const override {
     std::vector<StampedPose> poses;

@@ -9,6 +9,9 @@
 ///   seed=1        noise seed, 0 … 2⁶⁴−1
 ///   noise=1       1 = Kinect-like noise, mm quantisation and holes; 0 = exact depth (in mm)
 ///   speed=1       camera speed factor, (0, 4]; at 1 the loop takes 10 s = 300 frames
+///   jump=A-B      frames A … B (or just A) look 90° to the side of the loop (a pose jump away
+///                 and back; the ground truth follows it), for tracking-loss tests
+///   blank=A-B     frames A … B (or just A) have no depth at all (every pixel 0)
 ///
 /// Frames are numbered from 0 and stamped frame / 30 s. Poses are T_world_cam in the SCENE
 /// frame (x right, y down, z forward; see io/synthetic_scene.hpp), chosen so that frame 0's pose
@@ -43,6 +46,13 @@ struct SyntheticOptions {
   uint64_t seed = 1;    ///< noise seed
   bool noise = true;    ///< Kinect-like noise, quantisation and holes when true
   double speed = 1.0;   ///< camera speed factor (1 = the loop in 10 s)
+  int jump_first = -1;  ///< first frame of the pose jump (−1: none)
+  int jump_last = -1;   ///< last frame of the pose jump
+  int blank_first = -1; ///< first frame without depth (−1: none)
+  int blank_last = -1;  ///< last frame without depth
+  /// True when `frame` lies in the jump / blank stretch.
+  bool jumped(int frame) const { return frame >= jump_first && frame <= jump_last; }
+  bool blank(int frame) const { return frame >= blank_first && frame <= blank_last; }
 };
 
 /// Parses "synthetic" or "synthetic:key=value,...". Throws kfx::Error naming the key and the
@@ -94,7 +104,8 @@ class SyntheticScene {
   static double stamp_s(int frame) { return frame / 30.0; }
 
   /// Exact camera pose T_world_cam of a frame (any integer ≥ 0; the loop repeats), scene frame,
-  /// rotation row-major in R[3][3] and translation t in metres.
+  /// rotation row-major in R[3][3] and translation t in metres; turned kJumpYawRad about the
+  /// vertical axis in the jump stretch.
   void pose(int frame, double R[3][3], double t[3]) const;
 
   /// The same pose as a stamped quaternion pose (stamp = stamp_s(frame)).
@@ -111,6 +122,8 @@ class SyntheticScene {
   /// Side of a cubic TSDF volume that holds the WHOLE room, metres (so it holds everything the
   /// camera sees at any resolution or aspect ratio); the reader recommends it.
   static constexpr double kVolumeSizeM = 4.2;
+  /// Extra yaw of the frames in the jump stretch: the camera looks at a side wall.
+  static constexpr double kJumpYawRad = 1.5707963267948966;
   /// First camera position in the volume frame as a fraction of kVolumeSizeM per axis; the
   /// volume frame is the scene frame translated by kInitPoseFactor · kVolumeSizeM =
   /// (2.1, 2.184, 0.378) m. The cube then spans scene x −2.1 … 2.1 (walls at ±1.8),

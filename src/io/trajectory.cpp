@@ -107,7 +107,13 @@ std::vector<StampedPose> load_ground_truth(const std::string& override_path,
                                            const std::string& found_path, std::string* used_path) {
   *used_path = override_path.empty() ? found_path : override_path;
   if (used_path->empty()) return {};
-  return read_tum_trajectory(*used_path);
+  std::vector<StampedPose> poses = read_tum_trajectory(*used_path);
+  // An empty ground truth would silently mean "no ATE"; `kfx eval` refuses the same file.
+  KFX_CHECK(!poses.empty(), "ground-truth trajectory '"
+                                << *used_path << "' holds no pose (no data line)"
+                                << (override_path.empty() ? "; remove it to run without ground truth"
+                                                          : ""));
+  return poses;
 }
 
 std::vector<std::string> find_freiburg_ground_truth(const std::string& folder) {

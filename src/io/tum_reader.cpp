@@ -38,10 +38,20 @@ int freiburg_camera_in(const std::string& text) {
 }
 
 /// TUM's published intrinsics at 640×480 for the camera named by the folder (then the path),
-/// else the generic Kinect defaults (525, 525, 319.5, 239.5).
-Intrinsics tum_intrinsics_for(const fs::path& folder) {
+/// else the generic Kinect defaults (525, 525, 319.5, 239.5); `source` says which and why.
+Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source) {
   int camera = freiburg_camera_in(folder.filename().string());
+  const bool by_name = camera != 0;
   if (camera == 0) camera = freiburg_camera_in(folder.string());
+  if (camera != 0) {
+    *source = "TUM's freiburg " + std::to_string(camera) + " camera, named by the folder " +
+              (by_name ? "name '" + folder.filename().string() + "'"
+                       : "path '" + folder.string() + "'");
+  } else {
+    *source = "generic Kinect defaults: the folder path '" + folder.string() +
+              "' names no TUM camera (fr1, fr2, fr3 or freiburg1..3); give -k fx,fy,cx,cy "
+              "if these are wrong";
+  }
   switch (camera) {
     case 1:
       return {517.3f, 516.5f, 318.6f, 255.3f};
@@ -80,7 +90,8 @@ std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOpt
   }
   spec.entries = read_depth_listing(spec.listing_path, spec.folder);
   spec.depth_scale_per_m = resolve_depth_scale(options.depth_scale_per_m, kPngDepthScalePerM);
-  spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal());
+  spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal(),
+                                       &spec.intrinsics_source);
   const fs::path groundtruth = fs::path(spec.folder) / "groundtruth.txt";
   spec.ground_truth = load_ground_truth(
       options.ground_truth_path,

@@ -126,6 +126,7 @@ FrameReport Pipeline::collect() {
   const bool always = pending.always;
   const TrackingState state = backend_->read_state();
   report.stage_ms = backend_->frame_stage_ms();
+  report.tracking_ran = track;
   report.tracked = track && state.tracked;
   report.integrated = may_integrate && (always || state.tracked);
   report.T_world_cam = state.T_world_cam;

@@ -17,7 +17,8 @@ namespace kfx {
 /// What happened to one frame.
 struct FrameReport {
   int index = 0;              ///< frame number f, from 0
-  bool tracked = false;       ///< accept test passed
+  bool tracking_ran = false;  ///< tracking was attempted (a reference view existed, on rate)
+  bool tracked = false;       ///< accept test passed (tracking_ran && !tracked: tracking lost)
   bool integrated = false;    ///< depth fused into the volume
   bool raycast = false;       ///< reference view refreshed
   bool rendered = false;      ///< the three renders were made (read them before the next submit)

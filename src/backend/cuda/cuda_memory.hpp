@@ -5,6 +5,7 @@
 #include <cuda_runtime.h>
 
 #include <cstddef>
+#include <sstream>
 #include <utility>
 
 #include "backend/cuda/cuda_check.hpp"
@@ -12,13 +13,33 @@
 
 namespace kfx::cuda {
 
+/// Throws kfx::Error for a failed allocation of `bytes` ("device" or "pinned host" memory),
+/// with the size and what the GPU has free. The stage is the backend's construction, as
+/// every buffer is allocated once there.
+inline void fail_allocation(cudaError_t status, size_t bytes, const char* kind) {
+  cudaGetLastError();  // clear the error so the query below can succeed
+  constexpr double kMiB = 1024.0 * 1024.0;
+  std::ostringstream gpu;
+  size_t free_bytes = 0, total_bytes = 0;
+  if (cudaMemGetInfo(&free_bytes, &total_bytes) == cudaSuccess) {
+    gpu << "; the GPU has " << free_bytes / kMiB << " MiB free of " << total_bytes / kMiB
+        << " MiB";
+  }
+  KFX_FAIL("CUDA backend setup: cannot allocate " << bytes / kMiB << " MiB of " << kind
+                                                  << " memory: " << cudaGetErrorName(status)
+                                                  << " (" << cudaGetErrorString(status) << ")"
+                                                  << gpu.str());
+}
+
 /// `count` elements of T in device memory.
 template <class T>
 class DeviceBuffer {
  public:
   DeviceBuffer() = default;
   explicit DeviceBuffer(size_t count) : count_(count) {
-    if (count > 0) KFX_CUDA_CHECK(cudaMalloc(&data_, count * sizeof(T)));
+    if (count == 0) return;
+    const cudaError_t status = cudaMalloc(&data_, count * sizeof(T));
+    if (status != cudaSuccess) fail_allocation(status, count * sizeof(T), "device");
   }
   ~DeviceBuffer() {
     if (data_) cudaFree(data_);
@@ -66,7 +87,9 @@ class PinnedBuffer {
  public:
   PinnedBuffer() = default;
   explicit PinnedBuffer(size_t count) : count_(count) {
-    if (count > 0) KFX_CUDA_CHECK(cudaMallocHost(&data_, count * sizeof(T)));
+    if (count == 0) return;
+    const cudaError_t status = cudaMallocHost(&data_, count * sizeof(T));
+    if (status != cudaSuccess) fail_allocation(status, count * sizeof(T), "pinned host");
   }
   ~PinnedBuffer() {
     if (data_) cudaFreeHost(data_);

@@ -1,0 +1,64 @@
+#include "backend/memory_budget.hpp"
+
+#include <fstream>
+#include <iomanip>
+#include <sstream>
+
+#include "core/volume.hpp"
+
+namespace kfx {
+namespace {
+
+constexpr double kBytesPerGiB = 1024.0 * 1024.0 * 1024.0;
+
+/// Bytes per compute-size pixel over all maps: depth, filtered depth, the pyramid's depth,
+/// vertex and normal maps (levels sum to < 4/3 of level 0), reference vertices and normals,
+/// ICP outcomes, with room to spare.
+constexpr uint64_t kBytesPerComputePixel = 128;
+/// Bytes per input pixel: double-buffered millimetre depth and the host frame, with room.
+constexpr uint64_t kBytesPerInputPixel = 16;
+
+std::string gib(uint64_t bytes) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << static_cast<double>(bytes) / kBytesPerGiB << " GiB";
+  return s.str();
+}
+
+uint64_t volume_bytes(const BackendSetup& setup) {
+  const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
+  return res * res * res * sizeof(Voxel);
+}
+
+}  // namespace
+
+uint64_t backend_bytes_needed(const BackendSetup& setup) {
+  const uint64_t compute_px =
+      static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
+  const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
+  return volume_bytes(setup) + compute_px * kBytesPerComputePixel + input_px * kBytesPerInputPixel;
+}
+
+uint64_t host_bytes_available() {
+  std::ifstream meminfo("/proc/meminfo");
+  std::string key;
+  uint64_t value_kib = 0;
+  std::string unit;
+  while (meminfo >> key >> value_kib) {
+    std::getline(meminfo, unit);
+    if (key == "MemAvailable:") return value_kib * 1024;
+  }
+  return 0;
+}
+
+void check_memory_fits(const BackendSetup& setup, uint64_t needed_bytes, uint64_t available_bytes,
+                       const std::string& where) {
+  if (available_bytes == 0 || needed_bytes <= available_bytes) return;
+  KFX_FAIL("not enough memory: a " << setup.volume_res_vox << "^3 volume ("
+                                   << gib(volume_bytes(setup)) << ") and the frame buffers need "
+                                   << gib(needed_bytes) << ", but " << where << " is "
+                                   << gib(available_bytes)
+                                   << "; choose a smaller volume resolution (-v / "
+                                      "volume_resolution)");
+}
+
+}  // namespace kfx

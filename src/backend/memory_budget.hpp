@@ -1,0 +1,26 @@
+#pragma once
+/// Memory a backend will allocate, checked against what the host or GPU has before allocating,
+/// so `-v 1024` on a small machine says what it needs instead of `std::bad_alloc`.
+
+#include <cstdint>
+#include <string>
+
+#include "backend/backend.hpp"
+
+namespace kfx {
+
+/// Bytes a backend allocates for `setup`: the volume (resolution³ voxels) plus every per-pixel
+/// map and the pyramid (counted per pixel, slightly generously).
+uint64_t backend_bytes_needed(const BackendSetup& setup);
+
+/// Bytes the host can still allocate without swapping (MemAvailable in /proc/meminfo); 0 when
+/// unknown.
+uint64_t host_bytes_available();
+
+/// Throws kfx::Error when `needed_bytes` exceeds `available_bytes` (0 = unknown: no check). The
+/// message gives both in GiB, the volume's share, and names `where` ("host memory (MemAvailable
+/// in /proc/meminfo)", "free GPU memory").
+void check_memory_fits(const BackendSetup& setup, uint64_t needed_bytes, uint64_t available_bytes,
+                       const std::string& where);
+
+}  // namespace kfx
