@@ -62,6 +62,8 @@ TEST_F(CliTest, GoodRunWritesCompleteOutputs) {
   const auto stats = nlohmann::json::parse(stats_file);
   EXPECT_EQ(stats["frames"], 12);
   EXPECT_TRUE(stats.contains("ate"));
+  // The synthetic run stays on its ground truth: no frame beyond the divergence bound.
+  EXPECT_EQ(stats["ate"]["divergence"]["frames_over"], 0) << stats["ate"].dump();
   EXPECT_GT(stats["frames_per_second"].get<double>(), 0.0);
   std::ifstream trajectory(out / "trajectory.txt");
   int poses = 0;
