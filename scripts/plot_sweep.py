@@ -381,6 +381,8 @@ def presets_table(res):
     note = (f"Speed-ups in brackets are against `{baseline}` (ratio of mean times). ATE RMSE is "
             "TUM-style (rigid alignment, then RMSE); checkPos mean is SLAMBench's unaligned "
             "per-frame error, the thesis's ATE divided by its frame count.")
+    if any_unmeasured_divergence([res.get(n, s) for n in names for s in res.sequences]):
+        note += " " + DIVERGENCE_NOTE
     return "\n\n".join(out) + "\n\n" + note
 
 

@@ -353,14 +353,21 @@ def reading_combining(f, thesis):
 
 def reading_size(f, thesis):
     lines = ["**Reading.**"]
-    pairs = [("size: 160x120 compute", "raycast"), ("size: 160x120 compute + 2x2 blocks", "raycast"),
+    pairs = [("size: compute ratio 2", "raycast"), ("size: compute ratio 2 + 2x2 blocks", "raycast"),
              ("size: 512^3 volume", "integrate"), ("size: 512^3 volume + 2x2 blocks", "raycast"),
              ("size: 512^3 volume + z stride 16", "integrate"), ("size: 128^3 volume", "integrate"),
              ("size: 128^3 volume + z stride 16", "integrate")]
     for name, stage in pairs:
         before = next((r.get("before") for r in f.res.runs_named() if r["name"] == name), None)
         lines.append(f.technique(name, stage, before or None) + ".")
-    if not f.measured("size: 160x120 compute"):
+    for seq in f.seqs:
+        r, b = f.get("size: compute ratio 2", seq), f.get(f.base, seq)
+        if r and b and r.get("config", {}).get("compute_size_ratio") == \
+                b.get("config", {}).get("compute_size_ratio"):
+            lines.append(f"On {seq} the compute ratio 2 rows use `{f.base}`'s own compute size "
+                         "(this input is not the 320×240 .raw form), so they measure nothing "
+                         "about size.")
+    if not f.measured("size: compute ratio 2"):
         lines.append("Until these runs are measured, the explanation that a 320×240 raycast or a "
                      "256² integration grid fills less than one wave of the GPU (so fewer rays or "
                      "slices need not take less time) is a hypothesis, not a result.")
@@ -506,7 +513,7 @@ def why(f, t, name, stage, kk, kf, recs, thesis):
 def size_evidence(f, stage):
     """What the size group measured about the stage: the exact stage time at another size."""
     if stage == "raycast":
-        other, label = "size: 160x120 compute", "at 160×120"
+        other, label = "size: compute ratio 2", "at compute ratio 2 (160×120 from .raw input)"
     elif stage == "integrate":
         other, label = "size: 128^3 volume", "with a 128³ volume"
     else:
