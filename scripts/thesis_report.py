@@ -337,7 +337,9 @@ def reading_raycast(f, thesis):
     lines.append(f.step_sentence("raycast_constant_step_m", "Constant steps (m)"))
     lines.append("kfx's blocks are explicit: `raycast_block_px=bx,by` casts one ray per bx×by "
                  "block and copies it into the block. The thesis's text says \"Block 1x2\" "
-                 "(Section 4.1.4), its code copies 2×2; the `thesis` rows use 2×2, as its code.")
+                 "(Section 4.1.4), its code copies 2×2; the `thesis` preset and the rows marked (thesis) "
+                 "use 2×2, because the preset reproduces the code that produced the thesis's "
+                 "Table 4.6, and the block sweep above measures 1×2 and 2×1 as well.")
     return "\n".join(lines)
 
 
