@@ -152,6 +152,9 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
     record["first_diverged_frame"] = result.divergence.any_over
                                          ? json(result.divergence.first_over_index)
                                          : json();
+    // The frame it left the ground truth (aligned on the frames up to it; null when none).
+    record["departure_frame"] =
+        result.divergence.departed ? json(result.divergence.departure_index) : json();
   } catch (const Error& e) {
     // The run itself succeeded; only its evaluation did not (e.g. too few stamps pair).
     record["ate_note"] = std::string("evaluation failed: ") + e.what();

@@ -215,13 +215,16 @@ def checkpos_cm(r):
 
 
 def diverged_text(r):
-    """"N (from F)" frames beyond the divergence bound, "0", or "n/m" when the record predates
-    the measure (results of an older kfx)."""
+    """"N (first F, departs D)": frames beyond the divergence bound, the first of them and the
+    departure frame (aligned on the frames up to it); "0"; or "n/m" when the record predates the
+    measure (results of an older kfx)."""
     if not r or r.get("diverged_frames") is None:
         return "n/m"
     n = r["diverged_frames"]
-    first = r.get("first_diverged_frame")
-    return f"{n} (from {first})" if n and first is not None else str(n)
+    first, departure = r.get("first_diverged_frame"), r.get("departure_frame")
+    parts = ([f"first {first}"] if n and first is not None else []) + (
+        [f"departs {departure}"] if departure is not None else [])
+    return f"{n} ({', '.join(parts)})" if parts else str(n)
 
 
 def any_unmeasured_divergence(records):
@@ -229,8 +232,10 @@ def any_unmeasured_divergence(records):
 
 
 DIVERGENCE_NOTE = ("\"> 10 cm\": frames whose position error after the rigid ATE alignment exceeds "
-                   "10 cm (`kDivergenceBoundM`), and the first of them; n/m: not measured in this "
-                   "results set (recorded by kfx sweep since the divergence measure was added).")
+                   "10 cm (`kDivergenceBoundM`), the first of them, and the departure: the first "
+                   "frame over 10 cm when aligned on the frames up to it only; n/m: not measured "
+                   "in this results set (recorded by kfx sweep since the divergence measure was "
+                   "added).")
 
 
 def stage_ms(r, stage):

@@ -66,9 +66,15 @@ def divergence_phrase(r):
     n = r.get("diverged_frames")
     if n is None:
         return "frames beyond 10 cm not measured"
-    if n == 0:
+    if n == 0 and r.get("departure_frame") is None:
         return "no frame beyond 10 cm"
-    return f"{n} frames beyond 10 cm, the first at frame {r.get('first_diverged_frame')}"
+    text = f"{n} frames beyond 10 cm"
+    if r.get("first_diverged_frame") is not None:
+        text += f", the first at frame {r['first_diverged_frame']}"
+    if r.get("departure_frame") is not None:
+        text += (f"; it leaves the ground truth at frame {r['departure_frame']} (aligned on the "
+                 "frames up to it)")
+    return text
 
 
 def state(r):
@@ -308,9 +314,8 @@ def reading_integrate(f, thesis):
     for n in ("integrate: ray factor approx", "integrate: ray factor thesis",
               "integrate: ray factor none", "integrate: no depth-0 test"):
         lines.append(f.technique(n, "integrate") + ".")
-    lines.append("No per-frame trajectory is kept in these results, so when a run leaves the "
-                 "ground truth is given only by the first frame beyond 10 cm where it was "
-                 "measured.")
+    lines.append("No per-frame trajectory is kept in these results; when a run leaves the "
+                 "ground truth is its departure frame, where measured (above).")
     return "\n".join(lines)
 
 

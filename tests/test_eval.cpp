@@ -400,6 +400,10 @@ TEST(EvalDivergence, CountsFramesBeyondTheBoundAndNamesTheFirst) {
   ASSERT_TRUE(d.any_over);
   EXPECT_EQ(d.first_over_index, 60u);
   EXPECT_NEAR(d.first_over_stamp_s, 6.0, kExactTol);
+  // Aligned on poses 0..60 only, pose 60 is still 0.2 m minus what one pose in 61 can pull.
+  ASSERT_TRUE(d.departed);
+  EXPECT_EQ(d.departure_index, 60u);
+  EXPECT_NEAR(d.departure_stamp_s, 6.0, kExactTol);
 
   // A larger bound than every error: nothing diverged; the JSON says so with nulls.
   EvalOptions loose;
@@ -411,9 +415,12 @@ TEST(EvalDivergence, CountsFramesBeyondTheBoundAndNamesTheFirst) {
   EXPECT_DOUBLE_EQ(j.at("divergence").at("bound_m").get<double>(), 1.0);
   EXPECT_EQ(j.at("divergence").at("frames_over").get<int>(), 0);
   EXPECT_TRUE(j.at("divergence").at("first_over_index").is_null());
+  EXPECT_TRUE(j.at("divergence").at("departure_index").is_null());
+  EXPECT_FALSE(none.divergence.departed);
   const nlohmann::json over = to_json(r);
   EXPECT_EQ(over.at("divergence").at("frames_over").get<int>(), 40);
   EXPECT_EQ(over.at("divergence").at("first_over_index").get<int>(), 60);
+  EXPECT_EQ(over.at("divergence").at("departure_index").get<int>(), 60);
   EXPECT_NE(format_report(r).find("over 10 cm: 40 of 100 frames, first at estimate pose 60"),
             std::string::npos)
       << format_report(r);
@@ -446,21 +453,42 @@ TEST(EvalDivergence, DriftingTrajectoryIsCaughtNearWhereItLeaves) {
   EXPECT_LE(r.divergence.first_over_index, 165u);
   EXPECT_GE(r.divergence.frames_over, 30u);
   EXPECT_LE(r.divergence.frames_over, 70u);
+  // The departure, aligned on the frames up to each one, cannot see the later drift: frames
+  // before 150 are exact and the drift first exceeds 10 cm at frame 161, so it departs at 161
+  // or a few frames later (the few drifted frames in the prefix pull it back a little).
+  ASSERT_TRUE(r.divergence.departed);
+  EXPECT_GE(r.divergence.departure_index, 161u);
+  EXPECT_LE(r.divergence.departure_index, 170u);
+  // With a drift of metres (10 cm per frame, 4.9 m at the end) the whole-trajectory alignment
+  // puts early frames over the bound too, while the departure stays where the drift starts.
+  std::vector<io::StampedPose> far;
+  for (int i = 0; i < 200; ++i) {
+    const double drift_m = i < 150 ? 0.0 : 0.1 * (i - 150);
+    far.push_back(make_position(0.1 * i, Eigen::Vector3d(gt[i].t[0], gt[i].t[1], gt[i].t[2]) +
+                                             drift_m * direction));
+  }
+  const EvalResult lost = evaluate_trajectories(far, gt);
+  ASSERT_TRUE(lost.divergence.departed);
+  EXPECT_LT(lost.divergence.first_over_index, 140u);
+  EXPECT_GE(lost.divergence.departure_index, 151u);
+  EXPECT_LE(lost.divergence.departure_index, 155u);
   // Without the drift nothing diverges.
   const EvalResult clean = evaluate_trajectories(gt, gt);
   EXPECT_EQ(clean.divergence.frames_over, 0u);
+  EXPECT_FALSE(clean.divergence.departed);
 }
 
 TEST(EvalDivergence, RejectsMismatchedInput) {
+  const std::vector<io::StampedPose> poses = {make_position(0, Eigen::Vector3d(0, 0, 0)),
+                                              make_position(1, Eigen::Vector3d(1, 0, 0))};
+  const Association association = associate(poses, poses);
   AteResult ate;
-  ate.errors_m = {0.5, 0.01};
-  Association association;
-  association.pairs = {PosePair{0, 0, 0.0}};
-  EXPECT_THROW(compute_divergence(ate, association, {io::StampedPose{}}), kfx::Error);
-  association.pairs.push_back(PosePair{5, 1, 0.0});
-  ate.errors_m = {0.01, 0.5};
-  EXPECT_THROW(compute_divergence(ate, association, {io::StampedPose{}}), kfx::Error);
-  EXPECT_THROW(compute_divergence(ate, association, {io::StampedPose{}}, -1.0), kfx::Error);
+  ate.errors_m = {0.5};  // one error for two pairs
+  EXPECT_THROW(compute_divergence(poses, poses, association, ate, false), kfx::Error);
+  ate.errors_m = {0.0, 0.0};
+  EXPECT_NO_THROW(compute_divergence(poses, poses, association, ate, false));
+  EXPECT_THROW(compute_divergence(poses, poses, association, ate, false, -1.0), kfx::Error);
+  EXPECT_THROW(compute_divergence(poses, poses, association, ate, false, NAN), kfx::Error);
 }
 
 // ---------------------------------------------------------------------------------------------

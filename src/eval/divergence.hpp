@@ -26,17 +26,25 @@ struct DivergenceResult {
   bool any_over = false;               ///< whether any frame exceeds the bound
   std::size_t first_over_index = 0;    ///< estimate index of the first such frame (any_over)
   double first_over_stamp_s = 0.0;     ///< its stamp (any_over)
+  /// The departure: the first frame whose error exceeds the bound when the estimate is aligned
+  /// on the frames up to and including it only (a causal alignment, so drift that comes later
+  /// cannot move it earlier, as it can move first_over_index).
+  bool departed = false;
+  std::size_t departure_index = 0;  ///< estimate index of the departure (departed)
+  double departure_stamp_s = 0.0;   ///< its stamp (departed)
 };
 
-/// Divergence of an ATE result: counts the pairs of `association` (in estimate-stamp order, as
-/// compute_ate() keeps them) whose `ate.errors_m` exceeds `bound_m`, and names the first by its
-/// index into `est` (the frame number for kfx runs, one pose per frame) and its stamp. The
-/// errors are those after the rigid alignment of the whole trajectory, so for a trajectory that
-/// leaves the ground truth late the alignment partly absorbs the drift and the first frame over
-/// the bound may come a little earlier or later than the physical departure. Throws kfx::Error
-/// when the sizes disagree or `bound_m` is not a positive finite number.
-DivergenceResult compute_divergence(const AteResult& ate, const Association& association,
-                                    const std::vector<io::StampedPose>& est,
-                                    double bound_m = kDivergenceBoundM);
+/// Divergence of associated trajectories whose TUM-style ATE is `ate` (compute_ate() with the
+/// same association and `flip_y`): counts the pairs (in estimate-stamp order, as compute_ate()
+/// keeps them) whose `ate.errors_m` exceeds `bound_m` and names the first by its index into
+/// `est` (the frame number for kfx runs, one pose per frame) and its stamp. Those errors are
+/// after the rigid alignment of the whole trajectory, which for a trajectory that leaves the
+/// ground truth spreads the drift over every frame (with a drift of metres even frame 0 can be
+/// over the bound); the departure frame, from prefix alignments, says when it left. Throws
+/// kfx::Error when the sizes disagree or `bound_m` is not a positive finite number.
+DivergenceResult compute_divergence(const std::vector<io::StampedPose>& est,
+                                    const std::vector<io::StampedPose>& gt,
+                                    const Association& association, const AteResult& ate,
+                                    bool flip_y, double bound_m = kDivergenceBoundM);
 
 }  // namespace kfx::eval

@@ -71,8 +71,8 @@ EvalResult evaluate_trajectories(const std::vector<io::StampedPose>& est,
                                  << options.rpe_delta_frames << " associated poses, got " << pairs);
 
   result.ate = compute_ate(est, gt, result.association, options.flip_y);
-  result.divergence =
-      compute_divergence(result.ate, result.association, est, options.divergence_bound_m);
+  result.divergence = compute_divergence(est, gt, result.association, result.ate, options.flip_y,
+                                         options.divergence_bound_m);
   result.checkpos = compute_checkpos(est, gt, result.association, options.flip_y);
   result.rpe = compute_rpe(est, gt, result.association, options.rpe_delta_frames, options.flip_y);
   result.est_orientation_identity =
@@ -128,7 +128,11 @@ nlohmann::json to_json(const EvalResult& r) {
       {"frames_over", d.frames_over},
       {"first_over_index", d.any_over ? nlohmann::json(d.first_over_index) : nlohmann::json()},
       {"first_over_stamp_s",
-       d.any_over ? nlohmann::json(d.first_over_stamp_s) : nlohmann::json()}};
+       d.any_over ? nlohmann::json(d.first_over_stamp_s) : nlohmann::json()},
+      {"departure_method",
+       "first frame over bound_m when aligned on the frames up to and including it"},
+      {"departure_index", d.departed ? nlohmann::json(d.departure_index) : nlohmann::json()},
+      {"departure_stamp_s", d.departed ? nlohmann::json(d.departure_stamp_s) : nlohmann::json()}};
 
   const ErrorStats& c = r.checkpos.stats_m;
   j["checkpos"] = {{"method",
@@ -195,6 +199,9 @@ std::string format_report(const EvalResult& r) {
   if (d.any_over) {
     s << ", first at estimate pose " << d.first_over_index << " (stamp " << std::setprecision(16)
       << d.first_over_stamp_s << std::setprecision(6) << ")";
+  }
+  if (d.departed) {
+    s << "; departs (aligned on the frames up to it) at estimate pose " << d.departure_index;
   }
   s << "\n\n";
 

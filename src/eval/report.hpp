@@ -65,7 +65,8 @@ EvalResult evaluate_trajectory_files(const std::string& est_path, const std::str
 /// "ate": {"method", "pairs", "rmse_m", "mean_m", "median_m", "std_m", "min_m", "max_m",
 ///         "alignment": {"rotation" (3×3 rows), "translation_m"}},
 /// "divergence": {"method", "bound_m", "frames_evaluated", "frames_over", "first_over_index"
-///                (null when none), "first_over_stamp_s" (null when none)},
+///                (null when none), "first_over_stamp_s" (null when none), "departure_method",
+///                "departure_index" (null when none), "departure_stamp_s" (null when none)},
 /// "checkpos": {"method", "frames", "min_m", "max_m", "mean_m", "total_m", "rmse_m"},
 /// "rpe": {"delta_frames", "pairs", "trans_rmse_m", "trans_mean_m", "trans_median_m",
 ///         "trans_std_m", "trans_max_m", "rot_rmse_deg", "rot_mean_deg", "rot_median_deg",

@@ -297,6 +297,7 @@ std::vector<std::pair<std::string, std::vector<std::string>>> csv_layout() {
       {"checkpos_mean_m", {"checkpos_mean_m"}},
       {"diverged_frames", {"diverged_frames"}},
       {"first_diverged_frame", {"first_diverged_frame"}},
+      {"departure_frame", {"departure_frame"}},
       {"divergence_bound_m", {"divergence_bound_m"}},
       {"frames_per_second", {"frames_per_second"}},
       {"end_to_end_frames_per_second", {"end_to_end_frames_per_second"}},
