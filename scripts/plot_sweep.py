@@ -381,7 +381,7 @@ def presets_table(res):
         row("ATE RMSE, aligned (cm)", ate_cm, fmt)
         row("checkPos mean, unaligned (cm)", checkpos_cm, fmt)
         row("tracked frames", lambda r: r.get("tracked"), lambda v: "–" if v is None else str(v))
-        row("frames > 10 cm (first)", lambda r: r, diverged_text)
+        row("frames > 10 cm (first, departure)", lambda r: r, diverged_text)
         out.append("\n".join(lines))
     note = (f"Speed-ups in brackets are against `{baseline}` (ratio of mean times). ATE RMSE is "
             "TUM-style (rigid alignment, then RMSE); checkPos mean is SLAMBench's unaligned "
