@@ -147,6 +147,15 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
     record["ate_rmse_m"] = result.ate.stats_m.rmse;
     record["ate_pairs"] = result.ate.stats_m.count;
     record["checkpos_mean_m"] = result.checkpos.stats_m.mean;
+    // Frames the aligned trajectory puts beyond the bound, and the first (null when none).
+    record["divergence_bound_m"] = result.divergence.bound_m;
+    record["diverged_frames"] = result.divergence.frames_over;
+    record["first_diverged_frame"] = result.divergence.any_over
+                                         ? json(result.divergence.first_over_index)
+                                         : json();
+    // The frame it left the ground truth (aligned on the frames up to it; null when none).
+    record["departure_frame"] =
+        result.divergence.departed ? json(result.divergence.departure_index) : json();
   } catch (const Error& e) {
     // The run itself succeeded; only its evaluation did not (e.g. too few stamps pair).
     record["ate_note"] = std::string("evaluation failed: ") + e.what();

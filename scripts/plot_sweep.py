@@ -25,6 +25,7 @@ Template placeholders:
   {{figure:NAME}}       an image link; NAME = step_<group>, before_after, presets_stages, pareto
   {{step_figures}}      every step figure
   {{results}}           links to the results files
+  (more from --values-module: its extra_values(res, figures) returns {placeholder: text})
 
 Run with /usr/bin/python3 (Debian's python3-matplotlib and numpy). Headless (Agg).
 """
@@ -165,6 +166,27 @@ class Results:
             if r["name"] not in self.names:
                 self.names.append(r["name"])
 
+        self.planned = []  # (name, group) of the plan's single named table runs (set_plan)
+
+    def set_plan(self, plan):
+        """Remembers the plan's single named runs (grids aside) that make table rows, so a row
+        the results lack is listed as not measured instead of silently left out."""
+        baseline = plan.get("baseline", "")
+        for entry in plan.get("runs", []):
+            name, group = entry.get("name"), entry.get("group")
+            if not name or "grid" in entry or "{" in name:
+                continue
+            group = group or name
+            before = entry.get("before", baseline if name != baseline else "")
+            if entry.get("table", bool(before) and "step" not in entry) and before:
+                self.planned.append((name, group))
+
+    def planned_groups(self):
+        return [g for _, g in self.planned]
+
+    def planned_missing(self, group):
+        return [n for n, g in self.planned if g == group and n not in self.names]
+
     def get(self, name, sequence):
         return self.by_key.get((name, sequence))
 
@@ -190,6 +212,30 @@ def ate_cm(r):
 def checkpos_cm(r):
     v = r.get("checkpos_mean_m") if r else None
     return None if v is None else 100.0 * v
+
+
+def diverged_text(r):
+    """"N (first F, departs D)": frames beyond the divergence bound, the first of them and the
+    departure frame (aligned on the frames up to it); "0"; or "n/m" when the record predates the
+    measure (results of an older kfx)."""
+    if not r or r.get("diverged_frames") is None:
+        return "n/m"
+    n = r["diverged_frames"]
+    first, departure = r.get("first_diverged_frame"), r.get("departure_frame")
+    parts = ([f"first {first}"] if n and first is not None else []) + (
+        [f"departs {departure}"] if departure is not None else [])
+    return f"{n} ({', '.join(parts)})" if parts else str(n)
+
+
+def any_unmeasured_divergence(records):
+    return any(r is not None and r.get("diverged_frames") is None for r in records)
+
+
+DIVERGENCE_NOTE = ("\"> 10 cm\": frames whose position error after the rigid ATE alignment exceeds "
+                   "10 cm (`kDivergenceBoundM`), the first of them, and the departure: the first "
+                   "frame over 10 cm when aligned on the frames up to it only; n/m: not measured "
+                   "in this results set (recorded by kfx sweep since the divergence measure was "
+                   "added).")
 
 
 def stage_ms(r, stage):
@@ -255,23 +301,28 @@ def table_groups(res):
     for r in res.runs_named():
         if r.get("table") and r.get("before") and r["group"] not in groups:
             groups.append(r["group"])
+    for group in res.planned_groups():
+        if group not in groups and res.planned_missing(group):
+            groups.append(group)
     return groups
 
 
 def before_after_table(res, group):
     lines = [
         "| configuration | sequence | ATE RMSE before → after (cm) | Δ ATE | ms/frame before → "
-        "after | speed-up | frames/s after | stage most changed (ms) | tracked |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "after | speed-up | frames/s after | stage most changed (ms) | tracked | > 10 cm |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
+    shown = []
     for named in res.runs_named():
         if named["group"] != group or not named.get("table") or not named.get("before"):
             continue
         for seq in res.sequences:
             after = res.get(named["name"], seq)
             before = res.get(named["before"], seq)
+            shown += [after, before]
             if after is None:
-                lines.append(f"| {named['name']} | {seq} | failed or missing | | | | | | |")
+                lines.append(f"| {named['name']} | {seq} | failed or missing | | | | | | | |")
                 continue
             b_ate, a_ate = ate_cm(before), ate_cm(after)
             delta = None if b_ate is None or a_ate is None else a_ate - b_ate
@@ -283,9 +334,14 @@ def before_after_table(res, group):
                 f"{'–' if delta is None else f'{delta:+.2f}'} | "
                 f"{fmt_ms(computation_ms(before))} → {fmt_ms(computation_ms(after))} | "
                 f"{fmt(s, 2, '×')} | {fmt(after.get('frames_per_second'), 0)} | {stage_text} | "
-                f"{after.get('tracked', '–')}/{after.get('frames', '–')} |"
+                f"{after.get('tracked', '–')}/{after.get('frames', '–')} | {diverged_text(after)} |"
             )
-    return "\n".join(lines)
+    for name in res.planned_missing(group):
+        lines.append(f"| {name} | all | not measured in this results set | | | | | | | |")
+    text = "\n".join(lines)
+    if any_unmeasured_divergence(shown):
+        text += "\n\n" + DIVERGENCE_NOTE
+    return text
 
 
 def marked_names(res):
@@ -325,10 +381,13 @@ def presets_table(res):
         row("ATE RMSE, aligned (cm)", ate_cm, fmt)
         row("checkPos mean, unaligned (cm)", checkpos_cm, fmt)
         row("tracked frames", lambda r: r.get("tracked"), lambda v: "–" if v is None else str(v))
+        row("frames > 10 cm (first, departure)", lambda r: r, diverged_text)
         out.append("\n".join(lines))
     note = (f"Speed-ups in brackets are against `{baseline}` (ratio of mean times). ATE RMSE is "
             "TUM-style (rigid alignment, then RMSE); checkPos mean is SLAMBench's unaligned "
             "per-frame error, the thesis's ATE divided by its frame count.")
+    if any_unmeasured_divergence([res.get(n, s) for n in names for s in res.sequences]):
+        note += " " + DIVERGENCE_NOTE
     return "\n\n".join(out) + "\n\n" + note
 
 
@@ -359,8 +418,10 @@ def pareto_table(res):
     out = []
     for seq in res.sequences:
         front = pareto_front(pareto_points(res, seq))
-        lines = [f"**{seq}**", "", "| configuration | frames/s | ATE RMSE (cm) |", "|---|---|---|"]
-        lines += [f"| {name} | {fps:.0f} | {ate:.2f} |" for fps, ate, name, _ in front]
+        lines = [f"**{seq}**", "", "| configuration | frames/s | ATE RMSE (cm) | > 10 cm |",
+                 "|---|---|---|---|"]
+        lines += [f"| {name} | {fps:.0f} | {ate:.2f} | {diverged_text(res.get(name, seq))} |"
+                  for fps, ate, name, _ in front]
         out.append("\n".join(lines))
     return "\n\n".join(out)
 
@@ -635,6 +696,10 @@ def main():
     parser.add_argument("--report-template", help="Markdown template to fill (see above)")
     parser.add_argument("--report", help="Markdown report to write from --report-template")
     parser.add_argument("--command", default="", help="command line to cite in {{meta}}")
+    parser.add_argument("--plan", help="the sweep plan: its table runs missing from the results "
+                        "are listed as not measured")
+    parser.add_argument("--values-module", help="Python file whose extra_values(res, figures) "
+                        "returns more template placeholders (e.g. scripts/thesis_report.py)")
     args = parser.parse_args()
     if bool(args.report) != bool(args.report_template):
         fail("--report and --report-template go together")
@@ -643,6 +708,12 @@ def main():
     res = Results(data, args.backend)
     if not res.all:
         fail(f"{data['source']}: no runs")
+    if args.plan:
+        try:
+            with open(args.plan) as f:
+                res.set_plan(json.load(f))
+        except (OSError, ValueError) as e:
+            fail(f"{args.plan}: cannot read the plan: {e}")
     out = args.out or os.path.dirname(os.path.abspath(data["source"]))
     os.makedirs(out, exist_ok=True)
 
@@ -696,6 +767,13 @@ def main():
         }
         values.update({f"table:{g}": t for g, t in tables.items()})
         values.update({f"figure:{n}": link(n) for n in figures})
+        if args.values_module:
+            import importlib.util
+
+            spec = importlib.util.spec_from_file_location("values_module", args.values_module)
+            module = importlib.util.module_from_spec(spec)
+            spec.loader.exec_module(module)
+            values.update(module.extra_values(res, figures))
         with open(args.report_template) as f:
             template = f.read()
         existing = open(args.report).read() if os.path.exists(args.report) else ""

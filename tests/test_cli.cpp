@@ -63,6 +63,8 @@ TEST_F(CliTest, GoodRunWritesCompleteOutputs) {
   EXPECT_EQ(stats["frames"], 12);
   EXPECT_TRUE(stats.contains("ate_rmse_m"));
   EXPECT_EQ(stats["schema_version"], 2);
+  // The synthetic run stays on its ground truth: no frame beyond the divergence bound.
+  EXPECT_EQ(stats["diverged_frames"], 0) << stats.dump();
   EXPECT_GT(stats["frames_per_second"].get<double>(), 0.0);
   std::ifstream trajectory(out / "trajectory.txt");
   int poses = 0;

@@ -16,6 +16,7 @@
 #include "eval/align.hpp"
 #include "eval/associate.hpp"
 #include "eval/ate.hpp"
+#include "eval/divergence.hpp"
 #include "eval/report.hpp"
 #include "eval/rpe.hpp"
 #include "io/trajectory.hpp"
@@ -368,6 +369,126 @@ TEST(EvalCheckPos, MatchesHandComputedCase) {
   EXPECT_NEAR(f.errors_m[1], 4.0, kExactTol);  // −3 vs 1
   EXPECT_NEAR(f.errors_m[2], 4.5, kExactTol);  // −1 vs 3.5
   EXPECT_NEAR(f.stats_m.sum, 12.5, kExactTol);
+}
+
+// ---------------------------------------------------------------------------------------------
+// Divergence
+
+TEST(EvalDivergence, CountsFramesBeyondTheBoundAndNamesTheFirst) {
+  // The coincident-pair construction of KnownPerturbationGivesAnalyticError: the aligned error of
+  // both poses of pair k is exactly d_k. The estimate stays within 2 mm for the first 30 pairs
+  // (poses 0..59), then leaves the ground truth by 0.2–0.6 m from pose 60 on.
+  std::mt19937 rng(11);
+  const int pairs = 50, leave_pair = 30;
+  std::vector<io::StampedPose> gt, est;
+  const Eigen::Isometry3d move = random_isometry(rng, 1.0);
+  for (int k = 0; k < pairs; ++k) {
+    const Eigen::Vector3d g = random_vector(rng, 2.0);
+    const Eigen::Vector3d n = random_vector(rng, 1.0).normalized();
+    const double d = k < leave_pair ? 0.002 : 0.2 + 0.01 * (k - leave_pair);
+    for (int s = 0; s < 2; ++s) {
+      const double stamp = 0.1 * (2 * k + s);
+      gt.push_back(make_position(stamp, g));
+      est.push_back(make_position(stamp, move * (g + (s == 0 ? d : -d) * n)));
+    }
+  }
+  const EvalResult r = evaluate_trajectories(est, gt);
+  const DivergenceResult& d = r.divergence;
+  EXPECT_DOUBLE_EQ(d.bound_m, kDivergenceBoundM);
+  EXPECT_EQ(d.frames_evaluated, 100u);
+  EXPECT_EQ(d.frames_over, 40u);
+  ASSERT_TRUE(d.any_over);
+  EXPECT_EQ(d.first_over_index, 60u);
+  EXPECT_NEAR(d.first_over_stamp_s, 6.0, kExactTol);
+  // Aligned on poses 0..60 only, pose 60 is still 0.2 m minus what one pose in 61 can pull.
+  ASSERT_TRUE(d.departed);
+  EXPECT_EQ(d.departure_index, 60u);
+  EXPECT_NEAR(d.departure_stamp_s, 6.0, kExactTol);
+
+  // A larger bound than every error: nothing diverged; the JSON says so with nulls.
+  EvalOptions loose;
+  loose.divergence_bound_m = 1.0;
+  const EvalResult none = evaluate_trajectories(est, gt, loose);
+  EXPECT_EQ(none.divergence.frames_over, 0u);
+  EXPECT_FALSE(none.divergence.any_over);
+  const nlohmann::json j = to_json(none);
+  EXPECT_DOUBLE_EQ(j.at("divergence").at("bound_m").get<double>(), 1.0);
+  EXPECT_EQ(j.at("divergence").at("frames_over").get<int>(), 0);
+  EXPECT_TRUE(j.at("divergence").at("first_over_index").is_null());
+  EXPECT_TRUE(j.at("divergence").at("departure_index").is_null());
+  EXPECT_FALSE(none.divergence.departed);
+  const nlohmann::json over = to_json(r);
+  EXPECT_EQ(over.at("divergence").at("frames_over").get<int>(), 40);
+  EXPECT_EQ(over.at("divergence").at("first_over_index").get<int>(), 60);
+  EXPECT_EQ(over.at("divergence").at("departure_index").get<int>(), 60);
+  EXPECT_NE(format_report(r).find("over 10 cm: 40 of 100 frames, first at estimate pose 60"),
+            std::string::npos)
+      << format_report(r);
+
+  EvalOptions bad;
+  bad.divergence_bound_m = 0.0;
+  EXPECT_THROW(evaluate_trajectories(est, gt, bad), kfx::Error);
+}
+
+TEST(EvalDivergence, DriftingTrajectoryIsCaughtNearWhereItLeaves) {
+  // A realistic failure: along a 2 m path the estimate follows the ground truth for 150 frames,
+  // then drifts away along one direction, 1 cm more every frame (0.49 m by frame 199). The
+  // alignment of the whole trajectory absorbs part of the drift: it tilts the trajectory, so
+  // frames shortly before the departure are pushed up to ~12 cm off and some frames just after
+  // it are pulled back under the bound. The first frame over therefore lies within ~20 frames
+  // of the departure, never far before it, and the count is at most the 50 drifted frames plus
+  // those ~20. (With a drift of metres the alignment spreads it over every frame: the count
+  // then says "diverged", the first frame does not say when; docs/thesis-study.md says so.)
+  std::vector<io::StampedPose> gt, est;
+  const Eigen::Vector3d direction = Eigen::Vector3d(1, 2, -1).normalized();
+  for (int i = 0; i < 200; ++i) {
+    const Eigen::Vector3d g(0.01 * i, 0.3 * std::sin(0.05 * i), 0.1 * std::cos(0.07 * i));
+    const double drift_m = i < 150 ? 0.0 : 0.01 * (i - 150);
+    gt.push_back(make_position(0.1 * i, g));
+    est.push_back(make_position(0.1 * i, g + drift_m * direction));
+  }
+  const EvalResult r = evaluate_trajectories(est, gt);
+  ASSERT_TRUE(r.divergence.any_over);
+  EXPECT_GE(r.divergence.first_over_index, 130u);
+  EXPECT_LE(r.divergence.first_over_index, 165u);
+  EXPECT_GE(r.divergence.frames_over, 30u);
+  EXPECT_LE(r.divergence.frames_over, 70u);
+  // The departure, aligned on the frames up to each one, cannot see the later drift: frames
+  // before 150 are exact and the drift first exceeds 10 cm at frame 161, so it departs at 161
+  // or a few frames later (the few drifted frames in the prefix pull it back a little).
+  ASSERT_TRUE(r.divergence.departed);
+  EXPECT_GE(r.divergence.departure_index, 161u);
+  EXPECT_LE(r.divergence.departure_index, 170u);
+  // With a drift of metres (10 cm per frame, 4.9 m at the end) the whole-trajectory alignment
+  // puts early frames over the bound too, while the departure stays where the drift starts.
+  std::vector<io::StampedPose> far;
+  for (int i = 0; i < 200; ++i) {
+    const double drift_m = i < 150 ? 0.0 : 0.1 * (i - 150);
+    far.push_back(make_position(0.1 * i, Eigen::Vector3d(gt[i].t[0], gt[i].t[1], gt[i].t[2]) +
+                                             drift_m * direction));
+  }
+  const EvalResult lost = evaluate_trajectories(far, gt);
+  ASSERT_TRUE(lost.divergence.departed);
+  EXPECT_LT(lost.divergence.first_over_index, 140u);
+  EXPECT_GE(lost.divergence.departure_index, 151u);
+  EXPECT_LE(lost.divergence.departure_index, 155u);
+  // Without the drift nothing diverges.
+  const EvalResult clean = evaluate_trajectories(gt, gt);
+  EXPECT_EQ(clean.divergence.frames_over, 0u);
+  EXPECT_FALSE(clean.divergence.departed);
+}
+
+TEST(EvalDivergence, RejectsMismatchedInput) {
+  const std::vector<io::StampedPose> poses = {make_position(0, Eigen::Vector3d(0, 0, 0)),
+                                              make_position(1, Eigen::Vector3d(1, 0, 0))};
+  const Association association = associate(poses, poses);
+  AteResult ate;
+  ate.errors_m = {0.5};  // one error for two pairs
+  EXPECT_THROW(compute_divergence(poses, poses, association, ate, false), kfx::Error);
+  ate.errors_m = {0.0, 0.0};
+  EXPECT_NO_THROW(compute_divergence(poses, poses, association, ate, false));
+  EXPECT_THROW(compute_divergence(poses, poses, association, ate, false, -1.0), kfx::Error);
+  EXPECT_THROW(compute_divergence(poses, poses, association, ate, false, NAN), kfx::Error);
 }
 
 // ---------------------------------------------------------------------------------------------

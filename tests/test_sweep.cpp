@@ -420,6 +420,9 @@ TEST(SweepResults, CsvRowsQuoteAndFollowTheHeader) {
   record["group"] = "tracking";
   record["frames"] = 500;
   record["ate_rmse_m"] = 0.0123456789;
+  record["diverged_frames"] = 7;
+  record["first_diverged_frame"] = 412;
+  record["departure_frame"] = 430;
   record["computation_ms"] = {{"mean", 2.5}, {"median", 2.25}};
   record["stages_ms"]["track"] = {{"mean", 1.5}, {"median", 1.25}};
   record["settings"] = {"pyramid_iterations=10,5,4", "icp_stride_px=2"};
@@ -436,6 +439,10 @@ TEST(SweepResults, CsvRowsQuoteAndFollowTheHeader) {
   EXPECT_EQ(field("group"), "tracking");
   EXPECT_EQ(field("frames"), "500");
   EXPECT_EQ(field("ate_rmse_m"), "0.0123457");
+  EXPECT_EQ(field("diverged_frames"), "7");
+  EXPECT_EQ(field("first_diverged_frame"), "412");
+  EXPECT_EQ(field("departure_frame"), "430");
+  EXPECT_EQ(field("divergence_bound_m"), "");  // absent: empty
   EXPECT_EQ(field("frames_per_second"), "10.5");
   EXPECT_EQ(field("computation_ms_median"), "2.25");
   EXPECT_EQ(field("track_ms_mean"), "1.5");
@@ -525,6 +532,11 @@ TEST_F(SweepCli, TinySweepWritesResultsAndResumes) {
     ASSERT_TRUE(r.contains("ate_rmse_m")) << r.dump();
     EXPECT_GT(r["ate_rmse_m"].get<double>(), 0.0);
     EXPECT_LT(r["ate_rmse_m"].get<double>(), 0.05);
+    // Such a run does not leave the ground truth: no frame beyond the divergence bound.
+    EXPECT_EQ(r["diverged_frames"], 0) << r.dump();
+    EXPECT_TRUE(r["first_diverged_frame"].is_null()) << r.dump();
+    EXPECT_TRUE(r["departure_frame"].is_null()) << r.dump();
+    EXPECT_DOUBLE_EQ(r["divergence_bound_m"].get<double>(), 0.10);
   }
   // The full configuration is recorded and reflects the run's settings.
   EXPECT_EQ(rate["config"]["integration_rate"], "1");

@@ -38,6 +38,9 @@ EvalResult evaluate_trajectories(const std::vector<io::StampedPose>& est,
                                  const std::string& est_label, const std::string& gt_label) {
   KFX_CHECK(std::isfinite(options.max_dt_s) && options.max_dt_s > 0.0,
             "eval: --max-dt must be a positive number of seconds, got " << options.max_dt_s);
+  KFX_CHECK(std::isfinite(options.divergence_bound_m) && options.divergence_bound_m > 0.0,
+            "eval: the divergence bound must be a positive number of metres, got "
+                << options.divergence_bound_m);
   KFX_CHECK(options.rpe_delta_frames >= 1,
             "eval: --rpe-delta must be at least 1 frame, got " << options.rpe_delta_frames);
   KFX_CHECK(!est.empty(), "eval: the estimate trajectory " << est_label << " holds no pose");
@@ -68,6 +71,8 @@ EvalResult evaluate_trajectories(const std::vector<io::StampedPose>& est,
                                  << options.rpe_delta_frames << " associated poses, got " << pairs);
 
   result.ate = compute_ate(est, gt, result.association, options.flip_y);
+  result.divergence = compute_divergence(est, gt, result.association, result.ate, options.flip_y,
+                                         options.divergence_bound_m);
   result.checkpos = compute_checkpos(est, gt, result.association, options.flip_y);
   result.rpe = compute_rpe(est, gt, result.association, options.rpe_delta_frames, options.flip_y);
   // Finite inputs can still overflow (positions of 1e308 square to inf): an RMSE of inf or NaN
@@ -143,6 +148,20 @@ nlohmann::json to_json(const EvalResult& r) {
               {"max_m", a.max},
               {"alignment", {{"rotation", rotation}, {"translation_m", {t.x(), t.y(), t.z()}}}}};
 
+  const DivergenceResult& d = r.divergence;
+  j["divergence"] = {
+      {"method", "frames whose ATE error (after the rigid alignment above) exceeds bound_m"},
+      {"bound_m", d.bound_m},
+      {"frames_evaluated", d.frames_evaluated},
+      {"frames_over", d.frames_over},
+      {"first_over_index", d.any_over ? nlohmann::json(d.first_over_index) : nlohmann::json()},
+      {"first_over_stamp_s",
+       d.any_over ? nlohmann::json(d.first_over_stamp_s) : nlohmann::json()},
+      {"departure_method",
+       "first frame over bound_m when aligned on the frames up to and including it"},
+      {"departure_index", d.departed ? nlohmann::json(d.departure_index) : nlohmann::json()},
+      {"departure_stamp_s", d.departed ? nlohmann::json(d.departure_stamp_s) : nlohmann::json()}};
+
   const ErrorStats& c = r.checkpos.stats_m;
   j["checkpos"] = {{"method",
                     "SLAMBench checkPos-style: no alignment, estimate relative to its "
@@ -201,7 +220,18 @@ std::string format_report(const EvalResult& r) {
   s << "  median  " << m_cm(a.median) << "\n";
   s << "  std     " << m_cm(a.std) << "\n";
   s << "  min     " << m_cm(a.min) << "\n";
-  s << "  max     " << m_cm(a.max) << "\n\n";
+  s << "  max     " << m_cm(a.max) << "\n";
+  const DivergenceResult& d = r.divergence;
+  s << "  over " << d.bound_m * 100.0 << " cm: " << d.frames_over << " of " << d.frames_evaluated
+    << " frames";
+  if (d.any_over) {
+    s << ", first at estimate pose " << d.first_over_index << " (stamp " << std::setprecision(16)
+      << d.first_over_stamp_s << std::setprecision(6) << ")";
+  }
+  if (d.departed) {
+    s << "; departs (aligned on the frames up to it) at estimate pose " << d.departure_index;
+  }
+  s << "\n\n";
 
   const ErrorStats& c = r.checkpos.stats_m;
   s << "checkPos-style (no alignment): SLAMBench checkPos.py figures, estimate relative to its\n"

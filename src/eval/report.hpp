@@ -10,6 +10,7 @@
 
 #include "eval/associate.hpp"
 #include "eval/ate.hpp"
+#include "eval/divergence.hpp"
 #include "eval/rpe.hpp"
 #include "io/trajectory.hpp"
 
@@ -20,6 +21,8 @@ struct EvalOptions {
   double max_dt_s = 0.02;    ///< association window: pair stamps differing by less than this
   bool flip_y = false;       ///< negate estimate y (SLAMBench ICL runs, positive fy)
   int rpe_delta_frames = 1;  ///< RPE step, in associated poses
+  double divergence_bound_m = kDivergenceBoundM;  ///< aligned error beyond which a frame counts
+                                                  ///< as diverged
 };
 
 /// Everything one evaluation produces.
@@ -31,6 +34,7 @@ struct EvalResult {
   std::size_t gt_poses = 0;               ///< poses in the ground truth
   Association association;                ///< pairs and unpaired counts
   AteResult ate;                          ///< TUM-style ATE (aligned)
+  DivergenceResult divergence;            ///< frames of `ate` farther than the bound
   CheckPosResult checkpos;                ///< SLAMBench checkPos-style (no alignment)
   RpeResult rpe;                          ///< relative pose error
   bool est_orientation_identity = false;  ///< every paired estimate orientation is identity
@@ -60,6 +64,9 @@ EvalResult evaluate_trajectory_files(const std::string& est_path, const std::str
 /// "unpaired_est", "unpaired_gt", "est_orientation_identity",
 /// "ate": {"method", "pairs", "rmse_m", "mean_m", "median_m", "std_m", "min_m", "max_m",
 ///         "alignment": {"rotation" (3×3 rows), "translation_m"}},
+/// "divergence": {"method", "bound_m", "frames_evaluated", "frames_over", "first_over_index"
+///                (null when none), "first_over_stamp_s" (null when none), "departure_method",
+///                "departure_index" (null when none), "departure_stamp_s" (null when none)},
 /// "checkpos": {"method", "frames", "min_m", "max_m", "mean_m", "total_m", "rmse_m"},
 /// "rpe": {"delta_frames", "pairs", "trans_rmse_m", "trans_mean_m", "trans_median_m",
 ///         "trans_std_m", "trans_max_m", "rot_rmse_deg", "rot_mean_deg", "rot_median_deg",

@@ -23,6 +23,13 @@ void add_flat_evaluation(nlohmann::json& out, const eval::EvalResult& r) {
   out["rpe_translation_rmse_m"] = t.rmse;
   out["rpe_translation_median_m"] = t.median;
   out["rpe_rotation_rmse_deg"] = r.rpe.rot_deg.rmse;
+  // Divergence (src/eval/divergence.hpp): the same names as the sweep records; null = none.
+  const eval::DivergenceResult& d = r.divergence;
+  out["divergence_bound_m"] = d.bound_m;
+  out["diverged_frames"] = d.frames_over;
+  out["first_diverged_frame"] =
+      d.any_over ? nlohmann::json(d.first_over_index) : nlohmann::json(nullptr);
+  out["departure_frame"] = d.departed ? nlohmann::json(d.departure_index) : nlohmann::json(nullptr);
 }
 
 void write_json_document(const std::string& path, nlohmann::json document) {
