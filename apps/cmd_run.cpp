@@ -1,5 +1,6 @@
 /// `kfx run INPUT --out DIR`: the pipeline over a sequence, writing the trajectory, the
-/// SLAMBench-style log, statistics (with ATE when ground truth exists) and the configuration.
+/// SLAMBench-style log, statistics (with ATE when ground truth exists; energy per frame where
+/// a meter is available, else the reason) and the configuration.
 
 #include <algorithm>
 #include <chrono>
@@ -11,6 +12,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
 #include "io/slambench_log.hpp"
@@ -33,7 +35,18 @@ int count_valid_pixels(const HostImage<uint16_t>& depth_mm) {
                                          [](uint16_t d) { return d != 0; }));
 }
 
-void run(const RunOptions& options, const std::string& out_dir) {
+/// The energy meters of a run (GPU board on the CUDA backend, CPU packages), with the idle
+/// power measured for `idle_seconds` first where a meter is available.
+std::unique_ptr<energy::RunEnergy> open_energy(const Backend& backend, double idle_seconds) {
+  energy::RunEnergyOptions energy_options;
+  energy_options.backend = backend.name();
+  energy_options.gpu_pci_bus_id = backend.device_pci_bus_id();
+  auto meters = std::make_unique<energy::RunEnergy>(energy_options);
+  meters->measure_idle(idle_seconds);
+  return meters;
+}
+
+void run(const RunOptions& options, const std::string& out_dir, double idle_seconds) {
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
   std::error_code ec;
@@ -53,6 +66,8 @@ void run(const RunOptions& options, const std::string& out_dir) {
               << pipeline.backend().device_name() << "), preset " << options.preset << "\n";
   }
 
+  const auto energy = open_energy(pipeline.backend(), idle_seconds);
+
   io::AtomicFile log(out_dir + "/slambench.log");
   io::write_slambench_log_header(log.stream());
   RunSummary summary;
@@ -62,6 +77,7 @@ void run(const RunOptions& options, const std::string& out_dir) {
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
+  energy->start();  // the whole run, reading frames included
   // What the host knows of each submitted frame until its report comes back.
   struct Submitted {
     double stamp_s;
@@ -118,6 +134,10 @@ void run(const RunOptions& options, const std::string& out_dir) {
     if (pipeline.frames_in_flight() > 1) finish(pipeline.collect());
   }
   while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
+  energy->stop(summary.frames);
+  if (!options.quiet) {
+    for (const auto& line : energy->summary_lines()) std::cerr << "kfx run: energy " << line << "\n";
+  }
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
   KFX_CHECK(frames_with_depth > 0,
             options.input << ": no frame of the " << pipeline.frame_count()
@@ -139,6 +159,7 @@ void run(const RunOptions& options, const std::string& out_dir) {
     config_json[field.section][field.key] = field.format(pipeline.config());
   }
   stats["config"] = config_json;
+  stats["energy"] = energy->to_json();
   if (!prepared.ground_truth.empty()) {
     eval::EvalOptions eval_options;
     eval_options.flip_y = prepared.evaluate_flip_y;
@@ -188,9 +209,16 @@ void add_run_command(CLI::App& app) {
   auto* command = app.add_subcommand("run", "run KinectFusion over a sequence");
   auto options = std::make_shared<RunOptions>();
   auto out_dir = std::make_shared<std::string>();
+  auto idle_seconds = std::make_shared<double>(0.0);
   add_run_options(*command, *options);
   command->add_option("-o,--out", *out_dir, "output folder")->required();
-  command->callback([options, out_dir] { run(*options, *out_dir); });
+  command
+      ->add_option("--idle-seconds", *idle_seconds,
+                   "measure the idle power this long before the run and subtract it in the "
+                   "energy figures of stats.json (0 = do not)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  command->callback([options, out_dir, idle_seconds] { run(*options, *out_dir, *idle_seconds); });
 }
 
 }  // namespace kfx::cli
