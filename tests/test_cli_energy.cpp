@@ -65,8 +65,8 @@ void expect_energy_domain(const json& energy, const std::string& domain, int fra
 
 TEST_F(CliEnergy, RunStatsCarryEnergy) {
   const fs::path out = dir_ / "out";
-  const auto r = run_kfx("run synthetic:frames=6,width=160,height=120 --backend cpu -q --out " +
-                         out.string());
+  const auto r =
+      run_kfx("run synthetic:frames=6,width=160,height=120 --backend cpu -q --out " + out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const json stats = read_json(out / "stats.json");
   ASSERT_TRUE(stats.contains("energy")) << stats.dump();
@@ -77,12 +77,15 @@ TEST_F(CliEnergy, RunStatsCarryEnergy) {
 
 TEST_F(CliEnergy, BenchJsonAndTableCarryEnergy) {
   const fs::path out = dir_ / "bench.json";
-  const auto r = run_kfx("bench synthetic:frames=6,width=160,height=120 --backend cpu --repeat 2 "
-                         "--warmup 1 --idle-seconds 0.2 --json " + out.string());
+  const auto r = run_kfx(
+      "bench synthetic:frames=6,width=160,height=120 --backend cpu --repeat 2 "
+      "--warmup 1 --idle-seconds 0.2 --json " +
+      out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("energy cpu: "), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("energy gpu: not measured: the cpu backend uses no GPU"),
-            std::string::npos) << r.output;
+            std::string::npos)
+      << r.output;
   const json bench = read_json(out);
   ASSERT_TRUE(bench.contains("energy")) << bench.dump();
   expect_energy_domain(bench["energy"], "cpu", 12);  // 6 frames × 2 passes
@@ -124,8 +127,8 @@ TEST_F(CliEnergy, SweepResultsCarryEnergyAndTheBudget) {
   std::ifstream csv(out / "results.csv");
   std::string header;
   std::getline(csv, header);
-  for (const char* column : {"mj_per_frame", "mj_per_frame_above_idle", "mean_watts",
-                             "idle_watts", "energy_method", "energy_budget", "energy_note"}) {
+  for (const char* column : {"mj_per_frame", "mj_per_frame_above_idle", "mean_watts", "idle_watts",
+                             "energy_method", "energy_budget", "energy_note"}) {
     EXPECT_NE(header.find(column), std::string::npos) << column << " in " << header;
   }
 }
@@ -134,9 +137,9 @@ TEST(SweepPlanEnergy, BudgetMustBePositive) {
   const std::string good = R"({"max_mj_per_frame": 12.5, "sequences": [],
                                "runs": [{"name": "exact"}]})";
   EXPECT_DOUBLE_EQ(sweep::parse_sweep_plan(good).max_mj_per_frame, 12.5);
-  EXPECT_DOUBLE_EQ(sweep::parse_sweep_plan(R"({"sequences": [], "runs": [{"name": "e"}]})")
-                       .max_mj_per_frame,
-                   0.0);
+  EXPECT_DOUBLE_EQ(
+      sweep::parse_sweep_plan(R"({"sequences": [], "runs": [{"name": "e"}]})").max_mj_per_frame,
+      0.0);
   try {
     sweep::parse_sweep_plan(R"({"max_mj_per_frame": -1, "sequences": [], "runs": [{"name": "e"}]})",
                             "p.json");

@@ -53,8 +53,8 @@ TEST_F(FakePowercap, SumsPackageZonesInJoules) {
   auto meter = make_rapl_meter(root_.string());
   ASSERT_TRUE(meter->available());
   meter->start();
-  set_counter(0, 3'500'000);   // +2.5 J
-  set_counter(1, 5'250'000);   // +0.25 J
+  set_counter(0, 3'500'000);  // +2.5 J
+  set_counter(1, 5'250'000);  // +0.25 J
   std::ofstream(root_ / "intel-rapl:0:0" / "energy_uj") << 99'000'000 << "\n";
   const EnergyReading r = meter->stop();
   ASSERT_TRUE(r.available) << r.reason;
@@ -96,8 +96,8 @@ TEST_F(FakePowercap, MissingInterfaceSaysSoAndGivesNoNumbers) {
 TEST_F(FakePowercap, EmptyFolderAndUnreadableCounterAreNotAvailable) {
   auto empty = make_rapl_meter(root_.string());
   EXPECT_FALSE(empty->available());
-  EXPECT_EQ(empty->stop().reason, "not available: no RAPL package zone (intel-rapl:N) under " +
-                                      root_.string());
+  EXPECT_EQ(empty->stop().reason,
+            "not available: no RAPL package zone (intel-rapl:N) under " + root_.string());
   fs::create_directories(root_ / "intel-rapl:0");  // a zone whose counter cannot be read
   std::ofstream(root_ / "intel-rapl:0" / "max_energy_range_uj") << 1000 << "\n";
   auto unreadable = make_rapl_meter(root_.string());
@@ -122,6 +122,29 @@ TEST(Nvml, AbsentLibraryIsNotAvailableWithAReason) {
   EXPECT_EQ(j["method"], "not available");
   EXPECT_FALSE(j.contains("joules"));
   EXPECT_FALSE(j.contains("mean_watts"));
+}
+
+TEST(Nvml, CounterAndSampledPowerAgreeWhereAGpuIsPresent) {
+  auto counter = make_nvml_meter();
+  if (!counter->available()) GTEST_SKIP() << "no GPU energy meter here: " << counter->stop().reason;
+  NvmlOptions sampling_options;
+  sampling_options.force_sampling = true;
+  auto sampled = make_nvml_meter(sampling_options);
+  ASSERT_TRUE(sampled->available()) << sampled->stop().reason;
+  // The same idle second through both methods: the units (mJ, mW) and the integration agree.
+  counter->start();
+  sampled->start();
+  std::this_thread::sleep_for(std::chrono::seconds(1));
+  const EnergyReading s = sampled->stop();
+  const EnergyReading c = counter->stop();
+  ASSERT_TRUE(c.available) << c.reason;
+  ASSERT_TRUE(s.available) << s.reason;
+  EXPECT_EQ(c.method, "nvml_energy_counter");
+  EXPECT_EQ(s.method, "nvml_power_sampling");
+  EXPECT_GT(s.samples, 50);
+  EXPECT_GT(c.mean_watts(), 5.0);
+  EXPECT_LT(c.mean_watts(), 2000.0);
+  EXPECT_NEAR(s.mean_watts(), c.mean_watts(), 0.25 * c.mean_watts());
 }
 
 TEST(PowerSampler, IntegratesPowerOverTime) {
@@ -179,7 +202,8 @@ TEST(RunEnergy, CpuBackendMeasuresNoGpuAndSaysWhy) {
   energy.stop(10);
   const nlohmann::json j = energy.to_json();
   EXPECT_EQ(j["gpu"]["method"], "not measured");
-  EXPECT_EQ(j["cpu"]["reason"], "not available: no RAPL powercap interface at /kfx/no/such/powercap");
+  EXPECT_EQ(j["cpu"]["reason"],
+            "not available: no RAPL powercap interface at /kfx/no/such/powercap");
   const auto lines = energy.summary_lines();
   ASSERT_EQ(lines.size(), 2u);
   EXPECT_EQ(lines[1], "cpu: not available: no RAPL powercap interface at /kfx/no/such/powercap");

@@ -13,8 +13,8 @@ namespace kfx::energy {
 namespace {
 
 // NVML's C interface, as documented by NVIDIA (nvml.h is not needed to build kfx).
-using nvmlReturn_t = int;     // NVML_SUCCESS = 0
-using nvmlDevice_t = void*;   // opaque handle
+using nvmlReturn_t = int;    // NVML_SUCCESS = 0
+using nvmlDevice_t = void*;  // opaque handle
 constexpr nvmlReturn_t kNvmlSuccess = 0;
 constexpr nvmlReturn_t kNvmlNotSupported = 3;
 using InitFn = nvmlReturn_t (*)();
@@ -149,9 +149,9 @@ class NvmlMeter final : public EnergyMeter {
     unsigned int power_mw = 0;
     const nvmlReturn_t power_status = power_usage_(device_, &power_mw);
     if (power_status != kNvmlSuccess) {
-      reason_ = std::string("not available: neither the energy counter (") +
-                error_string_(status) + ") nor the power reading (" +
-                error_string_(power_status) + ") of " + source_ + " can be read";
+      reason_ = std::string("not available: neither the energy counter (") + error_string_(status) +
+                ") nor the power reading (" + error_string_(power_status) + ") of " + source_ +
+                " can be read";
       return;
     }
     method_ = "nvml_power_sampling";

@@ -16,7 +16,7 @@ using Clock = std::chrono::steady_clock;
 
 /// One package zone: its counter file and the value at which the counter wraps to 0.
 struct Zone {
-  std::string name;          ///< the zone's own name file ("package-0"), else its folder name
+  std::string name;  ///< the zone's own name file ("package-0"), else its folder name
   fs::path energy_path;
   unsigned long long max_range_uj = 0;
 };
@@ -61,8 +61,8 @@ class RaplMeter final : public EnergyMeter {
       unsigned long long end = 0;
       if (!read_number(zones_[i].energy_path, end)) {
         reading.available = false;
-        reading.reason = "not available: " + zones_[i].energy_path.string() +
-                         " could no longer be read";
+        reading.reason =
+            "not available: " + zones_[i].energy_path.string() + " could no longer be read";
         return reading;
       }
       const unsigned long long begin = start_uj_[i];

@@ -25,9 +25,8 @@ nlohmann::json reading_json(const EnergyReading& reading, int frames, const Ener
   if (frames > 0) j["joules_per_frame"] = reading.joules / frames;
   if (reading.joules > 0) j["frames_per_joule"] = frames / reading.joules;
   if (idle && idle->available) {
-    j["idle"] = {{"seconds", idle->seconds},
-                 {"mean_watts", idle->mean_watts()},
-                 {"method", idle->method}};
+    j["idle"] = {
+        {"seconds", idle->seconds}, {"mean_watts", idle->mean_watts()}, {"method", idle->method}};
     const double above_j = reading.joules - idle->mean_watts() * reading.seconds;
     j["above_idle_joules"] = above_j;
     if (frames > 0) j["above_idle_joules_per_frame"] = above_j / frames;
@@ -39,9 +38,7 @@ nlohmann::json reading_json(const EnergyReading& reading, int frames, const Ener
   return j;
 }
 
-std::string device_domain(const std::string& backend) {
-  return backend == "cuda" ? "gpu" : "cpu";
-}
+std::string device_domain(const std::string& backend) { return backend == "cuda" ? "gpu" : "cpu"; }
 
 RunEnergy::RunEnergy(const RunEnergyOptions& options) {
   if (options.backend == "cuda") {

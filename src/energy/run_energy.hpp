@@ -15,8 +15,8 @@ namespace kfx::energy {
 
 /// Where a run's meters read from.
 struct RunEnergyOptions {
-  std::string backend = "cpu";     ///< "cuda": measure the GPU board too
-  std::string gpu_pci_bus_id;      ///< the CUDA device's PCI bus id ("" = NVML device 0)
+  std::string backend = "cpu";  ///< "cuda": measure the GPU board too
+  std::string gpu_pci_bus_id;   ///< the CUDA device's PCI bus id ("" = NVML device 0)
   std::string nvml_library = "libnvidia-ml.so.1";
   std::string powercap_root = "/sys/class/powercap";
 };
