@@ -2,7 +2,9 @@
 /// memory. A warm-up pass first (it also records the GPU's frame graphs), then N timed passes
 /// over all frames with one frame in flight. Reports per-stage time (CUDA events on the GPU,
 /// host clocks on the CPU; median and mean over frames and passes) and end-to-end frames/s
-/// (frames over wall time, median over passes), as a table and as JSON.
+/// (frames over wall time, median over passes), as a table and as JSON. Energy: the GPU board
+/// (NVML) and CPU packages (RAPL) over all timed passes, per frame, with the idle power measured
+/// for --idle-seconds before the warm-up and subtracted (or the reason it is not available).
 
 #include <chrono>
 #include <cstdio>
@@ -11,6 +13,7 @@
 
 #include "commands.hpp"
 #include "count_check.hpp"
+#include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "output/stats_json.hpp"
 #include "pipeline/pipeline.hpp"
@@ -25,6 +28,7 @@ struct BenchOptions {
   RunOptions run;
   int repeat = 3;
   int warmup_frames = 30;
+  double idle_seconds = 2.0;
   std::string json_path;
 };
 
@@ -39,13 +43,24 @@ void bench(const BenchOptions& options) {
             << pipeline.backend().device_name() << ")\n"
             << "kfx bench: " << prepared.intrinsics_note << "\n";
 
+  // Energy meters; the idle power is measured before any frame runs.
+  energy::RunEnergyOptions energy_options;
+  energy_options.backend = pipeline.backend().name();
+  energy_options.gpu_pci_bus_id = pipeline.backend().device_pci_bus_id();
+  energy::RunEnergy energy(energy_options);
+  if (energy.any_available() && options.idle_seconds > 0) {
+    std::cerr << "kfx bench: measuring idle power for " << options.idle_seconds << " s\n";
+  }
+  energy.measure_idle(options.idle_seconds);
+
   // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
   const TimedPasses timed = run_timed_passes(
       pipeline, frames, options.repeat, options.warmup_frames,
       [&](int pass, double fps, const RunSummary& summary) {
         std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": " << fps
                   << " frames/s end to end, " << summary.tracked << " tracked\n";
-      });
+      },
+      &energy);
   const RunSummary& all = timed.all;
   const std::vector<double>& pass_fps = timed.pass_fps;
   const std::vector<io::StampedPose>& trajectory = timed.trajectory;
@@ -78,6 +93,7 @@ void bench(const BenchOptions& options) {
   nlohmann::json config_json;
   for (const auto& field : config_fields()) config_json[field.key] = field.format(pipeline.config());
   j["config"] = config_json;
+  j["energy"] = energy.to_json();
 
   std::printf("%-12s %10s %10s\n", "stage", "median ms", "mean ms");
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
@@ -90,6 +106,7 @@ void bench(const BenchOptions& options) {
               median_of(pass_fps), options.repeat, frames.size(), all.tracked);
   if (j.contains("ate_rmse_m")) std::printf(", ATE RMSE %.3f cm", j["ate_rmse_m"].get<double>() * 100);
   std::printf("\n");
+  for (const auto& line : energy.summary_lines()) std::printf("energy %s\n", line.c_str());
   if (!options.json_path.empty()) output::write_json_document(options.json_path, j);
 }
 
@@ -104,6 +121,12 @@ void add_bench_command(CLI::App& app) {
       ->capture_default_str();
   command->add_option("--warmup", options->warmup_frames, "warm-up frames before timing")
       ->check(count_at_least(0, ""))
+      ->capture_default_str();
+  command
+      ->add_option("--idle-seconds", options->idle_seconds,
+                   "measure the idle power this long before the warm-up and subtract it from "
+                   "the energy figures (0 = do not; skipped where no meter is available)")
+      ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   command->add_option("--json", options->json_path, "also write the results as JSON here");
   command->callback([options] { bench(*options); });

@@ -1,6 +1,7 @@
 /// `kfx run INPUT --out DIR`: the pipeline over a sequence, writing the trajectory, the
-/// SLAMBench-style log, statistics (with ATE when ground truth exists), the configuration, the
-/// mesh and, on request, the point cloud and the volume (writers in src/output/).
+/// SLAMBench-style log, statistics (with ATE when ground truth exists; energy per frame where
+/// a meter is available, else the reason), the configuration, the mesh, the report and, on
+/// request, renders, the point cloud and the volume (writers in src/output/).
 
 #include <algorithm>
 #include <chrono>
@@ -12,6 +13,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/trajectory.hpp"
 #include "output/cloud_ply.hpp"
@@ -53,7 +55,19 @@ struct RunOutputs {
   bool renders = false;      ///< PNG renders every render_rate frames under renders/
   bool report = true;        ///< report.html
   bool overwrite = false;    ///< replace an earlier run's outputs in dir
+  double idle_seconds = 0;   ///< idle power measured first, subtracted in the energy figures
 };
+
+/// The energy meters of a run (GPU board on the CUDA backend, CPU packages), with the idle
+/// power measured for `idle_seconds` first where a meter is available.
+std::unique_ptr<energy::RunEnergy> open_energy(const Backend& backend, double idle_seconds) {
+  energy::RunEnergyOptions energy_options;
+  energy_options.backend = backend.name();
+  energy_options.gpu_pci_bus_id = backend.device_pci_bus_id();
+  auto meters = std::make_unique<energy::RunEnergy>(energy_options);
+  meters->measure_idle(idle_seconds);
+  return meters;
+}
 
 void run(const RunOptions& options, const RunOutputs& outputs) {
   const std::string& out_dir = outputs.dir;
@@ -86,6 +100,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // Always said, even with -q: wrong intrinsics silently spoil a whole run.
   std::cerr << "kfx run: " << prepared.intrinsics_note << "\n";
 
+  const auto energy = open_energy(pipeline.backend(), outputs.idle_seconds);
+
   output::SlambenchLogWriter log(out_dir + "/slambench.log", pipeline.initial_pose());
   RunSummary summary;
   std::vector<io::StampedPose> trajectory;
@@ -93,6 +109,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
+  energy->start();  // the whole run, reading frames included
   // What the host knows of each submitted frame until its report comes back.
   struct Submitted {
     double stamp_s;
@@ -153,6 +170,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     while (pipeline.frames_in_flight() > (renders_now ? 0 : 1)) finish(pipeline.collect());
   }
   while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
+  energy->stop(summary.frames);
+  if (!options.quiet) {
+    for (const auto& line : energy->summary_lines()) std::cerr << "kfx run: energy " << line << "\n";
+  }
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
   KFX_CHECK(frames_with_depth > 0,
             options.input << ": no frame of the " << pipeline.frame_count()
@@ -174,6 +195,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     config_json[field.section][field.key] = field.format(pipeline.config());
   }
   stats["config"] = config_json;
+  stats["energy"] = energy->to_json();
   if (!prepared.ground_truth.empty()) {
     // Labels name files, so messages never read "ground truth ground truth".
     const std::string gt_label = options.ground_truth_path.empty()
@@ -265,6 +287,12 @@ void add_run_command(CLI::App& app) {
                     "write SLAMBench's depth, track and volume renders as PNG under DIR/renders/ "
                     "every render_rate (-z) frames");
   command->add_flag("!--no-report", outputs->report, "do not write report.html");
+  command
+      ->add_option("--idle-seconds", outputs->idle_seconds,
+                   "measure the idle power this long before the run and subtract it in the "
+                   "energy figures of stats.json (0 = do not)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   command->callback([options, outputs] { run(*options, *outputs); });
 }
 

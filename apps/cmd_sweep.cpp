@@ -4,10 +4,13 @@
 /// frames and ATE. Results go out after every run (DIR/results.jsonl appended; results.csv and
 /// results.json rewritten atomically), so an interrupted sweep resumes where it stopped: runs
 /// whose (name, sequence, backend) already succeeded with the same settings are skipped.
+/// Energy per frame of the backend's device is measured over the timed passes where a meter is
+/// available (idle power measured once, before the first run, and subtracted).
 
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <ctime>
 #include <filesystem>
 #include <fstream>
@@ -19,6 +22,7 @@
 #include "commands.hpp"
 #include "count_check.hpp"
 #include "core/platform.hpp"
+#include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
 #include "pipeline/pipeline.hpp"
@@ -49,6 +53,7 @@ struct SweepOptions {
   int warmup_frames = -1;                      ///< -1 = the plan's
   std::string commit;                          ///< "" = ask git
   double max_minutes = 0;                      ///< 0 = no limit; else start no run after it
+  double idle_seconds = 2;                     ///< idle power measurement before the first run
   bool dry_run = false;
 };
 
@@ -106,9 +111,41 @@ struct FrameCache {
   std::vector<io::Frame> frames;
 };
 
+/// The idle power of the sweep's devices: measured once, before the first run's frames.
+struct IdleCache {
+  double seconds = 0;
+  bool measured = false;
+  std::vector<energy::EnergyReading> readings;
+};
+
+/// The energy of the run's device (the GPU on the CUDA backend, else the CPU) as flat record
+/// fields for the tables, beside the full per-domain JSON.
+void add_energy_fields(const json& energy, const std::string& domain, json& record) {
+  record["energy"] = energy;
+  const json& device = energy[domain];
+  record["energy_method"] = device["method"];
+  if (!device.value("available", false) || !device.contains("joules_per_frame")) {
+    record["energy_note"] = device.value("reason", std::string("no frames measured"));
+    return;
+  }
+  record["mj_per_frame"] = 1e3 * device["joules_per_frame"].get<double>();
+  record["mean_watts"] = device["mean_watts"];
+  if (device.contains("above_idle_joules_per_frame")) {
+    record["mj_per_frame_above_idle"] = 1e3 * device["above_idle_joules_per_frame"].get<double>();
+    record["idle_watts"] = device["idle"]["mean_watts"];
+  }
+}
+
+/// "within", "over" or "not measured" against the plan's `max_mj_per_frame` (gross device
+/// energy per frame, idle included).
+std::string energy_budget(const json& record, double max_mj_per_frame) {
+  if (!record.contains("mj_per_frame")) return "not measured";
+  return record["mj_per_frame"].get<double>() <= max_mj_per_frame ? "within" : "over";
+}
+
 /// Warm-up, then `repeat` timed passes with one frame in flight; fills the measurement fields.
 void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, int repeat,
-             int warmup_frames, json& record) {
+             int warmup_frames, IdleCache& idle, json& record) {
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
                     prepared.reader->height_px(), prepared.backend);
   record["backend"] = pipeline.backend().name();
@@ -119,8 +156,20 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
   }
   record["config"] = config_json;
 
+  energy::RunEnergyOptions energy_options;
+  energy_options.backend = pipeline.backend().name();
+  energy_options.gpu_pci_bus_id = pipeline.backend().device_pci_bus_id();
+  energy::RunEnergy meters(energy_options);
+  if (!idle.measured) {
+    meters.measure_idle(idle.seconds);
+    idle.readings = meters.idle();
+    idle.measured = true;
+  } else {
+    meters.set_idle(idle.readings, idle.seconds);
+  }
+
   // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
-  const TimedPasses timed = run_timed_passes(pipeline, frames, repeat, warmup_frames);
+  const TimedPasses timed = run_timed_passes(pipeline, frames, repeat, warmup_frames, {}, &meters);
   const RunSummary& all = timed.all;
   const std::vector<double>& pass_fps = timed.pass_fps;
   const std::vector<io::StampedPose>& trajectory = timed.trajectory;
@@ -136,6 +185,7 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
   record["end_to_end_frames_per_second"] = median_of(pass_fps);
   record["end_to_end_frames_per_second_passes"] = pass_fps;
   record["flip_y"] = prepared.evaluate_flip_y;
+  add_energy_fields(meters.to_json(), energy::device_domain(pipeline.backend().name()), record);
   if (prepared.ground_truth.empty()) {
     record["ate_note"] = "no ground truth";
     return;
@@ -165,7 +215,7 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
 /// Writes results.csv and results.json from the latest record of every key, the sweep's own
 /// tasks first in plan order, then any other records of the log (other backends, old runs).
 void write_tables(const fs::path& out, const std::vector<json>& log, const std::vector<Task>& tasks,
-                  const json& meta) {
+                  const json& meta, double max_mj_per_frame) {
   std::vector<json> latest = sweep::latest_results(log);
   std::map<std::string, size_t> order;
   for (size_t i = 0; i < tasks.size(); ++i) order.emplace(tasks[i].key, i);
@@ -177,6 +227,13 @@ void write_tables(const fs::path& out, const std::vector<json>& log, const std::
   std::sort(rank.begin(), rank.end());
   std::vector<json> sorted;
   for (const auto& r : rank) sorted.push_back(latest[r.second]);
+  // The energy budget is the plan's: applied here, so that a changed budget relabels old runs.
+  for (auto& record : sorted) {
+    record.erase("energy_budget");
+    if (max_mj_per_frame > 0 && record.value("status", "") == "ok") {
+      record["energy_budget"] = energy_budget(record, max_mj_per_frame);
+    }
+  }
 
   io::AtomicFile csv((out / "results.csv").string());
   csv.stream() << sweep::results_csv(sorted);
@@ -301,7 +358,9 @@ void run_sweep(const SweepOptions& o) {
   meta["plan"] = {{"name", plan.name},
                   {"path", o.plan_path},
                   {"description", plan.description},
-                  {"baseline", plan.baseline}};
+                  {"baseline", plan.baseline},
+                  {"max_mj_per_frame", plan.max_mj_per_frame > 0 ? json(plan.max_mj_per_frame)
+                                                                 : json(nullptr)}};
   meta["commit"] = commit;
   meta["sequences"] = json::array();
   for (const auto& s : sequences) {
@@ -309,8 +368,10 @@ void run_sweep(const SweepOptions& o) {
     for (const auto& [k, v] : s.settings) settings.push_back(k + "=" + v);
     meta["sequences"].push_back({{"name", s.name}, {"input", s.input}, {"settings", settings}});
   }
-  write_tables(out, log, tasks, meta);
+  write_tables(out, log, tasks, meta, plan.max_mj_per_frame);
 
+  IdleCache idle;
+  idle.seconds = o.idle_seconds;
   int index = 0;
   int failed = 0;
   bool out_of_time = false;
@@ -375,7 +436,7 @@ void run_sweep(const SweepOptions& o) {
           std::cerr << "kfx sweep: " << sequence.name << ": " << cache.frames.size()
                     << " frames in memory (" << prepared.reader->description() << ")\n";
         }
-        measure(prepared, cache.frames, repeat, warmup_frames, record);
+        measure(prepared, cache.frames, repeat, warmup_frames, idle, record);
         record["status"] = "ok";
       } catch (const std::exception& e) {
         record["status"] = "failed";
@@ -389,7 +450,7 @@ void run_sweep(const SweepOptions& o) {
       record["date"] = utc_now();
       append_log(log_path, record);
       log.push_back(record);
-      write_tables(out, log, tasks, meta);
+      write_tables(out, log, tasks, meta, plan.max_mj_per_frame);
 
       // "[12/87] icp_stride_px=4 on tum_fr1_xyz: 3120 frames/s, ATE 2.31 cm (3m12s, ETA 20m)"
       const double elapsed_s = std::chrono::duration<double>(Clock::now() - run_start).count();
@@ -406,6 +467,11 @@ void run_sweep(const SweepOptions& o) {
         std::snprintf(line, sizeof(line), "%.0f frames/s, %d/%d tracked, %s",
                       record["frames_per_second"].get<double>(), record["tracked"].get<int>(),
                       record["frames"].get<int>(), ate.c_str());
+        if (record.contains("mj_per_frame")) {
+          const size_t used = std::strlen(line);
+          std::snprintf(line + used, sizeof(line) - used, ", %.3f mJ/frame",
+                        record["mj_per_frame"].get<double>());
+        }
       } else {
         std::snprintf(line, sizeof(line), "FAILED: %s", record["error"].get<std::string>().c_str());
       }
@@ -474,6 +540,12 @@ void add_sweep_command(CLI::App& app) {
                    "start no new run after this many minutes (exit non-zero; run again to "
                    "resume); 0 = no limit")
       ->check(CLI::NonNegativeNumber);
+  command
+      ->add_option("--idle-seconds", o->idle_seconds,
+                    "measure the idle power this long before the first run and subtract it in "
+                    "the energy columns (0 = do not; skipped where no meter is available)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
   command->add_flag("--dry-run", o->dry_run,
                     "validate the plan and list the runs (done or to run); run nothing");
   command->callback([o] { run_sweep(*o); });

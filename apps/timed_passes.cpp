@@ -19,11 +19,13 @@ std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input,
 
 TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& frames,
                              int repeat, int warmup_frames,
-                             const std::function<void(int, double, const RunSummary&)>& on_pass) {
+                             const std::function<void(int, double, const RunSummary&)>& on_pass,
+                             energy::RunEnergy* energy) {
   for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
     pipeline.process(frames[i].depth_mm);
   }
   TimedPasses result;
+  if (energy) energy->start();
   for (int pass = 0; pass < repeat; ++pass) {
     pipeline.reset();
     RunSummary summary;
@@ -55,6 +57,7 @@ TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& f
     result.all.integrated = summary.integrated;
     if (on_pass) on_pass(pass, fps, summary);
   }
+  if (energy) energy->stop(static_cast<int>(frames.size()) * repeat);
   return result;
 }
 

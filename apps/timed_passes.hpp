@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "energy/run_energy.hpp"
 #include "io/reader.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_summary.hpp"
@@ -26,8 +27,11 @@ struct TimedPasses {
 /// Processes the first `warmup_frames` frames untimed (on the GPU this also records the frame
 /// graphs), then runs `repeat` passes, each from a reset pipeline, submitting frame f+1 before
 /// collecting frame f. `on_pass(pass, fps, summary)` is called after each pass if given.
+/// `energy`, if given, is started after the warm-up and stopped after the last pass (the
+/// resets between passes included) over frames × repeat frames.
 TimedPasses run_timed_passes(
     Pipeline& pipeline, const std::vector<io::Frame>& frames, int repeat, int warmup_frames,
-    const std::function<void(int, double, const RunSummary&)>& on_pass = {});
+    const std::function<void(int, double, const RunSummary&)>& on_pass = {},
+    energy::RunEnergy* energy = nullptr);
 
 }  // namespace kfx::cli

@@ -88,7 +88,8 @@ def load_csv(path):
                 elif key in ("computation_ms_mean", "computation_ms_median"):
                     r.setdefault("computation_ms", {})[key.rsplit("_", 1)[1]] = number_or_text(text)
                 elif key in ("name", "group", "step", "step_key", "sequence", "backend", "status",
-                             "preset", "before", "input", "device", "commit", "date", "error"):
+                             "preset", "before", "input", "device", "commit", "date", "error",
+                             "energy_method", "energy_budget", "energy_note"):
                     r[key] = text
                 elif key in ("baseline", "table", "mark"):
                     r[key] = text == "true"
@@ -404,9 +405,11 @@ def pareto_front(points):
 
 
 def pareto_points(res, seq):
+    """(fps, ATE, name, marked) of the sequence's runs; runs over the plan's energy budget
+    (max_mj_per_frame, labelled by kfx sweep) are left out."""
     points = []
     for r in res.ok:
-        if r["sequence"] != seq:
+        if r["sequence"] != seq or r.get("energy_budget") == "over":
             continue
         fps, ate = r.get("frames_per_second"), ate_cm(r)
         if fps is not None and ate is not None:
@@ -418,10 +421,17 @@ def pareto_table(res):
     out = []
     for seq in res.sequences:
         front = pareto_front(pareto_points(res, seq))
-        lines = [f"**{seq}**", "", "| configuration | frames/s | ATE RMSE (cm) | > 10 cm |",
-                 "|---|---|---|---|"]
-        lines += [f"| {name} | {fps:.0f} | {ate:.2f} | {diverged_text(res.get(name, seq))} |"
-                  for fps, ate, name, _ in front]
+        over = sorted(r["name"] for r in res.ok
+                      if r["sequence"] == seq and r.get("energy_budget") == "over")
+        lines = [f"**{seq}**", "",
+                 "| configuration | frames/s | ATE RMSE (cm) | > 10 cm | mJ/frame |",
+                 "|---|---|---|---|---|"]
+        for fps, ate, name, _ in front:
+            run = res.get(name, seq)
+            lines.append(f"| {name} | {fps:.0f} | {ate:.2f} | {diverged_text(run)} | "
+                         f"{fmt(run.get('mj_per_frame'), 3)} |")
+        if over:
+            lines += ["", "Over the plan's energy budget, left out: " + ", ".join(over)]
         out.append("\n".join(lines))
     return "\n\n".join(out)
 

@@ -84,6 +84,8 @@ class Backend {
   virtual std::string name() const = 0;
   /// Human-readable device (CPU model and threads, or GPU name).
   virtual std::string device_name() const = 0;
+  /// The GPU's PCI bus id ("0000:19:00.0"), for reading its energy; "" on the CPU.
+  virtual std::string device_pci_bus_id() const { return ""; }
 
   /// Empties the volume (tsdf 1, weight 0) and sets the pose; no reference view yet.
   virtual void reset(const Mat4f& T_world_cam) = 0;

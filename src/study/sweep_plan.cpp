@@ -301,6 +301,13 @@ std::vector<std::pair<std::string, std::vector<std::string>>> csv_layout() {
       {"divergence_bound_m", {"divergence_bound_m"}},
       {"frames_per_second", {"frames_per_second"}},
       {"end_to_end_frames_per_second", {"end_to_end_frames_per_second"}},
+      // Energy of the backend's device (see docs/sweep.md); empty where not measured.
+      {"mj_per_frame", {"mj_per_frame"}},
+      {"mj_per_frame_above_idle", {"mj_per_frame_above_idle"}},
+      {"mean_watts", {"mean_watts"}},
+      {"idle_watts", {"idle_watts"}},
+      {"energy_method", {"energy_method"}},
+      {"energy_budget", {"energy_budget"}},
       {"computation_ms_mean", {"computation_ms", "mean"}},
       {"computation_ms_median", {"computation_ms", "median"}},
   };
@@ -310,7 +317,7 @@ std::vector<std::pair<std::string, std::vector<std::string>>> csv_layout() {
     layout.push_back({stage + "_ms_median", {"stages_ms", stage, "median"}});
   }
   for (const char* key : {"preset", "settings", "before", "baseline", "table", "mark", "input",
-                          "device", "repeat", "commit", "date", "error"}) {
+                          "device", "repeat", "commit", "date", "energy_note", "error"}) {
     layout.push_back({key, {key}});
   }
   return layout;
@@ -333,7 +340,7 @@ SweepPlan parse_sweep_plan(const std::string& text, const std::string& origin,
   }
   check_fields(root, origin,
                {"name", "description", "data_root", "baseline", "preset", "settings", "repeat",
-                "warmup_frames", "sequences", "runs"});
+                "warmup_frames", "max_mj_per_frame", "sequences", "runs"});
   SweepPlan plan;
   plan.path = origin;
   plan.name = string_field(root, "name", origin, fs::path(origin).stem().string());
@@ -346,6 +353,11 @@ SweepPlan parse_sweep_plan(const std::string& text, const std::string& origin,
   plan.settings = settings_field(root, origin);
   plan.repeat = int_field(root, "repeat", origin, 1, 1);
   plan.warmup_frames = int_field(root, "warmup_frames", origin, 10, 0);
+  if (root.contains("max_mj_per_frame")) {
+    KFX_CHECK(root["max_mj_per_frame"].is_number() && root["max_mj_per_frame"].get<double>() > 0,
+              origin << ": 'max_mj_per_frame' must be a number > 0 (millijoules per frame)");
+    plan.max_mj_per_frame = root["max_mj_per_frame"].get<double>();
+  }
 
   KFX_CHECK(root.contains("sequences") && root["sequences"].is_array(),
             origin << ": 'sequences' must be a list of {name, input, settings, variants}");

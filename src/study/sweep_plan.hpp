@@ -59,6 +59,8 @@ struct SweepPlan {
   Settings settings;        ///< settings every run gets, before the sequence's
   int repeat = 1;           ///< timed passes per run
   int warmup_frames = 10;   ///< untimed frames before the timed passes
+  /// Energy budget: runs using more device millijoules per frame are marked "over" (0 = none).
+  double max_mj_per_frame = 0;
   std::vector<SweepSequence> sequences;
   std::vector<SweepRun> runs;  ///< in plan order, grids expanded
 };

@@ -93,6 +93,15 @@ class CudaBackend final : public Backend {
            std::to_string(properties_.minor);
   }
 
+  std::string device_pci_bus_id() const override {
+    char bus_id[32] = {};
+    if (cudaDeviceGetPCIBusId(bus_id, sizeof(bus_id), device_) != cudaSuccess) {
+      cudaGetLastError();  // clear the error of a failed query; no id means NVML device 0
+      return "";
+    }
+    return bus_id;
+  }
+
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     const long long voxels = static_cast<long long>(buffers_.volume.size());
