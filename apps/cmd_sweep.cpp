@@ -256,6 +256,16 @@ void append_log(const fs::path& path, const json& record) {
 
 void run_sweep(const SweepOptions& o) {
   const auto sweep_start = Clock::now();
+  {
+    // A search plan (a "search" section instead of runs) is run by scripts/kfx_search, which
+    // drives this command; say how rather than fail on the unknown field.
+    std::ifstream in(o.plan_path);
+    const json text = json::parse(in, nullptr, false);
+    KFX_CHECK(!(text.is_object() && text.contains("search")),
+              o.plan_path << " is a search plan; run it with: scripts/kfx_search " << o.plan_path
+                          << " --out " << o.out_dir << " --backend " << o.backend
+                          << " (docs/sweep.md, \"Search\")");
+  }
   const sweep::SweepPlan plan = sweep::read_sweep_plan(o.plan_path);
   sweep::SequenceOptions sequence_options;
   sequence_options.data_root = o.data_root;
