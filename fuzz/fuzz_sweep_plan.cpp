@@ -4,7 +4,7 @@
 
 #include "core/platform.hpp"
 #include "fuzz_support.hpp"
-#include "pipeline/sweep_plan.hpp"
+#include "study/sweep_plan.hpp"
 
 extern "C" int LLVMFuzzerTestOneInput(const uint8_t* data, size_t size) {
   const std::string text = kfx::fuzz::as_text(data, size);

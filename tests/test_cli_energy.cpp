@@ -10,7 +10,7 @@
 #include <string>
 
 #include "cli_runner.hpp"
-#include "pipeline/sweep_plan.hpp"
+#include "study/sweep_plan.hpp"
 
 namespace kfx {
 namespace {

@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-#include "backend/stage_args.hpp"
+#include "kernels/render.hpp"
 #include "cli_runner.hpp"
 #include "io/png.hpp"
 #include "kernels/render.hpp"
