@@ -1,7 +1,10 @@
 /// `kfx mesh VOLUME OUT.ply`: marching cubes over a volume saved by `kfx run --save-volume`,
 /// on either backend; the same mesh the run itself writes as mesh.ply.
 
+#include <algorithm>
+#include <chrono>
 #include <iostream>
+#include <vector>
 
 #include "backend/backend.hpp"
 #include "commands.hpp"
@@ -15,6 +18,7 @@ struct MeshOptions {
   std::string volume_path;
   std::string out_path;
   std::string backend = "auto";
+  int repeat = 1;  ///< extractions timed (the mesh of the last is written)
 };
 
 bool is_identity(const Mat4f& T) {
@@ -51,11 +55,25 @@ void mesh_command(const MeshOptions& o) {
   setup.volume_size_m = volume.size_m;
   auto backend = make_backend(parse_backend_kind(o.backend), setup);
   backend->upload_volume(volume.voxels);
-  Mesh mesh = backend->extract_mesh();
+  backend->reserve_mesh_extraction();
+  // Timed as a benchmark would: extraction, compaction and the copy to the host, per repeat.
+  std::vector<double> extraction_ms;
+  Mesh mesh;
+  for (int i = 0; i < o.repeat; ++i) {
+    const auto start = std::chrono::steady_clock::now();
+    mesh = backend->extract_mesh();
+    extraction_ms.push_back(
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start)
+            .count());
+  }
+  std::vector<double> sorted = extraction_ms;
+  std::sort(sorted.begin(), sorted.end());
   if (!is_identity(volume.T_trajectory_volume)) transform_mesh(mesh, volume.T_trajectory_volume);
   output::write_run_mesh(o.out_path, mesh, o.volume_path, false);
   std::cout << mesh.vertices.size() << " vertices, " << mesh.triangles.size() << " triangles ("
-            << backend->name() << ") -> " << o.out_path << "\n";
+            << backend->name() << ") -> " << o.out_path << "\n"
+            << "extraction " << sorted[sorted.size() / 2] << " ms median of " << o.repeat
+            << " (first " << extraction_ms.front() << " ms, min " << sorted.front() << " ms)\n";
 }
 
 }  // namespace
@@ -66,6 +84,11 @@ void add_mesh_command(CLI::App& app) {
   command->add_option("VOLUME", options->volume_path, "volume file (.kfxtsdf)")->required();
   command->add_option("OUT", options->out_path, "output mesh (.ply)")->required();
   command->add_option("--backend", options->backend, "cpu, cuda or auto")->capture_default_str();
+  command
+      ->add_option("--repeat", options->repeat,
+                   "extract this many times and print the median extraction time (benchmarks)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
   command->callback([options] { mesh_command(*options); });
 }
 
