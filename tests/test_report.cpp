@@ -120,7 +120,8 @@ std::string read_text(const fs::path& path) {
 TEST_F(ReportTest, RunWritesTheReportAndGroundTruthUnlessAskedNot) {
   const fs::path out = dir_ / "run";
   const auto r = test::run_kfx(
-      "run synthetic:frames=6,width=160,height=120 --backend cpu -q --out " + out.string());
+      "run synthetic:frames=6,width=160,height=120 --backend cpu -q --no-mesh --out " +
+      out.string());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   ASSERT_TRUE(fs::exists(out / "report.html"));
   EXPECT_TRUE(fs::exists(out / "groundtruth.txt"));
