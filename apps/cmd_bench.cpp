@@ -76,9 +76,9 @@ void bench(const BenchOptions& options) {
   j["end_to_end_frames_per_second_median"] = median_of(pass_fps);
   j["end_to_end_frames_per_second_passes"] = pass_fps;
   const double median_computation = median_of(all.computation_ms);
-  j["computation_ms"] = {{"median", median_computation},
-                         {"mean", mean_of(all.computation_ms)}};
-  j["computation_frames_per_second_median"] = median_computation > 0 ? 1000.0 / median_computation : 0;
+  j["computation_ms"] = {{"median", median_computation}, {"mean", mean_of(all.computation_ms)}};
+  j["computation_frames_per_second_median"] =
+      median_computation > 0 ? 1000.0 / median_computation : 0;
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
     j["stages_ms"][stage_name(static_cast<Stage>(s))] = {{"median", median_of(all.stage_ms[s])},
                                                          {"mean", mean_of(all.stage_ms[s])}};
@@ -86,12 +86,13 @@ void bench(const BenchOptions& options) {
   if (!prepared.ground_truth.empty()) {
     eval::EvalOptions eval_options;
     eval_options.flip_y = prepared.evaluate_flip_y;
-    const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth,
-                                                    eval_options);
+    const auto result =
+        eval::evaluate_trajectories(trajectory, prepared.ground_truth, eval_options);
     j["ate_rmse_m"] = result.ate.stats_m.rmse;
   }
   nlohmann::json config_json;
-  for (const auto& field : config_fields()) config_json[field.key] = field.format(pipeline.config());
+  for (const auto& field : config_fields())
+    config_json[field.key] = field.format(pipeline.config());
   j["config"] = config_json;
   j["energy"] = energy.to_json();
 
@@ -104,7 +105,8 @@ void bench(const BenchOptions& options) {
               mean_of(all.computation_ms));
   std::printf("end-to-end: %.1f frames/s (median of %d passes over %zu frames), %d tracked",
               median_of(pass_fps), options.repeat, frames.size(), all.tracked);
-  if (j.contains("ate_rmse_m")) std::printf(", ATE RMSE %.3f cm", j["ate_rmse_m"].get<double>() * 100);
+  if (j.contains("ate_rmse_m"))
+    std::printf(", ATE RMSE %.3f cm", j["ate_rmse_m"].get<double>() * 100);
   std::printf("\n");
   for (const auto& line : energy.summary_lines()) std::printf("energy %s\n", line.c_str());
   if (!options.json_path.empty()) output::write_json_document(options.json_path, j);

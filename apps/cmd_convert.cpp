@@ -7,8 +7,8 @@
 #include <string>
 
 #include "commands.hpp"
-#include "count_check.hpp"
 #include "core/platform.hpp"
+#include "count_check.hpp"
 #include "io/convert.hpp"
 #include "io/reader.hpp"
 

@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <cstdio>
-#include <deque>
 #include <ctime>
+#include <deque>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -43,7 +43,7 @@ double seconds_since(Clock::time_point start) {
 
 int count_valid_pixels(const HostImage<uint16_t>& depth_mm) {
   return static_cast<int>(std::count_if(depth_mm.pixels().begin(), depth_mm.pixels().end(),
-                                         [](uint16_t d) { return d != 0; }));
+                                        [](uint16_t d) { return d != 0; }));
 }
 
 /// The outputs beyond the four every run writes.
@@ -82,8 +82,9 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                     reader.height_px(), prepared.backend);
   if (outputs.mesh) {
     if (pipeline.backend().name() == "cpu") {  // the GPU backend checks its own memory
-      output::check_host_memory(mesh_scratch_bytes(prepared.config.volume.resolution_vox),
-                                "mesh extraction's scratch buffers (use --no-mesh or a smaller -v)");
+      output::check_host_memory(
+          mesh_scratch_bytes(prepared.config.volume.resolution_vox),
+          "mesh extraction's scratch buffers (use --no-mesh or a smaller -v)");
     }
     pipeline.backend().reserve_mesh_extraction();
   }
@@ -172,12 +173,12 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
   energy->stop(summary.frames);
   if (!options.quiet) {
-    for (const auto& line : energy->summary_lines()) std::cerr << "kfx run: energy " << line << "\n";
+    for (const auto& line : energy->summary_lines())
+      std::cerr << "kfx run: energy " << line << "\n";
   }
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
-  KFX_CHECK(frames_with_depth > 0,
-            options.input << ": no frame of the " << pipeline.frame_count()
-                          << " read has any valid depth (all pixels are 0)");
+  KFX_CHECK(frames_with_depth > 0, options.input << ": no frame of the " << pipeline.frame_count()
+                                                 << " read has any valid depth (all pixels are 0)");
 
   nlohmann::json stats = summary.to_json();
   stats["input"] = options.input;
@@ -228,10 +229,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   }
   if (outputs.cloud) {
     const DebugMaps maps = pipeline.backend().read_maps();
-    stats["cloud_points"] = output::write_cloud_ply(
-        out_dir + "/cloud.ply", maps.ref_vertex, maps.ref_normal,
-        "kfx " + std::string(KFX_VERSION) + " last raycast of " + options.input +
-            ", volume frame (as trajectory.txt), metres");
+    stats["cloud_points"] =
+        output::write_cloud_ply(out_dir + "/cloud.ply", maps.ref_vertex, maps.ref_normal,
+                                "kfx " + std::string(KFX_VERSION) + " last raycast of " +
+                                    options.input + ", volume frame (as trajectory.txt), metres");
     written += " cloud.ply";
   }
   if (outputs.save_volume) {

@@ -21,8 +21,9 @@ void add_settings_command(CLI::App& app) {
         section = field.section;
         std::printf("[%s]\n", section.c_str());
       }
-      const std::string flag =
-          field.slambench_short.empty() ? "" : "-" + field.slambench_short + "/--" + field.slambench_long;
+      const std::string flag = field.slambench_short.empty()
+                                   ? ""
+                                   : "-" + field.slambench_short + "/--" + field.slambench_long;
       std::printf("  %-28s %-16s %-24s %s\n", field.key.c_str(), field.format(config).c_str(),
                   flag.c_str(), field.help.c_str());
     }

@@ -20,8 +20,8 @@
 #include <sstream>
 
 #include "commands.hpp"
-#include "count_check.hpp"
 #include "core/platform.hpp"
+#include "count_check.hpp"
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
@@ -200,9 +200,8 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
     // Frames the aligned trajectory puts beyond the bound, and the first (null when none).
     record["divergence_bound_m"] = result.divergence.bound_m;
     record["diverged_frames"] = result.divergence.frames_over;
-    record["first_diverged_frame"] = result.divergence.any_over
-                                         ? json(result.divergence.first_over_index)
-                                         : json();
+    record["first_diverged_frame"] =
+        result.divergence.any_over ? json(result.divergence.first_over_index) : json();
     // The frame it left the ground truth (aligned on the frames up to it; null when none).
     record["departure_frame"] =
         result.divergence.departed ? json(result.divergence.departure_index) : json();
@@ -369,8 +368,8 @@ void run_sweep(const SweepOptions& o) {
                   {"path", o.plan_path},
                   {"description", plan.description},
                   {"baseline", plan.baseline},
-                  {"max_mj_per_frame", plan.max_mj_per_frame > 0 ? json(plan.max_mj_per_frame)
-                                                                 : json(nullptr)}};
+                  {"max_mj_per_frame",
+                   plan.max_mj_per_frame > 0 ? json(plan.max_mj_per_frame) : json(nullptr)}};
   meta["commit"] = commit;
   meta["sequences"] = json::array();
   for (const auto& s : sequences) {
@@ -552,8 +551,8 @@ void add_sweep_command(CLI::App& app) {
       ->check(CLI::NonNegativeNumber);
   command
       ->add_option("--idle-seconds", o->idle_seconds,
-                    "measure the idle power this long before the first run and subtract it in "
-                    "the energy columns (0 = do not; skipped where no meter is available)")
+                   "measure the idle power this long before the first run and subtract it in "
+                   "the energy columns (0 = do not; skipped where no meter is available)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
   command->add_flag("--dry-run", o->dry_run,

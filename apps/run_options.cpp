@@ -9,9 +9,10 @@
 namespace kfx::cli {
 
 void add_run_options(CLI::App& command, RunOptions& o) {
-  command.add_option("input", o.input,
-                     "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or "
-                     "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]")
+  command
+      .add_option("input", o.input,
+                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or "
+                  "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]")
       ->required();
   command.add_option("--backend", o.backend, "cpu, cuda or auto (CUDA when a GPU is present)")
       ->capture_default_str();
@@ -87,8 +88,7 @@ PreparedRun prepare_run(const RunOptions& o) {
     const Intrinsics& c = run.input_intrinsics;
     std::ostringstream note;
     note << "intrinsics fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy
-         << " px at " << run.reader->width_px() << "x" << run.reader->height_px() << ": "
-         << source;
+         << " px at " << run.reader->width_px() << "x" << run.reader->height_px() << ": " << source;
     run.intrinsics_note = note.str();
   }
   // SLAMBench runs ICL-NUIM with +fy where the true camera has −fy: that mirrors the world in

@@ -33,10 +33,10 @@ void add_run_options(CLI::App& command, RunOptions& options);
 struct PreparedRun {
   PipelineConfig config;
   std::unique_ptr<io::Reader> reader;
-  Intrinsics input_intrinsics;        ///< at input size
-  std::string intrinsics_note;        ///< one line: the intrinsics used, where from and why
+  Intrinsics input_intrinsics;  ///< at input size
+  std::string intrinsics_note;  ///< one line: the intrinsics used, where from and why
   std::vector<io::StampedPose> ground_truth;
-  bool evaluate_flip_y = false;       ///< intrinsics mirror the dataset's world in y
+  bool evaluate_flip_y = false;  ///< intrinsics mirror the dataset's world in y
   BackendKind backend = BackendKind::kAuto;
 };
 

@@ -44,8 +44,9 @@ nlohmann::json RunSummary::to_json() const {
   j["lost"] = lost;
   j["integrated"] = integrated;
   j["frames_per_second"] = frames_per_second();
-  j["frames_per_second_definition"] = "1 / mean computation time (preprocess + track + "
-                                      "integrate + raycast) over all frames";
+  j["frames_per_second_definition"] =
+      "1 / mean computation time (preprocess + track + "
+      "integrate + raycast) over all frames";
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
     j["stages_ms"][stage_name(static_cast<Stage>(s))] = {{"mean", mean_of(stage_ms[s])},
                                                          {"median", median_of(stage_ms[s])}};

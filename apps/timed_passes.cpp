@@ -17,8 +17,8 @@ std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input,
   return frames;
 }
 
-TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& frames,
-                             int repeat, int warmup_frames,
+TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& frames, int repeat,
+                             int warmup_frames,
                              const std::function<void(int, double, const RunSummary&)>& on_pass,
                              energy::RunEnergy* energy) {
   for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {

@@ -25,9 +25,8 @@ float scene_distance_m(float x, float y, float z, float size_m) {
   const float lo = 0.05f * size_m, hi = 0.95f * size_m;
   // Free space is the box's inside: distance to the nearest wall, negative beyond it.
   float d = std::min({x - lo, hi - x, y - lo, hi - y, z - lo, hi - z});
-  const float spheres[3][4] = {{0.35f, 0.4f, 0.5f, 0.15f},
-                               {0.65f, 0.6f, 0.45f, 0.2f},
-                               {0.5f, 0.75f, 0.7f, 0.1f}};
+  const float spheres[3][4] = {
+      {0.35f, 0.4f, 0.5f, 0.15f}, {0.65f, 0.6f, 0.45f, 0.2f}, {0.5f, 0.75f, 0.7f, 0.1f}};
   for (const auto& s : spheres) {
     const float dx = x - s[0] * size_m, dy = y - s[1] * size_m, dz = z - s[2] * size_m;
     d = std::min(d, std::sqrt(dx * dx + dy * dy + dz * dz) - s[3] * size_m);

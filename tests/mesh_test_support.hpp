@@ -79,9 +79,10 @@ inline std::vector<Voxel> sphere_volume(int res, float size_m, Vec3f centre, flo
     for (int y = 0; y < res; ++y) {
       for (int x = 0; x < res; ++x) {
         const Vec3f p = view.centre_m(x, y, z);
-        const float d = std::sqrt((p.x - centre.x) * (p.x - centre.x) +
-                                  (p.y - centre.y) * (p.y - centre.y) +
-                                  (p.z - centre.z) * (p.z - centre.z)) - radius_m;
+        const float d =
+            std::sqrt((p.x - centre.x) * (p.x - centre.x) + (p.y - centre.y) * (p.y - centre.y) +
+                      (p.z - centre.z) * (p.z - centre.z)) -
+            radius_m;
         const float t = std::fmax(-1.0f, std::fmin(1.0f, d / mu_m));
         view.at(x, y, z) = Voxel{static_cast<int16_t>(t * kTsdfScale), 1};
       }

@@ -32,10 +32,10 @@ constexpr float kTrackedPoseTol_m = 1e-3f;
 constexpr double kTrajectoryMedianTol_m = 1e-3;
 constexpr double kTrajectoryP95Tol_m = 1e-2;
 
-#define KFX_REQUIRE_CUDA()                                 \
-  do {                                                     \
-    std::string why_not;                                   \
-    if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;     \
+#define KFX_REQUIRE_CUDA()                                  \
+  do {                                                      \
+    std::string why_not;                                    \
+    if (!cuda_available(&why_not)) GTEST_SKIP() << why_not; \
   } while (0)
 
 BackendSetup small_setup() {
@@ -130,7 +130,8 @@ TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
   long long voxel_mismatch = 0, touched = 0;
   for (size_t i = 0; i < vc.size(); ++i) {
     touched += vc[i].weight > 0;
-    voxel_mismatch += std::abs(vc[i].tsdf - vg[i].tsdf) > kTsdfUnitTol || vc[i].weight != vg[i].weight;
+    voxel_mismatch +=
+        std::abs(vc[i].tsdf - vg[i].tsdf) > kTsdfUnitTol || vc[i].weight != vg[i].weight;
   }
   EXPECT_GT(touched, 10000);
   EXPECT_LE(voxel_mismatch, kMaxVoxelMismatchFraction * vc.size());
@@ -196,7 +197,8 @@ TEST(BackendParity, SyntheticTrajectoriesAgree) {
   set_config_value(config, "compute_size_ratio", "1");
   const std::string input = "synthetic:frames=60,width=320,height=240";
   auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings()) set_config_value(config, key, value);
+  for (const auto& [key, value] : reader->recommended_settings())
+    set_config_value(config, key, value);
   const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
   const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
   EXPECT_EQ(cpu.tracked, gpu.tracked);
@@ -212,7 +214,8 @@ void expect_repeatable(BackendKind kind) {
   set_config_value(config, "compute_size_ratio", "1");
   const std::string input = "synthetic:frames=25,width=320,height=240";
   auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings()) set_config_value(config, key, value);
+  for (const auto& [key, value] : reader->recommended_settings())
+    set_config_value(config, key, value);
   const auto a = test::run_sequence(input, config, kind);
   const auto b = test::run_sequence(input, config, kind);
   ASSERT_EQ(a.trajectory.size(), b.trajectory.size());

@@ -24,8 +24,9 @@ using test::run_kfx;
 class CliTest : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("kfx_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+    dir_ =
+        fs::temp_directory_path() /
+        ("kfx_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -112,7 +113,8 @@ TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
   const fs::path bad = folder / "depth" / "105.000000.png";
   std::ofstream(bad, std::ios::binary | std::ios::trunc) << "\x89PNG\r\n\x1a\n garbage";
   const fs::path out = dir_ / "out";
-  const auto r = run_kfx("run " + folder.string() + " --out " + out.string() + " " + small_run_args());
+  const auto r =
+      run_kfx("run " + folder.string() + " --out " + out.string() + " " + small_run_args());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("105.000000.png"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("frame"), std::string::npos) << r.output;
@@ -129,11 +131,14 @@ TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
 TEST_F(CliTest, MissingListedFileAndWrongSizeAreErrors) {
   const fs::path folder = make_tum_folder(5);
   fs::remove(folder / "depth" / "102.000000.png");
-  auto r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  auto r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " +
+                   small_run_args());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("102.000000.png"), std::string::npos) << r.output;
-  io::write_png_gray16((folder / "depth" / "102.000000.png").string(), HostImage<uint16_t>(32, 24, 7500));
-  r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  io::write_png_gray16((folder / "depth" / "102.000000.png").string(),
+                       HostImage<uint16_t>(32, 24, 7500));
+  r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " +
+              small_run_args());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("102.000000.png"), std::string::npos) << r.output;
   EXPECT_FALSE(has_outputs(dir_ / "o"));
@@ -141,7 +146,8 @@ TEST_F(CliTest, MissingListedFileAndWrongSizeAreErrors) {
 
 TEST_F(CliTest, SequenceWithoutValidDepthIsAnError) {
   const fs::path folder = make_tum_folder(6, 0);
-  const auto r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " + small_run_args());
+  const auto r = run_kfx("run " + folder.string() + " --out " + (dir_ / "o").string() + " " +
+                         small_run_args());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("valid depth"), std::string::npos) << r.output;
   EXPECT_FALSE(has_outputs(dir_ / "o"));
@@ -154,7 +160,8 @@ TEST_F(CliTest, UnreadableGroundTruthIsAnError) {
                          " --out " + (dir_ / "o").string() + " " + small_run_args());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("gt.txt"), std::string::npos) << r.output;
-  const auto e = run_kfx("eval " + (dir_ / "missing.txt").string() + " " + (dir_ / "gt.txt").string());
+  const auto e =
+      run_kfx("eval " + (dir_ / "missing.txt").string() + " " + (dir_ / "gt.txt").string());
   EXPECT_NE(e.exit_code, 0);
   EXPECT_NE(e.output.find("missing.txt"), std::string::npos) << e.output;
 }
@@ -171,8 +178,9 @@ TEST_F(CliTest, TruncatedRawIsAnError) {
 }
 
 TEST_F(CliTest, CudaWithoutGpuIsAClearError) {
-  const auto probe = run_kfx("run synthetic:frames=1,width=160,height=120 --backend cuda -q --out " +
-                             (dir_ / "probe").string());
+  const auto probe =
+      run_kfx("run synthetic:frames=1,width=160,height=120 --backend cuda -q --out " +
+              (dir_ / "probe").string());
   if (probe.exit_code == 0) GTEST_SKIP() << "a CUDA device is present";
   EXPECT_NE(probe.output.find("CUDA backend was requested"), std::string::npos) << probe.output;
 }

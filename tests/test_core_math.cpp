@@ -72,7 +72,8 @@ TEST(Se3, RotationIsOrthonormal) {
 }
 
 TEST(Camera, ProjectUnprojectRoundTrip) {
-  for (const Intrinsics k : {Intrinsics{481.2f, 480, 320, 240}, Intrinsics{481.2f, -480, 319.5f, 239.5f}}) {
+  for (const Intrinsics k :
+       {Intrinsics{481.2f, 480, 320, 240}, Intrinsics{481.2f, -480, 319.5f, 239.5f}}) {
     expect_identity(k.matrix() * k.inverse_matrix());
     const Vec3f ray = rotate(k.inverse_matrix(), Vec3f{100.0f, 50.0f, 1.0f});
     const Vec3f p = ray * 2.5f;  // a point 2.5 m deep on that pixel's ray

@@ -464,8 +464,8 @@ TEST(EvalDivergence, DriftingTrajectoryIsCaughtNearWhereItLeaves) {
   std::vector<io::StampedPose> far;
   for (int i = 0; i < 200; ++i) {
     const double drift_m = i < 150 ? 0.0 : 0.1 * (i - 150);
-    far.push_back(make_position(0.1 * i, Eigen::Vector3d(gt[i].t[0], gt[i].t[1], gt[i].t[2]) +
-                                             drift_m * direction));
+    far.push_back(make_position(
+        0.1 * i, Eigen::Vector3d(gt[i].t[0], gt[i].t[1], gt[i].t[2]) + drift_m * direction));
   }
   const EvalResult lost = evaluate_trajectories(far, gt);
   ASSERT_TRUE(lost.divergence.departed);

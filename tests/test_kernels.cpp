@@ -200,10 +200,10 @@ TEST(Track, AccumulatorPacksJtJUpperTriangle) {
   accumulate_row(acc, row);
   EXPECT_DOUBLE_EQ(acc[kAccErrorSq], 0.25);
   EXPECT_DOUBLE_EQ(acc[kAccJtE + 5], 3.0);
-  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 0], 1.0);   // (0,0)
-  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 1], 2.0);   // (0,1)
-  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 6], 4.0);   // (1,1)
-  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 20], 36.0); // (5,5)
+  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 0], 1.0);    // (0,0)
+  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 1], 2.0);    // (0,1)
+  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 6], 4.0);    // (1,1)
+  EXPECT_DOUBLE_EQ(acc[kAccJtJ + 20], 36.0);  // (5,5)
   EXPECT_DOUBLE_EQ(acc[kAccInliers], 1.0);
   accumulate_row(acc, TrackRow{kTrackTooFar, 0, {}});
   accumulate_row(acc, TrackRow{kTrackNormalMismatch, 0, {}});
@@ -214,8 +214,7 @@ TEST(Track, AccumulatorPacksJtJUpperTriangle) {
 }
 
 /// Packs A (symmetric) and b into an accumulator.
-void pack(const Eigen::Matrix<double, 6, 6>& A, const Eigen::Matrix<double, 6, 1>& b,
-          double* acc) {
+void pack(const Eigen::Matrix<double, 6, 6>& A, const Eigen::Matrix<double, 6, 1>& b, double* acc) {
   for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0;
   for (int i = 0; i < 6; ++i) acc[kAccJtE + i] = b(i);
   int k = kAccJtJ;
@@ -238,14 +237,16 @@ TEST(Solve, MatchesPseudoInverseOnWellAndIllConditionedSystems) {
   std::mt19937 rng(3);
   std::normal_distribution<double> g;
   for (int trial = 0; trial < 40; ++trial) {
-    Eigen::Matrix<double, 6, 6> Q = Eigen::Matrix<double, 6, 6>::NullaryExpr([&] { return g(rng); });
+    Eigen::Matrix<double, 6, 6> Q =
+        Eigen::Matrix<double, 6, 6>::NullaryExpr([&] { return g(rng); });
     Eigen::HouseholderQR<Eigen::Matrix<double, 6, 6>> qr(Q);
     const Eigen::Matrix<double, 6, 6> U = qr.householderQ();
     Eigen::Matrix<double, 6, 1> eig;
     for (int i = 0; i < 6; ++i) eig(i) = std::pow(10.0, -1.0 - i * (trial % 4) * 0.9);
     if (trial % 5 == 4) eig(5) = 0.0;  // exactly singular
     const Eigen::Matrix<double, 6, 6> A = U * eig.asDiagonal() * U.transpose();
-    const Eigen::Matrix<double, 6, 1> b = Eigen::Matrix<double, 6, 1>::NullaryExpr([&] { return g(rng); });
+    const Eigen::Matrix<double, 6, 1> b =
+        Eigen::Matrix<double, 6, 1>::NullaryExpr([&] { return g(rng); });
     double acc[kAccumulatorSize];
     pack(A, b, acc);
     double x[6];
@@ -302,7 +303,9 @@ struct VolumeFixture {
   std::vector<uint8_t> bricks;
   VolumeFixture()
       : voxels(static_cast<size_t>(res) * res * res, Voxel{32766, 0}),
-        bricks(static_cast<size_t>(bricks_per_side(res) * bricks_per_side(res) * bricks_per_side(res)), 0) {}
+        bricks(
+            static_cast<size_t>(bricks_per_side(res) * bricks_per_side(res) * bricks_per_side(res)),
+            0) {}
   VolumeView view() { return VolumeView{voxels.data(), res, size_m, bricks.data()}; }
 };
 
@@ -352,7 +355,8 @@ TEST(Integrate, ColumnBoundsNeverChangeTheResult) {
   std::mt19937 rng(11);
   std::uniform_real_distribution<double> u(-1, 1);
   HostImage<float> depth(80, 60);
-  for_each(80, 60, [&](int x, int y) { depth(x, y) = (x + y) % 17 == 0 ? 0.0f : 1.0f + 0.02f * x; });
+  for_each(80, 60,
+           [&](int x, int y) { depth(x, y) = (x + y) % 17 == 0 ? 0.0f : 1.0f + 0.02f * x; });
   int touched_total = 0;
   for (int trial = 0; trial < 8; ++trial) {
     const double twist[6] = {1.6 + 0.8 * u(rng), 1.6 + 0.8 * u(rng), 0.4 * u(rng),

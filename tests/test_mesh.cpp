@@ -61,8 +61,7 @@ constexpr float kRadius_m = 0.3f;
 const Vec3f kCentre{0.51f, 0.49f, 0.5f};  // off the voxel grid's symmetry
 
 Mesh sphere_mesh(BackendKind kind = BackendKind::kCpu) {
-  return mesh_of(test::sphere_volume(kRes, kSize_m, kCentre, kRadius_m, 0.1f), kRes, kSize_m,
-                 kind);
+  return mesh_of(test::sphere_volume(kRes, kSize_m, kCentre, kRadius_m, 0.1f), kRes, kSize_m, kind);
 }
 
 TEST(MarchingCubesTable, EveryCrossedEdgeAndOnlyThoseAreUsed) {
@@ -175,8 +174,8 @@ TEST(MeshPly, HeaderAndBinaryLayout) {
   ASSERT_EQ(bytes.substr(0, header.size()), header);
   ASSERT_EQ(bytes.size(), header.size() + 3 * 24 + 13);
   float x = 0, nz = 0;
-  std::memcpy(&x, bytes.data() + header.size() + 24, 4);       // vertex 1, x
-  std::memcpy(&nz, bytes.data() + header.size() + 5 * 4, 4);   // vertex 0, nz
+  std::memcpy(&x, bytes.data() + header.size() + 24, 4);      // vertex 1, x
+  std::memcpy(&nz, bytes.data() + header.size() + 5 * 4, 4);  // vertex 0, nz
   EXPECT_EQ(x, 4.0f);
   EXPECT_EQ(nz, 1.0f);
   const size_t face = header.size() + 72;
@@ -195,9 +194,11 @@ TEST(MeshPly, RoundTripAndEmpty) {
   ASSERT_EQ(back.vertices.size(), mesh.vertices.size());
   ASSERT_EQ(back.triangles.size(), mesh.triangles.size());
   EXPECT_EQ(std::memcmp(back.vertices.data(), mesh.vertices.data(),
-                        mesh.vertices.size() * sizeof(MeshVertex)), 0);
+                        mesh.vertices.size() * sizeof(MeshVertex)),
+            0);
   EXPECT_EQ(std::memcmp(back.triangles.data(), mesh.triangles.data(),
-                        mesh.triangles.size() * sizeof(MeshTriangle)), 0);
+                        mesh.triangles.size() * sizeof(MeshTriangle)),
+            0);
   output::write_mesh_ply(dir + "/e.ply", Mesh{}, "empty");
   const Mesh empty = output::read_mesh_ply(dir + "/e.ply");
   EXPECT_TRUE(empty.vertices.empty() && empty.triangles.empty());

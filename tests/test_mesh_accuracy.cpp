@@ -48,7 +48,8 @@ struct Rigid {
   Rigid operator*(const Rigid& b) const {
     Rigid r{};
     for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j) r.R[i][j] = R[i][0] * b.R[0][j] + R[i][1] * b.R[1][j] + R[i][2] * b.R[2][j];
+      for (int j = 0; j < 3; ++j)
+        r.R[i][j] = R[i][0] * b.R[0][j] + R[i][1] * b.R[1][j] + R[i][2] * b.R[2][j];
       r.t[i] = R[i][0] * b.t[0] + R[i][1] * b.t[1] + R[i][2] * b.t[2] + t[i];
     }
     return r;
@@ -74,11 +75,13 @@ struct MeshedRun {
 MeshedRun run_and_mesh(const std::string& input, PipelineConfig config, int max_frames,
                        bool keep_frames) {
   auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings()) set_config_value(config, key, value);
+  for (const auto& [key, value] : reader->recommended_settings())
+    set_config_value(config, key, value);
   MeshedRun run;
   run.input_k = reader->default_intrinsics().value();
   run.ground_truth = reader->ground_truth();
-  Pipeline pipeline(config, run.input_k, reader->width_px(), reader->height_px(), BackendKind::kCpu);
+  Pipeline pipeline(config, run.input_k, reader->width_px(), reader->height_px(),
+                    BackendKind::kCpu);
   io::Frame frame;
   while (static_cast<int>(run.poses.size()) < max_frames &&
          reader->next(frame).status == io::ReadStatus::kOk) {
@@ -103,13 +106,14 @@ MeshedRun run_and_mesh(const std::string& input, PipelineConfig config, int max_
 /// least one camera: back-facing ones are TSDF fusion's own artefacts (the far side of a thin
 /// board, where the truncation band behind its front meets free space seen past it).
 struct RoomDistance {
-  double mean_m = 0;        ///< over vertices facing a camera
-  double mean_all_m = 0;    ///< over every sampled vertex
-  double seen_fraction = 0; ///< facing / sampled
+  double mean_m = 0;         ///< over vertices facing a camera
+  double mean_all_m = 0;     ///< over every sampled vertex
+  double seen_fraction = 0;  ///< facing / sampled
 };
 RoomDistance distance_to_room(const MeshedRun& run) {
   const io::synth::RoomGeometry room;
-  const Rigid scene_from_volume = Rigid::from(run.ground_truth.front()) * Rigid::from(run.poses.front()).inverse();
+  const Rigid scene_from_volume =
+      Rigid::from(run.ground_truth.front()) * Rigid::from(run.poses.front()).inverse();
   std::vector<io::synth::Vec3d> cameras;
   for (size_t f = 0; f < run.poses.size(); f += 2) {
     const auto& t = run.ground_truth[f].t;
@@ -149,10 +153,11 @@ RoomDistance distance_to_room(const MeshedRun& run) {
 }
 
 void print_room_distance(const char* what, const RoomDistance& d, float voxel_m) {
-  std::printf("synthetic room, %s: mean vertex distance to the true surface %.2f mm = %.3f voxel "
-              "over all vertices; %.2f mm = %.3f voxel over the %.1f %% facing a camera\n",
-              what, d.mean_all_m * 1000, d.mean_all_m / voxel_m, d.mean_m * 1000,
-              d.mean_m / voxel_m, d.seen_fraction * 100);
+  std::printf(
+      "synthetic room, %s: mean vertex distance to the true surface %.2f mm = %.3f voxel "
+      "over all vertices; %.2f mm = %.3f voxel over the %.1f %% facing a camera\n",
+      what, d.mean_all_m * 1000, d.mean_all_m / voxel_m, d.mean_m * 1000, d.mean_m / voxel_m,
+      d.seen_fraction * 100);
 }
 
 PipelineConfig every_frame_integrated() {
@@ -172,8 +177,7 @@ const char* const kSyntheticNoiseOff = "synthetic:frames=24,width=320,height=240
 const char* const kSyntheticNoiseOn = "synthetic:frames=24,width=320,height=240,noise=1,speed=0.1";
 
 TEST(MeshAccuracy, SyntheticRoomWithoutNoiseWithinQuarterVoxel) {
-  const MeshedRun run = run_and_mesh(kSyntheticNoiseOff,
-                                     every_frame_integrated(), 24, false);
+  const MeshedRun run = run_and_mesh(kSyntheticNoiseOff, every_frame_integrated(), 24, false);
   ASSERT_GT(run.mesh.triangles.size(), 10000u);
   const RoomDistance d = distance_to_room(run);
   print_room_distance("noise off", d, run.voxel_m);
@@ -181,8 +185,7 @@ TEST(MeshAccuracy, SyntheticRoomWithoutNoiseWithinQuarterVoxel) {
 }
 
 TEST(MeshAccuracy, SyntheticRoomWithNoiseReported) {
-  const MeshedRun run = run_and_mesh(kSyntheticNoiseOn,
-                                     every_frame_integrated(), 24, false);
+  const MeshedRun run = run_and_mesh(kSyntheticNoiseOn, every_frame_integrated(), 24, false);
   ASSERT_GT(run.mesh.triangles.size(), 10000u);
   const RoomDistance d = distance_to_room(run);
   print_room_distance("Kinect-like noise", d, run.voxel_m);
@@ -233,9 +236,10 @@ TEST(MeshAccuracy, TumFr1XyzAgreesWithBackProjectedDepth) {
     if (mesh_grid.nearest_m(p) <= 0.03) ++near;
   }
   const double near_fraction = static_cast<double>(near) / inside;
-  std::printf("tum_fr1_xyz, %d frames: median vertex-to-depth %.2f mm, %.1f %% of %d depth points "
-              "inside the volume within 3 cm of the mesh\n",
-              kFrames, median_m * 1000, near_fraction * 100, inside);
+  std::printf(
+      "tum_fr1_xyz, %d frames: median vertex-to-depth %.2f mm, %.1f %% of %d depth points "
+      "inside the volume within 3 cm of the mesh\n",
+      kFrames, median_m * 1000, near_fraction * 100, inside);
   EXPECT_LE(median_m, 0.01);
   EXPECT_GE(near_fraction, 0.80);
 }

@@ -27,7 +27,8 @@ class OutputsCli : public ::testing::Test {
  protected:
   void SetUp() override {
     dir_ = fs::temp_directory_path() /
-           ("kfx_outputs_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
+           ("kfx_outputs_" +
+            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::remove_all(dir_);
     fs::create_directories(dir_);
   }
@@ -63,9 +64,11 @@ TEST_F(OutputsCli, SavedVolumeMeshesToTheRunsOwnMesh) {
   ASSERT_EQ(again.vertices.size(), run_mesh.vertices.size());
   ASSERT_EQ(again.triangles.size(), run_mesh.triangles.size());
   EXPECT_EQ(std::memcmp(again.vertices.data(), run_mesh.vertices.data(),
-                        again.vertices.size() * sizeof(MeshVertex)), 0);
+                        again.vertices.size() * sizeof(MeshVertex)),
+            0);
   EXPECT_EQ(std::memcmp(again.triangles.data(), run_mesh.triangles.data(),
-                        again.triangles.size() * sizeof(MeshTriangle)), 0);
+                        again.triangles.size() * sizeof(MeshTriangle)),
+            0);
 }
 
 TEST_F(OutputsCli, NoMeshWritesNone) {
@@ -93,7 +96,8 @@ TEST_F(OutputsCli, EmptyVolumeGivesAValidEmptyPly) {
 TEST_F(OutputsCli, BadVolumeIsNamed) {
   std::ofstream(dir_ / "bad.kfxtsdf") << "not a volume at all, but long enough to hold a header "
                                          "of eighty-four bytes, so the magic is what fails";
-  const auto r = run_kfx("mesh " + (dir_ / "bad.kfxtsdf").string() + " " + (dir_ / "o.ply").string());
+  const auto r =
+      run_kfx("mesh " + (dir_ / "bad.kfxtsdf").string() + " " + (dir_ / "o.ply").string());
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("bad.kfxtsdf"), std::string::npos) << r.output;
   EXPECT_NE(r.output.find("magic"), std::string::npos) << r.output;

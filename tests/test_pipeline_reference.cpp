@@ -18,7 +18,7 @@ constexpr double kMaxP95Difference_m = 0.01;
 constexpr double kAteRelativeTolerance = 0.10;
 
 PipelineConfig icl_office_config() {
-  PipelineConfig c;  // exact preset
+  PipelineConfig c;                                    // exact preset
   set_config_value(c, "camera", "481.2,480,320,240");  // SLAMBench's ICL intrinsics
   set_config_value(c, "volume_size_m", "5");
   set_config_value(c, "init_pose_factor", "0.5,0.5,0");
@@ -35,8 +35,8 @@ PipelineConfig tum_xyz_config() {
   return c;
 }
 
-void expect_reference_parity(const std::string& dataset, const PipelineConfig& config,
-                             bool flip_y, double reference_ate_m) {
+void expect_reference_parity(const std::string& dataset, const PipelineConfig& config, bool flip_y,
+                             double reference_ate_m) {
   const std::string data = "data/" + dataset;
   const std::string reference = "reference/" + dataset + ".openmp-2threads.tum.txt";
   if (!shared_exists(data) || !shared_exists(reference)) {
@@ -58,8 +58,7 @@ void expect_reference_parity(const std::string& dataset, const PipelineConfig& c
   std::cout << dataset << ": " << run.tracked << "/" << run.frames << " tracked, position "
             << "difference to SLAMBench median " << diff.median_m * 1000 << " mm, p95 "
             << diff.p95_m * 1000 << " mm, max " << diff.max_m * 1000 << " mm; ATE RMSE "
-            << ate.ate.stats_m.rmse * 100 << " cm (reference " << reference_ate_m * 100
-            << " cm)\n";
+            << ate.ate.stats_m.rmse * 100 << " cm (reference " << reference_ate_m * 100 << " cm)\n";
 }
 
 TEST(PipelineReference, IclOfficeKt0MatchesSlambench) {
@@ -79,7 +78,8 @@ TEST(PipelineReference, IclOfficeKt0NegativeFyIsSlambenchsRunMirrored) {
   PipelineConfig c = icl_office_config();
   set_config_value(c, "camera", "481.2,-480,320,240");
   const SequenceRun run = run_sequence(shared_path("data/icl_office_kt0"), c);
-  auto mirrored = io::read_tum_trajectory(shared_path("reference/icl_office_kt0.openmp-2threads.tum.txt"));
+  auto mirrored =
+      io::read_tum_trajectory(shared_path("reference/icl_office_kt0.openmp-2threads.tum.txt"));
   const double y0 = 0.5 * 5.0;  // first camera y in the volume frame
   for (auto& p : mirrored) p.t[1] = 2 * y0 - p.t[1];
   const PositionDifference diff = compare_positions(run.trajectory, mirrored);

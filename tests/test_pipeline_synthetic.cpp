@@ -14,7 +14,8 @@ PipelineConfig synthetic_config(const std::string& input) {
   PipelineConfig config;
   set_config_value(config, "integration_rate", "1");
   auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings()) set_config_value(config, key, value);
+  for (const auto& [key, value] : reader->recommended_settings())
+    set_config_value(config, key, value);
   return config;
 }
 
@@ -63,8 +64,8 @@ TEST(PipelineSynthetic, RatesFollowSlambench) {
   for (int f = 0; reader->next(frame).status == io::ReadStatus::kOk; ++f) {
     const FrameReport r = pipeline.process(frame.depth_mm);
     if (f <= 3) {
-      EXPECT_FALSE(r.tracked) << f;   // no reference view before the first raycast
-      EXPECT_TRUE(r.integrated) << f; // frames 0–3 always integrate
+      EXPECT_FALSE(r.tracked) << f;    // no reference view before the first raycast
+      EXPECT_TRUE(r.integrated) << f;  // frames 0–3 always integrate
     } else {
       EXPECT_TRUE(r.tracked) << f;
       EXPECT_EQ(r.integrated, f % 2 == 0) << f;

@@ -9,7 +9,6 @@
 #include <string>
 #include <vector>
 
-#include "kernels/render.hpp"
 #include "cli_runner.hpp"
 #include "io/png.hpp"
 #include "kernels/render.hpp"

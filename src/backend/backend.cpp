@@ -37,12 +37,18 @@ std::unique_ptr<Backend> make_checked_cpu_backend(const BackendSetup& setup) {
 
 const char* stage_name(Stage stage) {
   switch (stage) {
-    case Stage::kPreprocess: return "preprocess";
-    case Stage::kTrack: return "track";
-    case Stage::kIntegrate: return "integrate";
-    case Stage::kRaycast: return "raycast";
-    case Stage::kRender: return "render";
-    default: return "?";
+    case Stage::kPreprocess:
+      return "preprocess";
+    case Stage::kTrack:
+      return "track";
+    case Stage::kIntegrate:
+      return "integrate";
+    case Stage::kRaycast:
+      return "raycast";
+    case Stage::kRender:
+      return "render";
+    default:
+      return "?";
   }
 }
 

@@ -18,10 +18,10 @@
 #include "core/volume.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
+#include "kernels/marching_cubes.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
-#include "kernels/marching_cubes.hpp"
 #include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
 
@@ -61,11 +61,11 @@ struct Renders {
 
 /// Host copies of the maps a renderer or a test wants to look at.
 struct DebugMaps {
-  HostImage<float> depth_m;             ///< unfiltered compute-size depth
-  HostImage<float> filtered_m;          ///< bilateral output (pyramid level 0)
-  HostImage<Vec3f> ref_vertex;          ///< raycast vertices
-  HostImage<Vec3f> ref_normal;          ///< raycast normals
-  HostImage<int8_t> track_outcome;      ///< last level-0 ICP outcome per pixel
+  HostImage<float> depth_m;         ///< unfiltered compute-size depth
+  HostImage<float> filtered_m;      ///< bilateral output (pyramid level 0)
+  HostImage<Vec3f> ref_vertex;      ///< raycast vertices
+  HostImage<Vec3f> ref_normal;      ///< raycast normals
+  HostImage<int8_t> track_outcome;  ///< last level-0 ICP outcome per pixel
 };
 
 /// One stage-per-call backend.

@@ -59,10 +59,10 @@ struct FrameBuffers {
   std::array<Image<float>, kMaxPyramidLevels> level_depth;   ///< level 0: bilateral output
   std::array<Image<Vec3f>, kMaxPyramidLevels> level_vertex;  ///< camera-frame vertices
   std::array<Image<Vec3f>, kMaxPyramidLevels> level_normal;  ///< camera-frame normals
-  Image<Vec3f> ref_vertex;       ///< raycast vertices (volume frame): the ICP reference
-  Image<Vec3f> ref_normal;       ///< raycast normals (volume frame)
-  Image<int8_t> track_outcome;   ///< last level-0 ICP outcome per pixel
-  Image<Rgba8> render_depth;     ///< the renders (Backend::render), opaque RGBA
+  Image<Vec3f> ref_vertex;      ///< raycast vertices (volume frame): the ICP reference
+  Image<Vec3f> ref_normal;      ///< raycast normals (volume frame)
+  Image<int8_t> track_outcome;  ///< last level-0 ICP outcome per pixel
+  Image<Rgba8> render_depth;    ///< the renders (Backend::render), opaque RGBA
   Image<Rgba8> render_track;
   Image<Rgba8> render_volume;
   Array<Voxel> volume;           ///< res³ voxels, x fastest

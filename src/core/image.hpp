@@ -40,7 +40,9 @@ class HostImage {
   bool empty() const { return pixels_.empty(); }
   T* data() { return pixels_.data(); }
   const T* data() const { return pixels_.data(); }
-  T& operator()(int x, int y) { return pixels_[static_cast<size_t>(x) + static_cast<size_t>(y) * width_]; }
+  T& operator()(int x, int y) {
+    return pixels_[static_cast<size_t>(x) + static_cast<size_t>(y) * width_];
+  }
   const T& operator()(int x, int y) const {
     return pixels_[static_cast<size_t>(x) + static_cast<size_t>(y) * width_];
   }

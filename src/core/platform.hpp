@@ -32,13 +32,13 @@ class Error : public std::runtime_error {
 }  // namespace kfx
 
 /// Throws kfx::Error with a streamed message when `cond` is false. Host code only.
-#define KFX_CHECK(cond, msg)                                  \
-  do {                                                        \
-    if (!(cond)) {                                            \
-      std::ostringstream kfx_check_stream_;                   \
-      kfx_check_stream_ << msg;                               \
+#define KFX_CHECK(cond, msg)                                           \
+  do {                                                                 \
+    if (!(cond)) {                                                     \
+      std::ostringstream kfx_check_stream_;                            \
+      kfx_check_stream_ << msg;                                        \
       throw ::kfx::Error(kfx_check_stream_.str(), __FILE__, __LINE__); \
-    }                                                         \
+    }                                                                  \
   } while (0)
 
 /// Throws kfx::Error with a streamed message unconditionally. Host code only.

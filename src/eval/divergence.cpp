@@ -14,8 +14,8 @@ DivergenceResult compute_divergence(const std::vector<io::StampedPose>& est,
   KFX_CHECK(std::isfinite(bound_m) && bound_m > 0.0,
             "divergence: the bound must be a positive number of metres, got " << bound_m);
   KFX_CHECK(ate.errors_m.size() == association.pairs.size(),
-            "divergence: " << ate.errors_m.size() << " ATE errors for "
-                           << association.pairs.size() << " associated poses");
+            "divergence: " << ate.errors_m.size() << " ATE errors for " << association.pairs.size()
+                           << " associated poses");
   DivergenceResult result;
   result.bound_m = bound_m;
   result.frames_evaluated = ate.errors_m.size();

@@ -97,11 +97,11 @@ EvalResult evaluate_trajectories(const std::vector<io::StampedPose>& est,
     const double est_most = largest(est, &est_stamp);
     const double gt_most = largest(gt, &gt_stamp);
     const bool est_worse = est_most >= gt_most;
-    KFX_FAIL("eval: the errors are not finite numbers (positions too large to square); the "
-             "largest position component is "
-             << (est_worse ? est_most : gt_most) << " m in "
-             << (est_worse ? est_label : gt_label) << " at stamp " << std::fixed
-             << (est_worse ? est_stamp : gt_stamp));
+    KFX_FAIL(
+        "eval: the errors are not finite numbers (positions too large to square); the "
+        "largest position component is "
+        << (est_worse ? est_most : gt_most) << " m in " << (est_worse ? est_label : gt_label)
+        << " at stamp " << std::fixed << (est_worse ? est_stamp : gt_stamp));
   }
   result.est_orientation_identity =
       std::all_of(result.association.pairs.begin(), result.association.pairs.end(),
@@ -155,8 +155,7 @@ nlohmann::json to_json(const EvalResult& r) {
       {"frames_evaluated", d.frames_evaluated},
       {"frames_over", d.frames_over},
       {"first_over_index", d.any_over ? nlohmann::json(d.first_over_index) : nlohmann::json()},
-      {"first_over_stamp_s",
-       d.any_over ? nlohmann::json(d.first_over_stamp_s) : nlohmann::json()},
+      {"first_over_stamp_s", d.any_over ? nlohmann::json(d.first_over_stamp_s) : nlohmann::json()},
       {"departure_method",
        "first frame over bound_m when aligned on the frames up to and including it"},
       {"departure_index", d.departed ? nlohmann::json(d.departure_index) : nlohmann::json()},

@@ -16,9 +16,9 @@ void write_slambench_log_line(std::ostream& out, const SlambenchLogLine& l) {
   char buffer[512];
   std::snprintf(buffer, sizeof(buffer),
                 "%d\t%f\t%f\t%f\t%f\t%f\t%f\t%f\t%f\t%f\t%f\t%f\t%d        \t%d\n", l.frame,
-                l.acquisition_s, l.preprocessing_s, l.tracking_s, l.integration_s,
-                l.raycasting_s, l.rendering_s, computation, total, l.x_m, l.y_m, l.z_m,
-                l.tracked ? 1 : 0, l.integrated ? 1 : 0);
+                l.acquisition_s, l.preprocessing_s, l.tracking_s, l.integration_s, l.raycasting_s,
+                l.rendering_s, computation, total, l.x_m, l.y_m, l.z_m, l.tracked ? 1 : 0,
+                l.integrated ? 1 : 0);
   out << buffer;
 }
 

@@ -131,10 +131,10 @@ void parse_stretch(const std::string& spec, const std::string& key, const std::s
                    int* first, int* last) {
   const size_t dash = value.find('-', 1);
   *first = static_cast<int>(parse_int(spec, key, trim(value.substr(0, dash)), 0, kMaxFrames - 1));
-  *last = dash == std::string::npos
-              ? *first
-              : static_cast<int>(
-                    parse_int(spec, key, trim(value.substr(dash + 1)), 0, kMaxFrames - 1));
+  *last =
+      dash == std::string::npos
+          ? *first
+          : static_cast<int>(parse_int(spec, key, trim(value.substr(dash + 1)), 0, kMaxFrames - 1));
   KFX_CHECK(*first <= *last, "synthetic spec '" << spec << "': " << key << " must be a frame A or "
                                                 << "a stretch A-B with A <= B, got '" << value
                                                 << "'");

@@ -40,16 +40,16 @@ namespace kfx::io {
 
 /// Options of the synthetic scene, as parsed from a spec.
 struct SyntheticOptions {
-  int frames = 300;     ///< sequence length
-  int width_px = 640;   ///< image width
-  int height_px = 480;  ///< image height
-  uint64_t seed = 1;    ///< noise seed
-  bool noise = true;    ///< Kinect-like noise, quantisation and holes when true
-  double speed = 1.0;   ///< camera speed factor (1 = the loop in 10 s)
-  int jump_first = -1;  ///< first frame of the pose jump (−1: none)
-  int jump_last = -1;   ///< last frame of the pose jump
-  int blank_first = -1; ///< first frame without depth (−1: none)
-  int blank_last = -1;  ///< last frame without depth
+  int frames = 300;      ///< sequence length
+  int width_px = 640;    ///< image width
+  int height_px = 480;   ///< image height
+  uint64_t seed = 1;     ///< noise seed
+  bool noise = true;     ///< Kinect-like noise, quantisation and holes when true
+  double speed = 1.0;    ///< camera speed factor (1 = the loop in 10 s)
+  int jump_first = -1;   ///< first frame of the pose jump (−1: none)
+  int jump_last = -1;    ///< last frame of the pose jump
+  int blank_first = -1;  ///< first frame without depth (−1: none)
+  int blank_last = -1;   ///< last frame without depth
   /// True when `frame` lies in the jump / blank stretch.
   bool jumped(int frame) const { return frame >= jump_first && frame <= jump_last; }
   bool blank(int frame) const { return frame >= blank_first && frame <= blank_last; }

@@ -109,10 +109,10 @@ std::vector<StampedPose> load_ground_truth(const std::string& override_path,
   if (used_path->empty()) return {};
   std::vector<StampedPose> poses = read_tum_trajectory(*used_path);
   // An empty ground truth would silently mean "no ATE"; `kfx eval` refuses the same file.
-  KFX_CHECK(!poses.empty(), "ground-truth trajectory '"
-                                << *used_path << "' holds no pose (no data line)"
-                                << (override_path.empty() ? "; remove it to run without ground truth"
-                                                          : ""));
+  KFX_CHECK(!poses.empty(),
+            "ground-truth trajectory '"
+                << *used_path << "' holds no pose (no data line)"
+                << (override_path.empty() ? "; remove it to run without ground truth" : ""));
   return poses;
 }
 

@@ -12,8 +12,8 @@ namespace kfx::io {
 /// A timestamped rigid pose T_world_cam in double precision (host only).
 struct StampedPose {
   double stamp_s = 0.0;
-  double t[3] = {0, 0, 0};        ///< translation, metres
-  double q[4] = {0, 0, 0, 1};     ///< unit quaternion (qx, qy, qz, qw)
+  double t[3] = {0, 0, 0};     ///< translation, metres
+  double q[4] = {0, 0, 0, 1};  ///< unit quaternion (qx, qy, qz, qw)
 };
 
 /// Converts a float rigid pose matrix to a StampedPose.

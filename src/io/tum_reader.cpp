@@ -44,9 +44,9 @@ Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source) {
   const bool by_name = camera != 0;
   if (camera == 0) camera = freiburg_camera_in(folder.string());
   if (camera != 0) {
-    *source = "TUM's freiburg " + std::to_string(camera) + " camera, named by the folder " +
-              (by_name ? "name '" + folder.filename().string() + "'"
-                       : "path '" + folder.string() + "'");
+    *source =
+        "TUM's freiburg " + std::to_string(camera) + " camera, named by the folder " +
+        (by_name ? "name '" + folder.filename().string() + "'" : "path '" + folder.string() + "'");
   } else {
     *source = "generic Kinect defaults: the folder path '" + folder.string() +
               "' names no TUM camera (fr1, fr2, fr3 or freiburg1..3); give -k fx,fy,cx,cy "

@@ -56,9 +56,9 @@ KFX_HD inline void icp_update(TrackingState& s, const double* acc, float icp_thr
 
 /// Thresholds of the accept test.
 struct AcceptParams {
-  float max_rms_error_m = 0.02f;     ///< reject if sqrt(Σe²/inliers) exceeds this
-  float min_inlier_fraction = 0.15f; ///< reject if inliers/(compute w·h) is below this
-  int compute_pixels = 0;            ///< compute width × height
+  float max_rms_error_m = 0.02f;      ///< reject if sqrt(Σe²/inliers) exceeds this
+  float min_inlier_fraction = 0.15f;  ///< reject if inliers/(compute w·h) is below this
+  int compute_pixels = 0;             ///< compute width × height
 };
 
 /// Accept test on the last iteration's accumulator; on reject the pose goes back.

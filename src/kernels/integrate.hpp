@@ -83,8 +83,8 @@ KFX_HD inline VoxelLine x_line(int y, int z, const IntegrateArgs& a) {
 
 /// Index range [begin, end) of a line that can be updated, widened by a margin of one pixel,
 /// half the near limit and one voxel so float rounding never drops a voxel.
-KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateArgs& a,
-                                         int& begin, int& end) {
+KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateArgs& a, int& begin,
+                                         int& end) {
   const Vec3f base = line.base, delta = line.delta;
   const int res = a.volume.res;
   const float w = static_cast<float>(a.depth_m.width), h = static_cast<float>(a.depth_m.height);
@@ -138,8 +138,8 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
     const float sdf = min_f(1.0f, diff / a.mu_m);
     Voxel& voxel = a.volume.at(x, y, z);
     const float weight = voxel.weight;
-    const float tsdf = clampf((weight * (voxel.tsdf * kTsdfInvScale) + sdf) / (weight + 1.0f),
-                              -1.0f, 1.0f);
+    const float tsdf =
+        clampf((weight * (voxel.tsdf * kTsdfInvScale) + sdf) / (weight + 1.0f), -1.0f, 1.0f);
     voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
     voxel.weight = static_cast<int16_t>(min_f(weight + 1.0f, static_cast<float>(a.max_weight)));
     if (voxel.tsdf != static_cast<int16_t>(kTsdfScale)) a.volume.mark_touched(x, y, z);

@@ -23,16 +23,16 @@ namespace kfx {
 
 /// Arguments of both marching-cubes passes.
 struct MarchingCubesArgs {
-  VolumeView volume;            ///< read only
-  const McTable* table;         ///< kMcTable (a device copy on the GPU)
+  VolumeView volume;     ///< read only
+  const McTable* table;  ///< kMcTable (a device copy on the GPU)
   /// res³ + 1 entries: pass 1 writes each voxel's vertex count; pass 2 reads their exclusive
   /// prefix sum (entry res³ = the vertex total).
   uint32_t* vertex_offset;
   /// kMcZChunks·res² + 1 entries, by segment (mc_segment): pass 1 writes triangle counts,
   /// pass 2 reads their exclusive prefix sum.
   uint32_t* triangle_offset;
-  MeshVertex* vertices;         ///< pass 2 output
-  MeshTriangle* triangles;      ///< pass 2 output
+  MeshVertex* vertices;     ///< pass 2 output
+  MeshTriangle* triangles;  ///< pass 2 output
 };
 
 /// Column segments per voxel column: z is cut into this many slabs so the GPU has enough
@@ -147,7 +147,8 @@ KFX_HD inline void mc_count_column(int x, int y, int chunk, const MarchingCubesA
   int z_begin = 0, z_end = 0;
   mc_slab(chunk, v.res, z_begin, z_end);
   for (int z = z_begin; z < z_end; ++z) {
-    const long long voxel = x + static_cast<long long>(y) * v.res + static_cast<long long>(z) * v.res * v.res;
+    const long long voxel =
+        x + static_cast<long long>(y) * v.res + static_cast<long long>(z) * v.res * v.res;
     // Fast path: a voxel without weight owns nothing and starts no valid cell.
     if (v.at(x, y, z).weight <= 0) {
       a.vertex_offset[voxel] = 0;
@@ -181,7 +182,8 @@ KFX_HD inline void mc_write_column(int x, int y, int chunk, const MarchingCubesA
     uint32_t vertex = a.vertex_offset[x + static_cast<long long>(y) * v.res +
                                       static_cast<long long>(z) * v.res * v.res];
     for (int axis = 0; axis < 3; ++axis) {
-      if (mc_edge_has_vertex(v, x, y, z, axis)) a.vertices[vertex++] = mc_edge_vertex(v, x, y, z, axis);
+      if (mc_edge_has_vertex(v, x, y, z, axis))
+        a.vertices[vertex++] = mc_edge_vertex(v, x, y, z, axis);
     }
     const int pattern = mc_cell_case(v, x, y, z);
     const int count = a.table->triangle_count[pattern];

@@ -158,8 +158,8 @@ struct DepthToVertexArgs {
 /// Back-projects one pixel with integer coordinates (no +0.5).
 KFX_HD inline void depth_to_vertex_pixel(int x, int y, const DepthToVertexArgs& a) {
   const float d = a.depth_m(x, y);
-  a.vertex(x, y) = d > 0.0f ? rotate(a.inverse_k, Vec3f{float(x), float(y), 1.0f}) * d
-                            : Vec3f{0.0f, 0.0f, 0.0f};
+  a.vertex(x, y) =
+      d > 0.0f ? rotate(a.inverse_k, Vec3f{float(x), float(y), 1.0f}) * d : Vec3f{0.0f, 0.0f, 0.0f};
 }
 
 /// Arguments of vertex_to_normal_pixel.

@@ -22,9 +22,11 @@ KFX_HD inline float volume_interp(const VolumeView& vol, Vec3f p_m) {
   const int ux = mini(bx + 1, last), uy = mini(by + 1, last), uz = mini(bz + 1, last);
   auto t = [&](int x, int y, int z) { return static_cast<float>(vol.at(x, y, z).tsdf); };
   return (((t(lx, ly, lz) * (1 - fx) + t(ux, ly, lz) * fx) * (1 - fy) +
-           (t(lx, uy, lz) * (1 - fx) + t(ux, uy, lz) * fx) * fy) * (1 - fz) +
+           (t(lx, uy, lz) * (1 - fx) + t(ux, uy, lz) * fx) * fy) *
+              (1 - fz) +
           ((t(lx, ly, uz) * (1 - fx) + t(ux, ly, uz) * fx) * (1 - fy) +
-           (t(lx, uy, uz) * (1 - fx) + t(ux, uy, uz) * fx) * fy) * fz) *
+           (t(lx, uy, uz) * (1 - fx) + t(ux, uy, uz) * fx) * fy) *
+              fz) *
          kTsdfInvScale;
 }
 
@@ -40,9 +42,12 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
   const float fx = sx - floorf(sx), fy = sy - floorf(sy), fz = sz - floorf(sz);
   const int last = vol.res - 1;
   // Per axis: ll = base−1, lu = base (the trilinear "lower"), ul = base+1 ("upper"), uu = base+2.
-  const int llx = maxi(bx - 1, 0), lux = maxi(bx, 0), ulx = mini(bx + 1, last), uux = mini(bx + 2, last);
-  const int lly = maxi(by - 1, 0), luy = maxi(by, 0), uly = mini(by + 1, last), uuy = mini(by + 2, last);
-  const int llz = maxi(bz - 1, 0), luz = maxi(bz, 0), ulz = mini(bz + 1, last), uuz = mini(bz + 2, last);
+  const int llx = maxi(bx - 1, 0), lux = maxi(bx, 0), ulx = mini(bx + 1, last),
+            uux = mini(bx + 2, last);
+  const int lly = maxi(by - 1, 0), luy = maxi(by, 0), uly = mini(by + 1, last),
+            uuy = mini(by + 2, last);
+  const int llz = maxi(bz - 1, 0), luz = maxi(bz, 0), ulz = mini(bz + 1, last),
+            uuz = mini(bz + 2, last);
   auto t = [&](int x, int y, int z) { return static_cast<float>(vol.at(x, y, z).tsdf); };
   // Central differences at the lower (lo) and upper (hi) trilinear corner along each axis.
   auto dx_lo = [&](int y, int z) { return t(ulx, y, z) - t(llx, y, z); };
@@ -55,15 +60,18 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
   g.x = lerp(lerp(lerp(dx_lo(luy, luz), dx_hi(luy, luz), fx),
                   lerp(dx_lo(uly, luz), dx_hi(uly, luz), fx), fy),
              lerp(lerp(dx_lo(luy, ulz), dx_hi(luy, ulz), fx),
-                  lerp(dx_lo(uly, ulz), dx_hi(uly, ulz), fx), fy), fz);
+                  lerp(dx_lo(uly, ulz), dx_hi(uly, ulz), fx), fy),
+             fz);
   g.y = lerp(lerp(lerp(dy_lo(lux, luz), dy_lo(ulx, luz), fx),
                   lerp(dy_hi(lux, luz), dy_hi(ulx, luz), fx), fy),
              lerp(lerp(dy_lo(lux, ulz), dy_lo(ulx, ulz), fx),
-                  lerp(dy_hi(lux, ulz), dy_hi(ulx, ulz), fx), fy), fz);
+                  lerp(dy_hi(lux, ulz), dy_hi(ulx, ulz), fx), fy),
+             fz);
   g.z = lerp(lerp(lerp(dz_lo(lux, luy), dz_lo(ulx, luy), fx),
                   lerp(dz_lo(lux, uly), dz_lo(ulx, uly), fx), fy),
              lerp(lerp(dz_hi(lux, luy), dz_hi(ulx, luy), fx),
-                  lerp(dz_hi(lux, uly), dz_hi(ulx, uly), fx), fy), fz);
+                  lerp(dz_hi(lux, uly), dz_hi(ulx, uly), fx), fy),
+             fz);
   return g;
 }
 

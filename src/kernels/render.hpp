@@ -1,7 +1,7 @@
 #pragma once
-/// SLAMBench KFusion's three pictures (docs/algorithm.md, "Renders"; visual only): the depth colour-mapped
-/// (renderDepth), each pixel's ICP outcome as a colour (renderTrack) and the model raycast from
-/// the current camera and shaded by a point light (renderVolume). One pixel per call.
+/// SLAMBench KFusion's three pictures (docs/algorithm.md, "Renders"; visual only): the depth
+/// colour-mapped (renderDepth), each pixel's ICP outcome as a colour (renderTrack) and the model
+/// raycast from the current camera and shaded by a point light (renderVolume). One pixel per call.
 
 #include "core/camera.hpp"
 #include "core/image.hpp"
@@ -147,8 +147,8 @@ inline RenderDepthArgs make_render_depth_args(ImageView<const float> depth, Imag
 }
 
 /// renderTrack of the level-0 ICP outcomes into `out`.
-inline RenderTrackArgs make_render_track_args(ImageView<const int8_t> outcome,
-                                              ImageView<Rgba8> out, const RenderParams& p) {
+inline RenderTrackArgs make_render_track_args(ImageView<const int8_t> outcome, ImageView<Rgba8> out,
+                                              const RenderParams& p) {
   RenderTrackArgs a;
   a.outcome = outcome;
   a.out = out;

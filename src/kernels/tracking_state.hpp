@@ -10,13 +10,13 @@ namespace kfx {
 /// Layout of the packed ICP accumulator (docs/algorithm.md §2.2: Σe², Σe·J, JᵀJ upper triangle,
 /// counts).
 enum AccumulatorIndex : int {
-  kAccErrorSq = 0,      ///< Σ e²
-  kAccJtE = 1,          ///< Σ e·J, 6 values
-  kAccJtJ = 7,          ///< upper triangle of JᵀJ, row-major, 21 values
-  kAccInliers = 28,     ///< inlier count
-  kAccTooFar = 29,      ///< outcome −4 count
-  kAccBadNormal = 30,   ///< outcome −5 count
-  kAccOtherFail = 31,   ///< outcomes −1, −2, −3 count
+  kAccErrorSq = 0,     ///< Σ e²
+  kAccJtE = 1,         ///< Σ e·J, 6 values
+  kAccJtJ = 7,         ///< upper triangle of JᵀJ, row-major, 21 values
+  kAccInliers = 28,    ///< inlier count
+  kAccTooFar = 29,     ///< outcome −4 count
+  kAccBadNormal = 30,  ///< outcome −5 count
+  kAccOtherFail = 31,  ///< outcomes −1, −2, −3 count
   kAccumulatorSize = 32,
 };
 
@@ -29,13 +29,13 @@ struct TrackingState {
   Mat4f raycast_view;        ///< T_world_raycast · K⁻¹ at compute size (ray directions)
   Mat4f project_reference;   ///< K · T_world_raycast⁻¹ at compute size (projection into it)
   double accumulator[kAccumulatorSize];  ///< reduction of the last ICP iteration run
-  double last_step_norm;     ///< |x| of the last ICP update
-  float max_depth_m;         ///< largest depth of the current frame (bounds integration)
-  int converged_level;       ///< pyramid level whose ICP has converged this frame, else −1
-  int tracked;               ///< outcome of this frame's accept test
-  int integrate_now;         ///< 1 when this frame is integrated
-  int iterations_run;        ///< ICP iterations actually run this frame (all levels)
-  int frame_index;           ///< frame number f, counted on the device (−1 before frame 0)
+  double last_step_norm;                 ///< |x| of the last ICP update
+  float max_depth_m;    ///< largest depth of the current frame (bounds integration)
+  int converged_level;  ///< pyramid level whose ICP has converged this frame, else −1
+  int tracked;          ///< outcome of this frame's accept test
+  int integrate_now;    ///< 1 when this frame is integrated
+  int iterations_run;   ///< ICP iterations actually run this frame (all levels)
+  int frame_index;      ///< frame number f, counted on the device (−1 before frame 0)
 };
 
 }  // namespace kfx

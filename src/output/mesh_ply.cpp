@@ -62,10 +62,17 @@ Mesh read_mesh_ply(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   KFX_CHECK(in, "cannot open mesh '" << path << "'");
   // Header: the lines write_mesh_ply writes, comments anywhere.
-  const char* expected[] = {"ply", "format binary_little_endian 1.0", "element vertex",
-                            "property float x", "property float y", "property float z",
-                            "property float nx", "property float ny", "property float nz",
-                            "element face", "property list uchar int vertex_indices",
+  const char* expected[] = {"ply",
+                            "format binary_little_endian 1.0",
+                            "element vertex",
+                            "property float x",
+                            "property float y",
+                            "property float z",
+                            "property float nx",
+                            "property float ny",
+                            "property float nz",
+                            "element face",
+                            "property list uchar int vertex_indices",
                             "end_header"};
   size_t vertices = 0, faces = 0;
   std::string line;
@@ -75,7 +82,8 @@ Mesh read_mesh_ply(const std::string& path) {
     } while (line.rfind("comment", 0) == 0);
     const std::string w = want;
     if (w == "element vertex" || w == "element face") {
-      KFX_CHECK(line.rfind(w + " ", 0) == 0, path << ": expected '" << w << " N', found '" << line << "'");
+      KFX_CHECK(line.rfind(w + " ", 0) == 0,
+                path << ": expected '" << w << " N', found '" << line << "'");
       std::istringstream count(line.substr(w.size() + 1));
       size_t n = 0;
       KFX_CHECK(count >> n && count.eof(), path << ": bad count in '" << line << "'");
@@ -88,8 +96,8 @@ Mesh read_mesh_ply(const std::string& path) {
   const std::streamoff data_start = in.tellg();
   in.seekg(0, std::ios::end);
   const std::streamoff size = in.tellg();
-  const std::streamoff want = data_start + static_cast<std::streamoff>(vertices * sizeof(MeshVertex) +
-                                                                        faces * kFaceBytes);
+  const std::streamoff want =
+      data_start + static_cast<std::streamoff>(vertices * sizeof(MeshVertex) + faces * kFaceBytes);
   KFX_CHECK(size == want, path << ": " << size << " bytes, the header announces " << want);
   in.seekg(data_start);
   mesh.vertices.resize(vertices);
@@ -102,9 +110,10 @@ Mesh read_mesh_ply(const std::string& path) {
     KFX_CHECK(count == 3, path << ": face " << i << " has " << int(count) << " vertices, not 3");
     in.read(reinterpret_cast<char*>(mesh.triangles[i].v), 3 * sizeof(int32_t));
     for (int k = 0; k < 3; ++k) {
-      KFX_CHECK(mesh.triangles[i].v[k] >= 0 && static_cast<size_t>(mesh.triangles[i].v[k]) < vertices,
-                path << ": face " << i << " names vertex " << mesh.triangles[i].v[k] << " of "
-                     << vertices);
+      KFX_CHECK(
+          mesh.triangles[i].v[k] >= 0 && static_cast<size_t>(mesh.triangles[i].v[k]) < vertices,
+          path << ": face " << i << " names vertex " << mesh.triangles[i].v[k] << " of "
+               << vertices);
     }
   }
   KFX_CHECK(in, path << ": truncated");

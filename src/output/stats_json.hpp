@@ -3,9 +3,8 @@
 /// versioned schema (docs/outputs.md): a top-level `schema_version`, flat snake_case keys with
 /// units in their names (`ate_rmse_m`, `frames_per_second`).
 
-#include <string>
-
 #include <nlohmann/json.hpp>
+#include <string>
 
 #include "eval/report.hpp"
 

@@ -42,8 +42,9 @@ SavedVolume read_volume_file(const std::string& path) {
   KFX_CHECK(in, "cannot open volume '" << path << "'");
   unsigned char header[kVolumeHeaderBytes];
   in.read(reinterpret_cast<char*>(header), sizeof(header));
-  KFX_CHECK(in.gcount() == static_cast<std::streamsize>(sizeof(header)),
-            path << ": not a kfx volume (shorter than its " << kVolumeHeaderBytes << "-byte header)");
+  KFX_CHECK(
+      in.gcount() == static_cast<std::streamsize>(sizeof(header)),
+      path << ": not a kfx volume (shorter than its " << kVolumeHeaderBytes << "-byte header)");
   KFX_CHECK(std::memcmp(header, kMagic, 8) == 0, path << ": not a kfx volume (bad magic)");
   uint32_t version = 0, res = 0;
   SavedVolume v;
@@ -51,9 +52,8 @@ SavedVolume read_volume_file(const std::string& path) {
   std::memcpy(&res, header + 12, 4);
   std::memcpy(&v.size_m, header + 16, 4);
   std::memcpy(v.T_trajectory_volume.m, header + 20, 64);
-  KFX_CHECK(version == kVolumeFileVersion,
-            path << ": volume format version " << version << ", this kfx reads "
-                 << kVolumeFileVersion);
+  KFX_CHECK(version == kVolumeFileVersion, path << ": volume format version " << version
+                                                << ", this kfx reads " << kVolumeFileVersion);
   KFX_CHECK(res >= 2 && res <= kMaxResolution,
             path << ": resolution " << res << " outside 2 to " << kMaxResolution);
   KFX_CHECK(std::isfinite(v.size_m) && v.size_m > 0,
@@ -65,7 +65,8 @@ SavedVolume read_volume_file(const std::string& path) {
   const size_t count = static_cast<size_t>(res) * res * res;
   in.seekg(0, std::ios::end);
   const std::streamoff size = in.tellg();
-  const std::streamoff want = static_cast<std::streamoff>(kVolumeHeaderBytes + count * sizeof(Voxel));
+  const std::streamoff want =
+      static_cast<std::streamoff>(kVolumeHeaderBytes + count * sizeof(Voxel));
   KFX_CHECK(size == want, path << ": " << size << " bytes, a " << res << "^3 volume has " << want);
   in.seekg(static_cast<std::streamoff>(kVolumeHeaderBytes));
   v.voxels.resize(count);

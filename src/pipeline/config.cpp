@@ -113,13 +113,11 @@ ConfigField number_field(std::string key, std::string section, std::string short
 std::vector<ConfigField> build_fields() {
   std::vector<ConfigField> t;
   auto num = [&](std::string key, std::string section, std::string s, std::string l,
-                 std::string help, auto get) {
-    t.push_back(number_field(key, section, s, l, help, get, false));
-  };
+                 std::string help,
+                 auto get) { t.push_back(number_field(key, section, s, l, help, get, false)); };
   auto integer = [&](std::string key, std::string section, std::string s, std::string l,
-                     std::string help, auto get) {
-    t.push_back(number_field(key, section, s, l, help, get, true));
-  };
+                     std::string help,
+                     auto get) { t.push_back(number_field(key, section, s, l, help, get, true)); };
   // Input.
   integer("compute_size_ratio", "input", "c", "compute-size-ratio",
           "compute size = input size / ratio (1, 2, 4 or 8)",
@@ -272,7 +270,9 @@ std::vector<ConfigField> build_fields() {
     f.key = key;
     f.section = "approximations";
     f.help = help;
-    f.parse = [key, member](C& c, const std::string& text) { c.approx.*member = parse_bool(key, text); };
+    f.parse = [key, member](C& c, const std::string& text) {
+      c.approx.*member = parse_bool(key, text);
+    };
     f.format = [member](const C& c) { return std::string(c.approx.*member ? "on" : "off"); };
     t.push_back(f);
   };
@@ -418,7 +418,7 @@ void PipelineConfig::validate() const {
   KFX_CHECK(integration.rate >= 1, "integration_rate must be >= 1, got " << integration.rate);
   KFX_CHECK(raycast.near_m > 0 && raycast.far_m > raycast.near_m,
             "raycast planes must satisfy 0 < near_m < far_m, got " << raycast.near_m << ", "
-                                                                    << raycast.far_m);
+                                                                   << raycast.far_m);
   KFX_CHECK(raycast.large_step_mu > 0, "large_step_mu must be > 0");
   KFX_CHECK(render.rate >= 1, "render_rate must be >= 1, got " << render.rate);
   KFX_CHECK(approx.icp_stride_px >= 1 && approx.icp_stride_px <= 16,

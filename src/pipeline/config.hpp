@@ -21,31 +21,31 @@ namespace kfx {
 /// All pipeline settings. Defaults are SLAMBench KFusion's (the `exact` preset).
 struct PipelineConfig {
   struct Input {
-    int compute_size_ratio = 2;          ///< compute size = input size / this (1, 2, 4, 8)
-    std::array<float, 4> camera_px{};    ///< fx, fy, cx, cy at input size; all 0 = format default
-    double depth_scale_per_m = 0.0;      ///< PNG units per metre; 0 = format default
+    int compute_size_ratio = 2;        ///< compute size = input size / this (1, 2, 4, 8)
+    std::array<float, 4> camera_px{};  ///< fx, fy, cx, cy at input size; all 0 = format default
+    double depth_scale_per_m = 0.0;    ///< PNG units per metre; 0 = format default
   } input;
   struct Volume {
-    int resolution_vox = 256;                        ///< voxels per side
-    float size_m = 2.0f;                             ///< cube side, metres
+    int resolution_vox = 256;                                 ///< voxels per side
+    float size_m = 2.0f;                                      ///< cube side, metres
     std::array<float, 3> init_pose_factor{0.5f, 0.5f, 0.0f};  ///< first camera at factor·size
-    float mu_m = 0.1f;                               ///< TSDF truncation distance
-    int max_weight = 100;                            ///< voxel weight cap
+    float mu_m = 0.1f;                                        ///< TSDF truncation distance
+    int max_weight = 100;                                     ///< voxel weight cap
   } volume;
   struct Preprocess {
-    int bilateral_radius_px = 2;             ///< window (2r+1)²
-    float bilateral_spatial_sigma_px = 4.0f; ///< Gaussian σ of the spatial weight
-    float bilateral_range_sigma_m = 0.1f;    ///< σ of the range weight
+    int bilateral_radius_px = 2;              ///< window (2r+1)²
+    float bilateral_spatial_sigma_px = 4.0f;  ///< Gaussian σ of the spatial weight
+    float bilateral_range_sigma_m = 0.1f;     ///< σ of the range weight
   } preprocess;
   struct Tracking {
-    int rate = 1;                                    ///< track frames f with f % rate == 0
-    std::vector<int> iterations_per_level{10, 5, 4}; ///< ICP caps, finest level first
-    float icp_threshold = 1e-5f;                     ///< stop a level when |x| is below this
-    float dist_threshold_m = 0.1f;                   ///< association distance gate
-    float normal_threshold = 0.8f;                   ///< association normal-dot gate
-    float max_rms_error_m = 0.02f;                   ///< accept test: residual RMS limit
-    float min_inlier_fraction = 0.15f;               ///< accept test: inliers / pixels
-    float half_sample_range_m = 0.3f;                ///< pyramid: robust half-sample range
+    int rate = 1;                                     ///< track frames f with f % rate == 0
+    std::vector<int> iterations_per_level{10, 5, 4};  ///< ICP caps, finest level first
+    float icp_threshold = 1e-5f;                      ///< stop a level when |x| is below this
+    float dist_threshold_m = 0.1f;                    ///< association distance gate
+    float normal_threshold = 0.8f;                    ///< association normal-dot gate
+    float max_rms_error_m = 0.02f;                    ///< accept test: residual RMS limit
+    float min_inlier_fraction = 0.15f;                ///< accept test: inliers / pixels
+    float half_sample_range_m = 0.3f;                 ///< pyramid: robust half-sample range
   } tracking;
   struct Integration {
     int rate = 2;  ///< integrate tracked frames f with f % rate == 0 (and frames 0–3)
@@ -62,15 +62,15 @@ struct PipelineConfig {
   /// §5). `kfx settings` lists them with their effect and range.
   struct Approximations {
     BilateralMode bilateral_mode = BilateralMode::kExact;  ///< exact (5×5 with range) | spatial3x3
-    bool zero_padded_depth = false;        ///< bilateral reads outside the image as 0
-    int icp_stride_px = 1;                 ///< track one pixel per s × s block, weighted s²
-    int integration_z_stride = 1;          ///< integrate 1 voxel in s, rotating per frame
+    bool zero_padded_depth = false;  ///< bilateral reads outside the image as 0
+    int icp_stride_px = 1;           ///< track one pixel per s × s block, weighted s²
+    int integration_z_stride = 1;    ///< integrate 1 voxel in s, rotating per frame
     IntegrationPattern integration_pattern = IntegrationPattern::kSlices;  ///< slices | checker
-    RayFactor ray_factor = RayFactor::kExact;  ///< exact | approx | none
-    bool integrate_zero_depth_test = true; ///< skip pixels without depth when integrating
-    int raycast_rate = 1;                  ///< raycast every N-th frame (ICP reuses the last)
+    RayFactor ray_factor = RayFactor::kExact;   ///< exact | approx | none
+    bool integrate_zero_depth_test = true;      ///< skip pixels without depth when integrating
+    int raycast_rate = 1;                       ///< raycast every N-th frame (ICP reuses the last)
     std::array<int, 2> raycast_block_px{1, 1};  ///< one ray per bx × by block, copied into it
-    float raycast_constant_step_m = 0.0f;  ///< > 0: constant march step (no fine steps)
+    float raycast_constant_step_m = 0.0f;       ///< > 0: constant march step (no fine steps)
     RaycastInterp raycast_interp = RaycastInterp::kTrilinear;  ///< trilinear | two_value
   } approx;
 
@@ -106,11 +106,11 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
 
 /// One configurable setting.
 struct ConfigField {
-  std::string key;            ///< name for --set key=value and the dump
-  std::string section;        ///< which sub-struct it lives in
+  std::string key;              ///< name for --set key=value and the dump
+  std::string section;          ///< which sub-struct it lives in
   std::string slambench_short;  ///< SLAMBench's short option letter, or ""
   std::string slambench_long;   ///< SLAMBench's long option name, or ""
-  std::string help;           ///< one line: effect, unit, range
+  std::string help;             ///< one line: effect, unit, range
   std::function<void(PipelineConfig&, const std::string&)> parse;  ///< throws on bad text
   std::function<std::string(const PipelineConfig&)> format;
 };

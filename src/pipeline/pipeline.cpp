@@ -14,9 +14,9 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
             "input size " << input_width_px << "x" << input_height_px
                           << " is not divisible by compute_size_ratio " << ratio);
   const int cw = input_width_px / ratio, ch = input_height_px / ratio;
-  KFX_CHECK((cw >> (levels - 1)) >= 8 && (ch >> (levels - 1)) >= 8,
-            "compute size " << cw << "x" << ch << " is too small for " << levels
-                            << " pyramid levels");
+  KFX_CHECK(
+      (cw >> (levels - 1)) >= 8 && (ch >> (levels - 1)) >= 8,
+      "compute size " << cw << "x" << ch << " is too small for " << levels << " pyramid levels");
   setup_.input_width_px = input_width_px;
   setup_.input_height_px = input_height_px;
   setup_.compute_ratio = ratio;
@@ -33,7 +33,6 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   initial_pose_ = Mat4f::translation(Vec3f{f[0] * size, f[1] * size, f[2] * size});
 
   params_ = make_stage_params(config_, compute_k_, cw, ch);
-
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);

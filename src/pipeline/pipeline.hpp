@@ -24,9 +24,9 @@ struct FrameReport {
   bool rendered = false;      ///< the three renders were made (read them before the next submit)
   Mat4f T_world_cam;          ///< pose after the frame
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms{};  ///< per-stage time
-  double computation_ms = 0;  ///< preprocess + track + integrate + raycast
-  int icp_iterations = 0;     ///< ICP iterations run (all levels)
-  double inlier_fraction = 0; ///< inliers / compute pixels at the last iteration
+  double computation_ms = 0;   ///< preprocess + track + integrate + raycast
+  int icp_iterations = 0;      ///< ICP iterations run (all levels)
+  double inlier_fraction = 0;  ///< inliers / compute pixels at the last iteration
 };
 
 /// A KinectFusion pipeline over one backend.

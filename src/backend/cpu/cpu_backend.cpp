@@ -6,8 +6,8 @@
 #include <algorithm>
 #include <chrono>
 #include <deque>
-#include <new>
 #include <fstream>
+#include <new>
 #include <thread>
 
 #include "backend/backend.hpp"
@@ -234,18 +234,19 @@ class CpuBackend final : public Backend {
       mesh_triangle_offset_.assign(kMcZChunks * r * r + 1, 0);
     } catch (const std::bad_alloc&) {
       mesh_vertex_offset_ = {};
-      KFX_FAIL("mesh extraction of a " << r << "^3 volume needs "
-                                       << mesh_scratch_bytes(setup_.volume_res_vox) / double(1 << 30)
-                                       << " GiB of host memory beyond the volume, which could "
-                                          "not be allocated (use --no-mesh or a smaller -v)");
+      KFX_FAIL("mesh extraction of a "
+               << r << "^3 volume needs "
+               << mesh_scratch_bytes(setup_.volume_res_vox) / double(1 << 30)
+               << " GiB of host memory beyond the volume, which could "
+                  "not be allocated (use --no-mesh or a smaller -v)");
     }
   }
 
   Mesh extract_mesh() override {
     reserve_mesh_extraction();
     const int res = setup_.volume_res_vox;
-    MarchingCubesArgs a{buffers_.volume_view(), &kMcTable, mesh_vertex_offset_.data(),
-                        mesh_triangle_offset_.data(), nullptr, nullptr};
+    MarchingCubesArgs a{buffers_.volume_view(),       &kMcTable, mesh_vertex_offset_.data(),
+                        mesh_triangle_offset_.data(), nullptr,   nullptr};
 #pragma omp parallel for collapse(2) schedule(dynamic, 4)
     for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
       for (int y = 0; y < res; ++y) {
@@ -283,8 +284,8 @@ class CpuBackend final : public Backend {
       counts[i] = static_cast<uint32_t>(total);
       total += count;
     }
-    KFX_CHECK(total <= 0x7fffffffu, "the mesh has " << total << " " << what
-                                                    << ", more than PLY's int indices address");
+    KFX_CHECK(total <= 0x7fffffffu,
+              "the mesh has " << total << " " << what << ", more than PLY's int indices address");
     counts.back() = static_cast<uint32_t>(total);
     return static_cast<size_t>(total);
   }

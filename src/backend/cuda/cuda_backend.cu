@@ -5,12 +5,11 @@
 /// stream, and the state after the frame comes back asynchronously into pinned memory.
 /// KFX_CUDA_SYNC=1 turns graphs off and synchronises after every launch (debugging).
 
-#include <cub/device/device_scan.cuh>
-
 #include <algorithm>
 #include <array>
 #include <cstdlib>
 #include <cstring>
+#include <cub/device/device_scan.cuh>
 #include <deque>
 #include <map>
 
@@ -72,8 +71,8 @@ class CudaBackend final : public Backend {
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
     // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
-    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0,
-                                   buffers_.track_outcome.bytes(), stream_.get()));
+    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0, buffers_.track_outcome.bytes(),
+                                   stream_.get()));
     state_ = DeviceBuffer<TrackingState>(1);
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
@@ -110,8 +109,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0, buffers_.brick_touched.bytes(),
                                    stream_.get()));
     *state_readback_[0].data() = initial_tracking_state(T_world_cam);
-    KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(),
-                                   sizeof(TrackingState), cudaMemcpyHostToDevice, stream_.get()));
+    KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(), sizeof(TrackingState),
+                                   cudaMemcpyHostToDevice, stream_.get()));
     KFX_CUDA_CHECK(
         cudaMemsetAsync(buffers_.ref_vertex.data(), 0, buffers_.ref_vertex.bytes(), stream_.get()));
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
@@ -145,8 +144,7 @@ class CudaBackend final : public Backend {
   void end_frame() override {
     if (!replaying_) {
       KFX_CUDA_CHECK(cudaMemcpyAsync(state_readback_[parity_].data(), state_.data(),
-                                     sizeof(TrackingState), cudaMemcpyDeviceToHost,
-                                     stream_.get()));
+                                     sizeof(TrackingState), cudaMemcpyDeviceToHost, stream_.get()));
     }
     if (capturing_) {
       cudaGraph_t graph = nullptr;
@@ -165,8 +163,7 @@ class CudaBackend final : public Backend {
   void preprocess(const BilateralParams& p) override {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
-    KFX_CUDA_CHECK(
-        cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
+    KFX_CUDA_CHECK(cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
     const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio};
     const dim3 block(32, 8);
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
@@ -180,17 +177,20 @@ class CudaBackend final : public Backend {
     for (int l = 1; l < setup_.pyramid_levels; ++l) {
       const HalfSampleArgs a{buffers_.level_depth[l - 1].view(), buffers_.level_depth[l].view(),
                              p.half_sample_range_m};
-      launch(pixel_kernel<HalfSampleBody, HalfSampleArgs>, grid_for(a.out_m.width, a.out_m.height, block), block,
-             a, a.out_m.width, a.out_m.height);
+      launch(pixel_kernel<HalfSampleBody, HalfSampleArgs>,
+             grid_for(a.out_m.width, a.out_m.height, block), block, a, a.out_m.width,
+             a.out_m.height);
     }
     for (int l = 0; l < setup_.pyramid_levels; ++l) {
       const DepthToVertexArgs v{buffers_.level_depth[l].view(), buffers_.level_vertex[l].view(),
                                 p.level_intrinsics[l].inverse_matrix()};
       const int w = v.vertex.width, h = v.vertex.height;
-      launch(pixel_kernel<DepthToVertexBody, DepthToVertexArgs>, grid_for(w, h, block), block, v, w, h);
+      launch(pixel_kernel<DepthToVertexBody, DepthToVertexArgs>, grid_for(w, h, block), block, v, w,
+             h);
       const VertexToNormalArgs n{buffers_.level_vertex[l].view(), buffers_.level_normal[l].view(),
                                  p.level_intrinsics[l].handedness()};
-      launch(pixel_kernel<VertexToNormalBody, VertexToNormalArgs>, grid_for(w, h, block), block, n, w, h);
+      launch(pixel_kernel<VertexToNormalBody, VertexToNormalArgs>, grid_for(w, h, block), block, n,
+             w, h);
     }
   }
 
@@ -253,13 +253,14 @@ class CudaBackend final : public Backend {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     const dim3 block(32, 8);
-    const RenderDepthArgs d = make_render_depth_args(buffers_.depth_m.view(), buffers_.render_depth.view(), p);
+    const RenderDepthArgs d =
+        make_render_depth_args(buffers_.depth_m.view(), buffers_.render_depth.view(), p);
     launch(pixel_kernel<RenderDepthBody, RenderDepthArgs>, grid_for(w, h, block), block, d, w, h);
     const RenderTrackArgs t =
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     launch(pixel_kernel<RenderTrackBody, RenderTrackArgs>, grid_for(w, h, block), block, t, w, h);
-    const RenderVolumeArgs v =
-        make_render_volume_args(buffers_.volume_view(), buffers_.render_volume.view(), state_.data(), p);
+    const RenderVolumeArgs v = make_render_volume_args(
+        buffers_.volume_view(), buffers_.render_volume.view(), state_.data(), p);
     const dim3 ray_block(16, 8);
     launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
            v, w, h);
@@ -315,14 +316,12 @@ class CudaBackend final : public Backend {
     const size_t r = static_cast<size_t>(setup_.volume_res_vox);
     const size_t voxels = r * r * r + 1, columns = kMcZChunks * r * r + 1;
     size_t scan_voxels_bytes = 0, scan_columns_bytes = 0;
-    KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, scan_voxels_bytes,
-                                                 static_cast<uint32_t*>(nullptr),
-                                                 static_cast<uint32_t*>(nullptr),
-                                                 static_cast<int>(voxels)));
-    KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, scan_columns_bytes,
-                                                 static_cast<uint32_t*>(nullptr),
-                                                 static_cast<uint32_t*>(nullptr),
-                                                 static_cast<int>(columns)));
+    KFX_CUDA_CHECK(
+        cub::DeviceScan::ExclusiveSum(nullptr, scan_voxels_bytes, static_cast<uint32_t*>(nullptr),
+                                      static_cast<uint32_t*>(nullptr), static_cast<int>(voxels)));
+    KFX_CUDA_CHECK(
+        cub::DeviceScan::ExclusiveSum(nullptr, scan_columns_bytes, static_cast<uint32_t*>(nullptr),
+                                      static_cast<uint32_t*>(nullptr), static_cast<int>(columns)));
     const size_t scan_bytes = std::max(scan_voxels_bytes, scan_columns_bytes);
     const size_t needed = 2 * mesh_scratch_bytes(setup_.volume_res_vox) + scan_bytes;
     size_t free_bytes = 0, total_bytes = 0;
@@ -342,8 +341,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaMemcpyAsync(mesh_table_.data(), &kMcTable, sizeof(McTable),
                                    cudaMemcpyHostToDevice, stream_.get()));
     // The last count of each stays 0, so its exclusive sum is the total.
-    KFX_CUDA_CHECK(cudaMemsetAsync(mesh_vertex_count_.data(), 0, mesh_vertex_count_.bytes(),
-                                   stream_.get()));
+    KFX_CUDA_CHECK(
+        cudaMemsetAsync(mesh_vertex_count_.data(), 0, mesh_vertex_count_.bytes(), stream_.get()));
     KFX_CUDA_CHECK(cudaMemsetAsync(mesh_triangle_count_.data(), 0, mesh_triangle_count_.bytes(),
                                    stream_.get()));
   }
@@ -355,8 +354,12 @@ class CudaBackend final : public Backend {
     const int columns = static_cast<int>(mesh_triangle_count_.size());
     // Pass 1: counts per voxel and per column segment (in stream order after any submitted
     // frame).
-    MarchingCubesArgs a{buffers_.volume_view(), mesh_table_.data(), mesh_vertex_count_.data(),
-                        mesh_triangle_count_.data(), nullptr, nullptr};
+    MarchingCubesArgs a{buffers_.volume_view(),
+                        mesh_table_.data(),
+                        mesh_vertex_count_.data(),
+                        mesh_triangle_count_.data(),
+                        nullptr,
+                        nullptr};
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
     grid.z = kMcZChunks;
@@ -364,16 +367,14 @@ class CudaBackend final : public Backend {
     // Compaction: exclusive sums give every voxel's first vertex and every segment's first
     // triangle (CUB's scan is deterministic: integer sums).
     size_t scan_bytes = mesh_scan_temp_.size();
-    KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(mesh_scan_temp_.data(), scan_bytes,
-                                                 mesh_vertex_count_.data(),
-                                                 mesh_vertex_offset_.data(), voxels,
-                                                 stream_.get()));
+    KFX_CUDA_CHECK(
+        cub::DeviceScan::ExclusiveSum(mesh_scan_temp_.data(), scan_bytes, mesh_vertex_count_.data(),
+                                      mesh_vertex_offset_.data(), voxels, stream_.get()));
     launched();
     scan_bytes = mesh_scan_temp_.size();
-    KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(mesh_scan_temp_.data(), scan_bytes,
-                                                 mesh_triangle_count_.data(),
-                                                 mesh_triangle_offset_.data(), columns,
-                                                 stream_.get()));
+    KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(
+        mesh_scan_temp_.data(), scan_bytes, mesh_triangle_count_.data(),
+        mesh_triangle_offset_.data(), columns, stream_.get()));
     launched();
     KFX_CUDA_CHECK(cudaMemcpyAsync(mesh_totals_.data(), mesh_vertex_offset_.data() + voxels - 1,
                                    sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_.get()));
@@ -384,7 +385,8 @@ class CudaBackend final : public Backend {
     const size_t vertex_total = mesh_totals_.data()[0], triangle_total = mesh_totals_.data()[1];
     KFX_CHECK(vertex_total <= 0x7fffffffu,
               "the mesh has " << vertex_total << " vertices, more than PLY's int indices address");
-    if (mesh_vertices_.size() < vertex_total) mesh_vertices_ = DeviceBuffer<MeshVertex>(vertex_total);
+    if (mesh_vertices_.size() < vertex_total)
+      mesh_vertices_ = DeviceBuffer<MeshVertex>(vertex_total);
     if (mesh_triangles_.size() < triangle_total) {
       mesh_triangles_ = DeviceBuffer<MeshTriangle>(triangle_total);
     }
@@ -404,17 +406,17 @@ class CudaBackend final : public Backend {
     }
     if (triangle_total > 0) {
       KFX_CUDA_CHECK(cudaMemcpyAsync(mesh.triangles.data(), mesh_triangles_.data(),
-                                     triangle_total * sizeof(MeshTriangle),
-                                     cudaMemcpyDeviceToHost, stream_.get()));
+                                     triangle_total * sizeof(MeshTriangle), cudaMemcpyDeviceToHost,
+                                     stream_.get()));
     }
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     return mesh;
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
-    KFX_CHECK(voxels.size() == buffers_.volume.size(), "volume of " << voxels.size()
-                                                            << " voxels given, the backend holds "
-                                                            << buffers_.volume.size());
+    KFX_CHECK(voxels.size() == buffers_.volume.size(),
+              "volume of " << voxels.size() << " voxels given, the backend holds "
+                           << buffers_.volume.size());
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     KFX_CUDA_CHECK(cudaMemcpy(buffers_.volume.data(), voxels.data(), buffers_.volume.bytes(),
                               cudaMemcpyHostToDevice));
@@ -456,9 +458,8 @@ class CudaBackend final : public Backend {
     stage_timed_[static_cast<int>(stage)] = true;
     cudaEvent_t event = stage_events_[parity_][static_cast<int>(stage)][which]->get();
     // Inside a capture the record becomes a graph node that records on every replay.
-    KFX_CUDA_CHECK(cudaEventRecordWithFlags(event, stream_.get(),
-                                            capturing_ ? cudaEventRecordExternal
-                                                       : cudaEventRecordDefault));
+    KFX_CUDA_CHECK(cudaEventRecordWithFlags(
+        event, stream_.get(), capturing_ ? cudaEventRecordExternal : cudaEventRecordDefault));
   }
 
   ImageView<const uint16_t> input_view() const {
@@ -491,7 +492,7 @@ class CudaBackend final : public Backend {
   DeviceBuffer<uint32_t> mesh_triangle_offset_;  ///< their exclusive sum
   DeviceBuffer<uint8_t> mesh_scan_temp_;
   DeviceBuffer<McTable> mesh_table_;
-  DeviceBuffer<MeshVertex> mesh_vertices_;       ///< grows to the largest mesh so far
+  DeviceBuffer<MeshVertex> mesh_vertices_;  ///< grows to the largest mesh so far
   DeviceBuffer<MeshTriangle> mesh_triangles_;
   PinnedBuffer<uint32_t> mesh_totals_;
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;

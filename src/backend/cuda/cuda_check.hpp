@@ -40,7 +40,7 @@ inline const char* cuda_error_consequence(cudaError_t status) {
   do {                                                                                 \
     const cudaError_t kfx_cuda_status_ = (call);                                       \
     KFX_CHECK(kfx_cuda_status_ == cudaSuccess,                                         \
-              "CUDA error " << cudaGetErrorName(kfx_cuda_status_) << " ("             \
+              "CUDA error " << cudaGetErrorName(kfx_cuda_status_) << " ("              \
                             << cudaGetErrorString(kfx_cuda_status_) << ") in " #call   \
                             << ::kfx::cuda::cuda_error_consequence(kfx_cuda_status_)); \
   } while (0)

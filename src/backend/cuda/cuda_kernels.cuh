@@ -37,7 +37,9 @@ __global__ void pixel_kernel(Args args, int width, int height) {
 }
 
 struct BilateralBody {
-  __device__ void operator()(int x, int y, const BilateralArgs& a) const { bilateral_pixel(x, y, a); }
+  __device__ void operator()(int x, int y, const BilateralArgs& a) const {
+    bilateral_pixel(x, y, a);
+  }
 };
 struct HalfSampleBody {
   __device__ void operator()(int x, int y, const HalfSampleArgs& a) const {

@@ -22,13 +22,11 @@ inline void fail_allocation(cudaError_t status, size_t bytes, const char* kind) 
   std::ostringstream gpu;
   size_t free_bytes = 0, total_bytes = 0;
   if (cudaMemGetInfo(&free_bytes, &total_bytes) == cudaSuccess) {
-    gpu << "; the GPU has " << free_bytes / kMiB << " MiB free of " << total_bytes / kMiB
-        << " MiB";
+    gpu << "; the GPU has " << free_bytes / kMiB << " MiB free of " << total_bytes / kMiB << " MiB";
   }
-  KFX_FAIL("CUDA backend setup: cannot allocate " << bytes / kMiB << " MiB of " << kind
-                                                  << " memory: " << cudaGetErrorName(status)
-                                                  << " (" << cudaGetErrorString(status) << ")"
-                                                  << gpu.str());
+  KFX_FAIL("CUDA backend setup: cannot allocate "
+           << bytes / kMiB << " MiB of " << kind << " memory: " << cudaGetErrorName(status) << " ("
+           << cudaGetErrorString(status) << ")" << gpu.str());
 }
 
 /// `count` elements of T in device memory.
@@ -128,8 +126,8 @@ class Stream {
 class Event {
  public:
   explicit Event(bool timing = true) {
-    KFX_CUDA_CHECK(cudaEventCreateWithFlags(&event_, timing ? cudaEventDefault
-                                                            : cudaEventDisableTiming));
+    KFX_CUDA_CHECK(
+        cudaEventCreateWithFlags(&event_, timing ? cudaEventDefault : cudaEventDisableTiming));
   }
   ~Event() { cudaEventDestroy(event_); }
   Event(const Event&) = delete;
