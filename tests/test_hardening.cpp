@@ -16,6 +16,7 @@
 #include "io/png.hpp"
 #include "io/reader.hpp"
 #include "io_test_support.hpp"
+#include "study/sweep_plan.hpp"
 
 namespace kfx::io {
 namespace {
@@ -240,6 +241,17 @@ TEST(FuzzFindings, ListedDepthPathThatIsAFolderIsABadFrame) {
   expect_bad_frame(*reader, {"frame 1", "line 2"});
   expect_error([&] { read_png_gray16(folder); }, {folder, "not a regular file"});
   expect_error([&] { read_png_header(folder); }, {folder, "not a regular file"});
+}
+
+// fuzz_sweep_plan: a number beyond double's range made nlohmann::json throw out_of_range, which
+// escaped the plan parser (it caught only parse_error) and terminated kfx sweep.
+TEST(FuzzFindings, SweepPlanNumberOverflowIsAClearError) {
+  expect_error(
+      [] {
+        sweep::parse_sweep_plan("6e99999999999999999999999999999999999999999999999999999996 *b",
+                                "plan.json", ".");
+      },
+      {"plan.json", "malformed JSON"});
 }
 
 }  // namespace

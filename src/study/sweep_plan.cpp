@@ -337,6 +337,8 @@ SweepPlan parse_sweep_plan(const std::string& text, const std::string& origin,
     const size_t line_start = text.rfind('\n', end > 0 ? end - 1 : 0);
     const size_t column = line_start == std::string::npos || end == 0 ? end + 1 : end - line_start;
     KFX_FAIL(origin << ":" << line << ":" << column << ": malformed JSON: " << e.what());
+  } catch (const ojson::exception& e) {  // e.g. a number beyond double's range (found by fuzzing)
+    KFX_FAIL(origin << ": malformed JSON: " << e.what());
   }
   check_fields(root, origin,
                {"name", "description", "data_root", "baseline", "preset", "settings", "repeat",
