@@ -82,7 +82,7 @@ TEST_F(ReportTest, BadMeshIsAClearError) {
     FAIL() << "a truncated mesh was read";
   } catch (const Error& e) {
     EXPECT_NE(std::string(e.what()).find(path), std::string::npos) << e.what();
-    EXPECT_NE(std::string(e.what()).find("truncated at face"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("the header announces"), std::string::npos) << e.what();
   }
   std::ofstream(path) << "ply\nformat ascii 1.0\n";
   EXPECT_THROW(output::read_view_mesh(path), Error);

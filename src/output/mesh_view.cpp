@@ -8,69 +8,25 @@
 #include <unordered_map>
 
 #include "core/platform.hpp"
+#include "output/mesh_ply.hpp"
 
 namespace kfx::output {
 
 ViewMesh read_view_mesh(const std::string& path) {
-  std::ifstream in(path, std::ios::binary);
-  KFX_CHECK(in, "cannot open mesh '" << path << "'");
-  const char* expected[] = {"ply",
-                            "format binary_little_endian 1.0",
-                            "element vertex",
-                            "property float x",
-                            "property float y",
-                            "property float z",
-                            "property float nx",
-                            "property float ny",
-                            "property float nz",
-                            "element face",
-                            "property list uchar int vertex_indices",
-                            "end_header"};
-  size_t vertices = 0, faces = 0;
-  std::string line;
-  for (const char* want_text : expected) {
-    do {
-      KFX_CHECK(std::getline(in, line), path << ": PLY header ends before '" << want_text << "'");
-      if (!line.empty() && line.back() == '\r') line.pop_back();
-    } while (line.rfind("comment", 0) == 0 || line.rfind("obj_info", 0) == 0);
-    const std::string want = want_text;
-    if (want.rfind("element", 0) == 0) {
-      KFX_CHECK(line.rfind(want + " ", 0) == 0,
-                path << ": expected '" << want << " N' in the PLY header, found '" << line << "'");
-      std::istringstream count(line.substr(want.size() + 1));
-      size_t n = 0;
-      KFX_CHECK(count >> n, path << ": bad count in '" << line << "'");
-      (want == "element vertex" ? vertices : faces) = n;
-    } else {
-      KFX_CHECK(line == want, path << ": expected '" << want << "' in the PLY header, found '"
-                                   << line << "' (kfx reads its own mesh layout only)");
-    }
+  // The one PLY reader (mesh_ply.hpp) checks the layout; the view keeps positions and indices.
+  const Mesh mesh = read_mesh_ply(path);
+  ViewMesh view;
+  view.source_vertices = mesh.vertices.size();
+  view.source_triangles = mesh.triangles.size();
+  view.positions_m.reserve(mesh.vertices.size() * 3);
+  for (const MeshVertex& v : mesh.vertices) {
+    view.positions_m.insert(view.positions_m.end(), {v.p_m.x, v.p_m.y, v.p_m.z});
   }
-  ViewMesh mesh;
-  mesh.source_vertices = vertices;
-  mesh.source_triangles = faces;
-  std::vector<float> record(6);
-  mesh.positions_m.resize(vertices * 3);
-  for (size_t i = 0; i < vertices; ++i) {
-    KFX_CHECK(in.read(reinterpret_cast<char*>(record.data()), 6 * sizeof(float)),
-              path << ": truncated at vertex " << i << " of " << vertices);
-    std::copy(record.begin(), record.begin() + 3, mesh.positions_m.begin() + 3 * i);
+  view.triangles.reserve(mesh.triangles.size() * 3);
+  for (const MeshTriangle& t : mesh.triangles) {
+    for (int k = 0; k < 3; ++k) view.triangles.push_back(static_cast<uint32_t>(t.v[k]));
   }
-  mesh.triangles.reserve(faces * 3);
-  for (size_t i = 0; i < faces; ++i) {
-    unsigned char n = 0;
-    int32_t index[3];
-    KFX_CHECK(in.read(reinterpret_cast<char*>(&n), 1), path << ": truncated at face " << i);
-    KFX_CHECK(n == 3, path << ": face " << i << " has " << int(n) << " vertices, not 3");
-    KFX_CHECK(in.read(reinterpret_cast<char*>(index), sizeof(index)),
-              path << ": truncated at face " << i << " of " << faces);
-    for (int32_t v : index) {
-      KFX_CHECK(v >= 0 && static_cast<size_t>(v) < vertices,
-                path << ": face " << i << " refers to vertex " << v << " of " << vertices);
-      mesh.triangles.push_back(static_cast<uint32_t>(v));
-    }
-  }
-  return mesh;
+  return view;
 }
 
 namespace {
