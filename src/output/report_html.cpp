@@ -222,6 +222,7 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["integrated"] = stats.value("integrated", 0);
   s["frames_per_second"] = stats.value("frames_per_second", 0.0);
   s["kfx_version"] = stats.value("kfx_version", "");
+  s["energy"] = stats.value("energy", json::object());  // per domain: figures or the reason
   if (stats.contains("ate")) {
     s["ate_rmse_m"] = stats["ate"]["ate"].value("rmse_m", 0.0);
     s["rpe_trans_rmse_m"] = stats["ate"]["rpe"].value("trans_rmse_m", 0.0);

@@ -95,6 +95,19 @@ window.onerror = function (message, source, line) {
   } else {
     rows.push(["ATE", S.ate_error ? "not computed: " + S.ate_error : "no ground truth"]);
   }
+  // Energy per frame (stats.json "energy"): each domain's figures, or why it was not measured.
+  ["gpu", "cpu"].forEach(function (domain) {
+    var e = (S.energy || {})[domain];
+    if (!e) return;
+    var label = "Energy, " + domain.toUpperCase();
+    if (!e.available) { rows.push([label, e.reason || e.method]); return; }
+    var value = fixed(1000 * e.joules_per_frame, 3) + " mJ/frame, " + fixed(e.mean_watts, 1) +
+                " W mean (" + e.method + ")";
+    if (e.above_idle_joules_per_frame !== undefined) {
+      value += "; " + fixed(1000 * e.above_idle_joules_per_frame, 3) + " mJ/frame above idle";
+    }
+    rows.push([label, value]);
+  });
   el("summary").innerHTML = rows.map(function (r) {
     return "<tr><td>" + text(r[0]) + "</td><td>" + text(r[1]) + "</td></tr>";
   }).join("");

@@ -130,6 +130,8 @@ def main():
         check(view > 0 and model > 0.02 * view, f"3D view: {model} model pixels of {view}")
         plots = re.findall(r'<svg class="plot".*?</svg>', dom, re.S)
         check(len(plots) >= 4, f"{len(plots)} plots, expected trajectory top/side, error, stage times")
+        # Energy per frame (issue 13): a row per domain, with figures or the reason.
+        check(re.search(r"Energy, CPU</td><td>[^<]+", dom) is not None, "no CPU energy row in the summary")
         check(all("<polyline" in p for p in plots), "a plot without a line")
         check(len(re.findall(r'<img alt="(?:depth|track|volume) \d+"', dom)) == 12,
               "expected 12 renders (frames 0, 5, 10, 15)")
