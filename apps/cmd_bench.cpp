@@ -5,9 +5,13 @@
 /// (frames over wall time, median over passes), as a table and as JSON. Energy: the GPU board
 /// (NVML) and CPU packages (RAPL) over all timed passes, per frame, with the idle power measured
 /// for --idle-seconds before the warm-up and subtracted (or the reason it is not available).
+/// `--concurrent K` / `--gpus LIST` run K pipelines at once (per GPU) over the same frames and
+/// add their aggregate frames/s; the trajectories of all of them must be bit-identical.
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
+#include <memory>
 #include <iostream>
 #include <nlohmann/json.hpp>
 
@@ -16,6 +20,7 @@
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "output/stats_json.hpp"
+#include "parallel_runs.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -26,55 +31,133 @@ namespace {
 
 struct BenchOptions {
   RunOptions run;
+  ParallelOptions parallel;
   int repeat = 3;
   int warmup_frames = 30;
   double idle_seconds = 2.0;
   std::string json_path;
 };
 
+/// What one pipeline of the bench measured.
+struct WorkerResult {
+  TimedPasses timed;
+  std::string backend, device, device_pci_bus_id;
+  PipelineConfig config;
+};
+
 void bench(const BenchOptions& options) {
   PreparedRun prepared = prepare_run(options.run);
   const std::vector<io::Frame> frames =
       load_frames(*prepared.reader, options.run.input, options.run.max_frames);
-  Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
-                    prepared.reader->height_px(), prepared.backend);
+  // The backend, resolved now: --gpus and the CPU thread split depend on it.
+  std::string why_not;
+  const bool use_cuda = prepared.backend != BackendKind::kCpu && cuda_available(&why_not);
+  const WorkerPlan plan = plan_workers(options.parallel, use_cuda ? "cuda" : "cpu");
+  const int workers = plan.workers();
   std::cerr << "kfx bench: " << prepared.reader->description() << ", " << frames.size()
-            << " frames in memory, backend " << pipeline.backend().name() << " ("
-            << pipeline.backend().device_name() << ")\n"
+            << " frames in memory, " << plan.description() << "\n"
             << "kfx bench: " << prepared.intrinsics_note << "\n";
 
-  // Energy meters; the idle power is measured before any frame runs.
-  energy::RunEnergyOptions energy_options;
-  energy_options.backend = pipeline.backend().name();
-  energy_options.gpu_pci_bus_id = pipeline.backend().device_pci_bus_id();
-  energy::RunEnergy energy(energy_options);
-  if (energy.any_available() && options.idle_seconds > 0) {
-    std::cerr << "kfx bench: measuring idle power for " << options.idle_seconds << " s\n";
-  }
-  energy.measure_idle(options.idle_seconds);
+  // Energy meters (one pipeline only: with several, a device's energy is not one run's).
+  std::unique_ptr<energy::RunEnergy> energy;
+  std::vector<WorkerResult> results(workers);
+  Rendezvous timed_together(workers);
+  run_workers(plan, [&](int w) {
+    try {
+      Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
+                        prepared.reader->height_px(), prepared.backend,
+                        plan.device_of_worker[w]);
+      WorkerResult& result = results[w];
+      result.backend = pipeline.backend().name();
+      result.device = pipeline.backend().device_name();
+      result.device_pci_bus_id = pipeline.backend().device_pci_bus_id();
+      result.config = pipeline.config();
+      if (workers == 1) {
+        std::cerr << "kfx bench: backend " << result.backend << " (" << result.device << ")\n";
+        // The idle power is measured before any frame runs.
+        energy::RunEnergyOptions energy_options;
+        energy_options.backend = result.backend;
+        energy_options.gpu_pci_bus_id = result.device_pci_bus_id;
+        energy = std::make_unique<energy::RunEnergy>(energy_options);
+        if (energy->any_available() && options.idle_seconds > 0) {
+          std::cerr << "kfx bench: measuring idle power for " << options.idle_seconds << " s\n";
+        }
+        energy->measure_idle(options.idle_seconds);
+      }
+      // Warm-up (pages in, records the GPU's frame graphs), then the timed passes, which all
+      // pipelines start together.
+      result.timed = run_timed_passes(
+          pipeline, frames, options.repeat, options.warmup_frames,
+          [&](int pass, double fps, const RunSummary& summary) {
+            if (workers > 1) return;
+            std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": " << fps
+                      << " frames/s end to end, " << summary.tracked << " tracked\n";
+          },
+          energy.get(), [&] { timed_together.arrive_and_wait(); });
+    } catch (...) {
+      timed_together.release_all();  // the others must not wait for this one
+      throw;
+    }
+  });
 
-  // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
-  const TimedPasses timed = run_timed_passes(
-      pipeline, frames, options.repeat, options.warmup_frames,
-      [&](int pass, double fps, const RunSummary& summary) {
-        std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": " << fps
-                  << " frames/s end to end, " << summary.tracked << " tracked\n";
-      },
-      &energy);
-  const RunSummary& all = timed.all;
-  const std::vector<double>& pass_fps = timed.pass_fps;
-  const std::vector<io::StampedPose>& trajectory = timed.trajectory;
+  // All pipelines' frames over the wall time from the first start to the last end.
+  RunSummary all = results[0].timed.all;
+  std::vector<double> pass_fps, pipeline_fps;
+  auto first_start = results[0].timed.start;
+  auto last_end = results[0].timed.end;
+  bool identical = true;
+  const std::string digest = trajectory_digest(results[0].timed.trajectory);
+  for (int w = 0; w < workers; ++w) {
+    const TimedPasses& timed = results[w].timed;
+    pass_fps.insert(pass_fps.end(), timed.pass_fps.begin(), timed.pass_fps.end());
+    pipeline_fps.push_back(median_of(timed.pass_fps));
+    first_start = std::min(first_start, timed.start);
+    last_end = std::max(last_end, timed.end);
+    identical = identical && trajectory_digest(timed.trajectory) == digest;
+    if (w == 0) continue;
+    all.computation_ms.insert(all.computation_ms.end(), timed.all.computation_ms.begin(),
+                              timed.all.computation_ms.end());
+    for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
+      all.stage_ms[s].insert(all.stage_ms[s].end(), timed.all.stage_ms[s].begin(),
+                             timed.all.stage_ms[s].end());
+    }
+  }
+  KFX_CHECK(identical, "the " << workers << " concurrent pipelines computed different "
+                              << "trajectories from the same frames (they must be bit-identical)");
+  const double wall_s = std::chrono::duration<double>(last_end - first_start).count();
+  const double total_frames = static_cast<double>(frames.size()) * options.repeat * workers;
+  const double aggregate_fps = wall_s > 0 ? total_frames / wall_s : 0.0;
+  const std::vector<io::StampedPose>& trajectory = results[0].timed.trajectory;
+  const WorkerResult& first = results[0];
 
   nlohmann::json j;
   j["input"] = options.run.input;
   j["frames"] = frames.size();
   j["repeat"] = options.repeat;
-  j["backend"] = pipeline.backend().name();
-  j["device"] = pipeline.backend().device_name();
+  j["backend"] = first.backend;
+  j["device"] = first.device;
   j["preset"] = options.run.preset;
   j["tracked"] = all.tracked;
   j["end_to_end_frames_per_second_median"] = median_of(pass_fps);
   j["end_to_end_frames_per_second_passes"] = pass_fps;
+  // Several pipelines at once (--concurrent, --gpus): the figures above are per pipeline (every
+  // pass of every pipeline); these are of all of them together.
+  j["concurrent"] = options.parallel.concurrent;
+  j["pipelines"] = workers;
+  j["gpus"] = nlohmann::json::array();
+  for (int w = 0; w < workers && plan.device_of_worker[w] >= 0; ++w) {
+    if (w < workers / options.parallel.concurrent) j["gpus"].push_back(plan.device_of_worker[w]);
+  }
+  j["cpu_threads_per_pipeline"] = plan.cpu_threads_per_worker;
+  j["aggregate_frames"] = total_frames;
+  j["aggregate_wall_s"] = wall_s;
+  j["aggregate_frames_per_second"] = aggregate_fps;
+  j["aggregate_frames_per_second_definition"] =
+      "frames of all pipelines and passes / wall time from the first pipeline's first timed "
+      "pass to the last one's end (resets between passes included)";
+  j["pipeline_frames_per_second_medians"] = pipeline_fps;
+  j["trajectory_fnv1a"] = digest;
+  j["trajectories_identical"] = identical;
   const double median_computation = median_of(all.computation_ms);
   j["computation_ms"] = {{"median", median_computation}, {"mean", mean_of(all.computation_ms)}};
   j["computation_frames_per_second_median"] =
@@ -91,10 +174,13 @@ void bench(const BenchOptions& options) {
     j["ate_rmse_m"] = result.ate.stats_m.rmse;
   }
   nlohmann::json config_json;
-  for (const auto& field : config_fields())
-    config_json[field.key] = field.format(pipeline.config());
+  for (const auto& field : config_fields()) config_json[field.key] = field.format(first.config);
   j["config"] = config_json;
-  j["energy"] = energy.to_json();
+  if (energy) {
+    j["energy"] = energy->to_json();
+  } else {
+    j["energy_note"] = "not measured: several pipelines shared the devices (--concurrent/--gpus)";
+  }
 
   std::printf("%-12s %10s %10s\n", "stage", "median ms", "mean ms");
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
@@ -108,7 +194,13 @@ void bench(const BenchOptions& options) {
   if (j.contains("ate_rmse_m"))
     std::printf(", ATE RMSE %.3f cm", j["ate_rmse_m"].get<double>() * 100);
   std::printf("\n");
-  for (const auto& line : energy.summary_lines()) std::printf("energy %s\n", line.c_str());
+  if (workers > 1) {
+    std::printf("aggregate: %.1f frames/s over %d pipelines (%s), %.0f frames in %.3f s\n",
+                aggregate_fps, workers, plan.description().c_str(), total_frames, wall_s);
+  }
+  if (energy) {
+    for (const auto& line : energy->summary_lines()) std::printf("energy %s\n", line.c_str());
+  }
   if (!options.json_path.empty()) output::write_json_document(options.json_path, j);
 }
 
@@ -118,6 +210,7 @@ void add_bench_command(CLI::App& app) {
   auto* command = app.add_subcommand("bench", "measure speed: per-stage time and frames/s");
   auto options = std::make_shared<BenchOptions>();
   add_run_options(*command, options->run);
+  add_parallel_options(*command, options->parallel);
   command->add_option("--repeat", options->repeat, "timed passes over the sequence")
       ->check(count_at_least(1, ""))
       ->capture_default_str();

@@ -1,6 +1,9 @@
 #include "timed_passes.hpp"
 
 #include <chrono>
+#include <cstdint>
+#include <cstdio>
+#include <cstring>
 
 namespace kfx::cli {
 
@@ -20,11 +23,13 @@ std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input,
 TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& frames, int repeat,
                              int warmup_frames,
                              const std::function<void(int, double, const RunSummary&)>& on_pass,
-                             energy::RunEnergy* energy) {
+                             energy::RunEnergy* energy, const std::function<void()>& after_warmup) {
   for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
     pipeline.process(frames[i].depth_mm);
   }
+  if (after_warmup) after_warmup();
   TimedPasses result;
+  result.start = std::chrono::steady_clock::now();
   if (energy) energy->start();
   for (int pass = 0; pass < repeat; ++pass) {
     pipeline.reset();
@@ -58,7 +63,28 @@ TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& f
     if (on_pass) on_pass(pass, fps, summary);
   }
   if (energy) energy->stop(static_cast<int>(frames.size()) * repeat);
+  result.end = std::chrono::steady_clock::now();
   return result;
+}
+
+std::string trajectory_digest(const std::vector<io::StampedPose>& trajectory) {
+  uint64_t hash = 14695981039346656037ull;  // FNV-1a offset basis
+  auto add = [&hash](double value) {
+    unsigned char bytes[sizeof(double)];
+    std::memcpy(bytes, &value, sizeof(double));
+    for (unsigned char b : bytes) {
+      hash ^= b;
+      hash *= 1099511628211ull;  // FNV prime
+    }
+  };
+  for (const auto& pose : trajectory) {
+    add(pose.stamp_s);
+    for (double v : pose.t) add(v);
+    for (double v : pose.q) add(v);
+  }
+  char text[17];
+  std::snprintf(text, sizeof(text), "%016llx", static_cast<unsigned long long>(hash));
+  return text;
 }
 
 }  // namespace kfx::cli

@@ -12,6 +12,8 @@ namespace kfx {
 #if defined(KFX_HAVE_CUDA)
 // Defined in src/backend/cuda/.
 bool cuda_device_present(std::string* why_not);
+int cuda_visible_device_count();
+void cuda_select_device(int index);
 std::unique_ptr<Backend> make_cuda_backend(const BackendSetup& setup);
 uint64_t cuda_free_bytes();
 #endif
@@ -75,15 +77,29 @@ bool cuda_available(std::string* why_not) {
 #endif
 }
 
+int cuda_device_count() {
+#if defined(KFX_HAVE_CUDA)
+  return cuda_visible_device_count();
+#else
+  return 0;
+#endif
+}
+
 std::unique_ptr<Backend> make_backend(BackendKind kind, const BackendSetup& setup) {
+  KFX_CHECK(kind != BackendKind::kCpu || setup.device_index < 0,
+            "a GPU index (" << setup.device_index << ") was given for the CPU backend; GPU "
+                            << "indices apply to the CUDA backend only");
   if (kind == BackendKind::kCpu) return make_checked_cpu_backend(setup);
   std::string why_not;
   const bool have_cuda = cuda_available(&why_not);
-  if (kind == BackendKind::kCuda) {
+  if (kind == BackendKind::kCuda || setup.device_index >= 0) {
     KFX_CHECK(have_cuda, "the CUDA backend was requested but " << why_not);
   }
 #if defined(KFX_HAVE_CUDA)
   if (have_cuda) {
+    // Before anything touches the device: the memory check and the backend's streams, buffers
+    // and graphs all belong to the current device.
+    if (setup.device_index >= 0) cuda_select_device(setup.device_index);
     check_memory_fits(setup, backend_bytes_needed(setup), cuda_free_bytes(), "free GPU memory");
     return make_cuda_backend(setup);
   }

@@ -35,6 +35,10 @@ struct BackendSetup {
   int pyramid_levels = 3;
   int volume_res_vox = 256;
   float volume_size_m = 2.0f;
+  /// CUDA device to create the backend on (−1: the calling thread's current device). The CPU
+  /// backend accepts only −1. Selecting a device makes it the calling thread's current one, so
+  /// a pipeline is used from the thread that created it (one thread per pipeline).
+  int device_index = -1;
   /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them). Defaults measured on an
   /// H200 (bench/RESULTS.md).
   struct CudaTuning {
@@ -159,6 +163,18 @@ BackendKind parse_backend_kind(const std::string& text);
 
 /// True when this build has the CUDA backend and a CUDA device is present.
 bool cuda_available(std::string* why_not = nullptr);
+
+/// CUDA devices visible to this process (0 in a CPU-only build or without a GPU).
+int cuda_device_count();
+
+/// Caps the OpenMP threads of the CPU backend's loops started from the calling thread (the
+/// thread-local nthreads ICV), so that K pipelines run in K threads share the cores instead of
+/// each starting a team of every core. Results do not depend on the thread count (reductions
+/// add per-row partials in row order). `threads` < 1 is taken as 1.
+void limit_cpu_threads_of_this_thread(int threads);
+
+/// OpenMP threads a CPU pipeline gets by default (omp_get_max_threads of the process).
+int cpu_threads_available();
 
 /// Creates a backend; `kAuto` picks CUDA when available. Asking for CUDA in a CPU-only build or
 /// without a GPU throws kfx::Error saying which.

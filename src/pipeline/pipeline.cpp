@@ -5,7 +5,8 @@
 namespace kfx {
 
 Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics,
-                   int input_width_px, int input_height_px, BackendKind backend_kind)
+                   int input_width_px, int input_height_px, BackendKind backend_kind,
+                   int device_index)
     : config_(config) {
   config_.validate();
   const int ratio = config_.input.compute_size_ratio;
@@ -26,6 +27,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.cuda.programmatic_launch = config_.cuda.pdl;
   setup_.cuda.reduce_blocks = config_.cuda.reduce_blocks;
   setup_.cuda.z_chunks = config_.cuda.z_chunks;
+  setup_.device_index = device_index;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
   const auto& f = config_.volume.init_pose_factor;

@@ -33,9 +33,10 @@ struct FrameReport {
 class Pipeline {
  public:
   /// Validates `config`, derives every stage's parameters and allocates the backend.
-  /// `input_intrinsics` are at input size (before the compute-size ratio).
+  /// `input_intrinsics` are at input size (before the compute-size ratio). `device_index`: the
+  /// CUDA device to run on (−1: the thread's current one; BackendSetup::device_index).
   Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics, int input_width_px,
-           int input_height_px, BackendKind backend_kind);
+           int input_height_px, BackendKind backend_kind, int device_index = -1);
 
   /// Processes the next depth frame (input size, millimetres) and waits for its report.
   FrameReport process(const HostImage<uint16_t>& depth_mm);

@@ -310,6 +310,10 @@ class CpuBackend final : public Backend {
 
 }  // namespace
 
+void limit_cpu_threads_of_this_thread(int threads) { omp_set_num_threads(std::max(1, threads)); }
+
+int cpu_threads_available() { return omp_get_max_threads(); }
+
 std::unique_ptr<Backend> make_cpu_backend(const BackendSetup& setup) {
   return std::make_unique<CpuBackend>(setup);
 }

@@ -35,6 +35,24 @@ bool cuda_device_present(std::string* why_not) {
   return true;
 }
 
+int cuda_visible_device_count() {
+  int count = 0;
+  if (cudaGetDeviceCount(&count) != cudaSuccess) {
+    cudaGetLastError();  // clear the sticky error of a failed query
+    return 0;
+  }
+  return count;
+}
+
+void cuda_select_device(int index) {
+  const int count = cuda_visible_device_count();
+  KFX_CHECK(index >= 0 && index < count,
+            "GPU " << index << " does not exist: " << count << " CUDA device"
+                   << (count == 1 ? " is" : "s are") << " visible (indices 0 to " << count - 1
+                   << ")");
+  KFX_CUDA_CHECK(cudaSetDevice(index));
+}
+
 namespace cuda {
 namespace {
 
