@@ -8,14 +8,19 @@
 /// available (idle power measured once, before the first run, and subtracted).
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
 #include <ctime>
+#include <deque>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <functional>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -25,10 +30,13 @@
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
+#include "output/stats_json.hpp"
+#include "parallel_runs.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
 #include "study/sweep_plan.hpp"
+#include "study/sweep_shard.hpp"
 #include "timed_passes.hpp"
 
 namespace kfx::cli {
@@ -55,6 +63,8 @@ struct SweepOptions {
   double max_minutes = 0;                      ///< 0 = no limit; else start no run after it
   double idle_seconds = 2;                     ///< idle power measurement before the first run
   bool dry_run = false;
+  ParallelOptions parallel;                    ///< --concurrent, --gpus
+  std::string shard;                           ///< "i/n" or "" = all runs
 };
 
 /// One (run, sequence) of the sweep.
@@ -64,6 +74,7 @@ struct Task {
   std::string key;
   std::vector<std::string> assignments;
   bool done = false;
+  bool mine = true;         ///< in this process's shard (--shard)
   std::string redo_reason;  ///< why an existing result is not reused ("" = none existed)
 };
 
@@ -104,11 +115,29 @@ std::string format_duration(double seconds) {
   return buffer;
 }
 
-/// The frames of the sequence being swept, loaded once and reused by every run that reads the
-/// same input with the same depth scale.
-struct FrameCache {
-  std::string key;
-  std::vector<io::Frame> frames;
+/// The frames of the sequences being swept, loaded once and shared (read-only) by every run
+/// that reads the same input with the same depth scale. Runs are taken in plan order, sequence
+/// by sequence, so the cache keeps the `keep` most recently loaded sequences (one per worker);
+/// a run holds its own reference, so evicting never pulls frames from under it.
+class FrameCache {
+ public:
+  explicit FrameCache(int keep) : keep_(std::max(1, keep)) {}
+  using Frames = std::shared_ptr<const std::vector<io::Frame>>;
+  /// The frames under `key`, loaded by `load` when not held (one load at a time).
+  Frames get(const std::string& key, const std::function<std::vector<io::Frame>()>& load) {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    for (const auto& [held_key, frames] : held_) {
+      if (held_key == key) return frames;
+    }
+    if (static_cast<int>(held_.size()) >= keep_) held_.pop_front();
+    held_.emplace_back(key, std::make_shared<const std::vector<io::Frame>>(load()));
+    return held_.back().second;
+  }
+
+ private:
+  std::mutex mutex_;
+  int keep_;
+  std::deque<std::pair<std::string, Frames>> held_;
 };
 
 /// The idle power of the sweep's devices: measured once, before the first run's frames.
@@ -144,10 +173,12 @@ std::string energy_budget(const json& record, double max_mj_per_frame) {
 }
 
 /// Warm-up, then `repeat` timed passes with one frame in flight; fills the measurement fields.
+/// `device_index`: the GPU (−1 = current); `idle`: null when runs share the device at once
+/// (--concurrent), which leaves no energy to attribute to one run.
 void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, int repeat,
-             int warmup_frames, IdleCache& idle, json& record) {
+             int warmup_frames, int device_index, IdleCache* idle, json& record) {
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
-                    prepared.reader->height_px(), prepared.backend);
+                    prepared.reader->height_px(), prepared.backend, device_index);
   record["backend"] = pipeline.backend().name();
   record["device"] = pipeline.backend().device_name();
   json config_json;
@@ -156,20 +187,24 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
   }
   record["config"] = config_json;
 
-  energy::RunEnergyOptions energy_options;
-  energy_options.backend = pipeline.backend().name();
-  energy_options.gpu_pci_bus_id = pipeline.backend().device_pci_bus_id();
-  energy::RunEnergy meters(energy_options);
-  if (!idle.measured) {
-    meters.measure_idle(idle.seconds);
-    idle.readings = meters.idle();
-    idle.measured = true;
-  } else {
-    meters.set_idle(idle.readings, idle.seconds);
+  std::unique_ptr<energy::RunEnergy> meters;
+  if (idle) {
+    energy::RunEnergyOptions energy_options;
+    energy_options.backend = pipeline.backend().name();
+    energy_options.gpu_pci_bus_id = pipeline.backend().device_pci_bus_id();
+    meters = std::make_unique<energy::RunEnergy>(energy_options);
+    if (!idle->measured) {
+      meters->measure_idle(idle->seconds);
+      idle->readings = meters->idle();
+      idle->measured = true;
+    } else {
+      meters->set_idle(idle->readings, idle->seconds);
+    }
   }
 
   // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
-  const TimedPasses timed = run_timed_passes(pipeline, frames, repeat, warmup_frames, {}, &meters);
+  const TimedPasses timed =
+      run_timed_passes(pipeline, frames, repeat, warmup_frames, {}, meters.get());
   const RunSummary& all = timed.all;
   const std::vector<double>& pass_fps = timed.pass_fps;
   const std::vector<io::StampedPose>& trajectory = timed.trajectory;
@@ -185,7 +220,13 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
   record["end_to_end_frames_per_second"] = median_of(pass_fps);
   record["end_to_end_frames_per_second_passes"] = pass_fps;
   record["flip_y"] = prepared.evaluate_flip_y;
-  add_energy_fields(meters.to_json(), energy::device_domain(pipeline.backend().name()), record);
+  // Equal digests: bit-identical trajectories (how concurrent runs are checked against serial).
+  record["trajectory_fnv1a"] = trajectory_digest(trajectory);
+  if (meters) {
+    add_energy_fields(meters->to_json(), energy::device_domain(pipeline.backend().name()), record);
+  } else {
+    record["energy_note"] = "not measured: runs shared the device at once (--concurrent)";
+  }
   if (prepared.ground_truth.empty()) {
     record["ate_note"] = "no ground truth";
     return;
@@ -194,17 +235,8 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
     eval::EvalOptions options;
     options.flip_y = prepared.evaluate_flip_y;
     const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth, options);
-    record["ate_rmse_m"] = result.ate.stats_m.rmse;
-    record["ate_pairs"] = result.ate.stats_m.count;
-    record["checkpos_mean_m"] = result.checkpos.stats_m.mean;
-    // Frames the aligned trajectory puts beyond the bound, and the first (null when none).
-    record["divergence_bound_m"] = result.divergence.bound_m;
-    record["diverged_frames"] = result.divergence.frames_over;
-    record["first_diverged_frame"] =
-        result.divergence.any_over ? json(result.divergence.first_over_index) : json();
-    // The frame it left the ground truth (aligned on the frames up to it; null when none).
-    record["departure_frame"] =
-        result.divergence.departed ? json(result.divergence.departure_index) : json();
+    // ATE, RPE and divergence under the same names as stats.json (one writer of those keys).
+    output::add_flat_evaluation(record, result);
   } catch (const Error& e) {
     // The run itself succeeded; only its evaluation did not (e.g. too few stamps pair).
     record["ate_note"] = std::string("evaluation failed: ") + e.what();
@@ -212,16 +244,18 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
 }
 
 /// Writes results.csv and results.json from the latest record of every key, the sweep's own
-/// tasks first in plan order, then any other records of the log (other backends, old runs).
-void write_tables(const fs::path& out, const std::vector<json>& log, const std::vector<Task>& tasks,
-                  const json& meta, double max_mj_per_frame) {
+/// tasks (`run_keys`) first in plan order, then any other records of the log (other backends,
+/// old runs).
+void write_tables(const fs::path& out, const std::vector<json>& log,
+                  const std::vector<std::string>& run_keys, const json& meta,
+                  double max_mj_per_frame) {
   std::vector<json> latest = sweep::latest_results(log);
   std::map<std::string, size_t> order;
-  for (size_t i = 0; i < tasks.size(); ++i) order.emplace(tasks[i].key, i);
+  for (size_t i = 0; i < run_keys.size(); ++i) order.emplace(run_keys[i], i);
   std::vector<std::pair<size_t, size_t>> rank;  // (plan order or after it, log order)
   for (size_t i = 0; i < latest.size(); ++i) {
     const auto it = order.find(sweep::result_key(latest[i]));
-    rank.emplace_back(it != order.end() ? it->second : tasks.size() + i, i);
+    rank.emplace_back(it != order.end() ? it->second : run_keys.size() + i, i);
   }
   std::sort(rank.begin(), rank.end());
   std::vector<json> sorted;
@@ -251,6 +285,34 @@ void append_log(const fs::path& path, const json& record) {
   log << record.dump() << "\n";
   log.flush();
   KFX_CHECK(log.good(), "error while appending to '" << path.string() << "'");
+}
+
+/// "[12/87] icp_stride_px=4 on tum_fr1_xyz: 3120 frames/s, ATE 2.31 cm (3m12s, ETA 20m)".
+void report_progress(const json& record, int index, int to_run, double elapsed_s) {
+  const double eta_s = elapsed_s / index * (to_run - index);
+  char line[512];
+  if (record["status"] == "ok") {
+    std::string ate = "no ATE";
+    if (record.contains("ate_rmse_m")) {
+      char buffer[64];
+      std::snprintf(buffer, sizeof(buffer), "ATE %.2f cm",
+                    record["ate_rmse_m"].get<double>() * 100.0);
+      ate = buffer;
+    }
+    std::snprintf(line, sizeof(line), "%.0f frames/s, %d/%d tracked, %s",
+                  record["frames_per_second"].get<double>(), record["tracked"].get<int>(),
+                  record["frames"].get<int>(), ate.c_str());
+    if (record.contains("mj_per_frame")) {
+      const size_t used = std::strlen(line);
+      std::snprintf(line + used, sizeof(line) - used, ", %.3f mJ/frame",
+                    record["mj_per_frame"].get<double>());
+    }
+  } else {
+    std::snprintf(line, sizeof(line), "FAILED: %s", record["error"].get<std::string>().c_str());
+  }
+  std::cerr << "[" << index << "/" << to_run << "] " << record["name"].get<std::string>() << " on "
+            << record["sequence"].get<std::string>() << ": " << line << " ("
+            << format_duration(elapsed_s) << " elapsed, ETA " << format_duration(eta_s) << ")\n";
 }
 
 void run_sweep(const SweepOptions& o) {
@@ -316,12 +378,15 @@ void run_sweep(const SweepOptions& o) {
     previous[sweep::result_key(record)] = record;
   }
 
-  // Tasks, sequence by sequence (frames are loaded once per sequence).
+  // Tasks, sequence by sequence (frames are loaded once per sequence). With --shard i/n this
+  // process runs the tasks at positions j with j mod n = i of this full list.
+  const sweep::Shard shard = sweep::parse_shard(o.shard.empty() ? "0/1" : o.shard);
   std::vector<Task> tasks;
   for (const auto& sequence : sequences) {
     for (const sweep::SweepRun* run : runs) {
       Task task{run, &sequence, sweep::result_key(run->name, sequence.name, backend),
                 sweep::run_assignments(*run, sequence, sequence_options.overrides)};
+      task.mine = sweep::in_shard(tasks.size(), shard);
       const auto it = previous.find(task.key);
       if (it != previous.end()) {
         task.done =
@@ -335,13 +400,25 @@ void run_sweep(const SweepOptions& o) {
       tasks.push_back(std::move(task));
     }
   }
-  int to_run = 0;
-  for (const auto& t : tasks) to_run += t.done ? 0 : 1;
+  std::vector<size_t> pending;  // this process's tasks still to run, in plan order
+  int mine = 0;
+  for (size_t i = 0; i < tasks.size(); ++i) {
+    mine += tasks[i].mine ? 1 : 0;
+    if (tasks[i].mine && !tasks[i].done) pending.push_back(i);
+  }
+  const int to_run = static_cast<int>(pending.size());
+  const WorkerPlan workers = plan_workers(o.parallel, backend);
   std::cerr << "kfx sweep: plan '" << plan.name << "': " << runs.size() << " configurations x "
-            << sequences.size() << " sequences = " << tasks.size() << " runs on " << backend << "; "
-            << tasks.size() - to_run << " already done, " << to_run << " to run\n";
+            << sequences.size() << " sequences = " << tasks.size() << " runs on " << backend;
+  if (shard.count > 1) {
+    std::cerr << "; shard " << shard.index << "/" << shard.count << " takes " << mine;
+  }
+  std::cerr << "; " << mine - to_run << " already done, " << to_run << " to run";
+  if (workers.workers() > 1) std::cerr << ", " << workers.description();
+  std::cerr << "\n";
   if (o.dry_run) {
     for (const auto& t : tasks) {
+      if (!t.mine) continue;
       std::printf("%-8s %-40s %-16s %s\n", t.done ? "done" : "to run", t.run->name.c_str(),
                   t.sequence->name.c_str(), t.sequence->input.c_str());
     }
@@ -377,28 +454,47 @@ void run_sweep(const SweepOptions& o) {
     for (const auto& [k, v] : s.settings) settings.push_back(k + "=" + v);
     meta["sequences"].push_back({{"name", s.name}, {"input", s.input}, {"settings", settings}});
   }
-  write_tables(out, log, tasks, meta, plan.max_mj_per_frame);
+  // The expanded plan and what shapes its results: `kfx sweep merge` checks that shards agree.
+  std::vector<std::string> run_keys;
+  for (const auto& t : tasks) run_keys.push_back(t.key);
+  meta["run_keys"] = run_keys;
+  meta["run_options"] = {{"max_frames", o.max_frames},
+                         {"repeat", repeat},
+                         {"warmup_frames", warmup_frames},
+                         {"backend", backend}};
+  if (shard.count > 1) meta["shard"] = {{"index", shard.index}, {"count", shard.count}};
+  write_tables(out, log, run_keys, meta, plan.max_mj_per_frame);
 
+  // Workers take the pending tasks in plan order; each finished record is logged, tabled and
+  // reported under one lock, so the files and the progress lines stay whole.
   IdleCache idle;
   idle.seconds = o.idle_seconds;
+  FrameCache cache(workers.workers());
+  std::mutex mutex;  // guards everything below and the files of `out`
+  size_t next = 0;
   int index = 0;
   int failed = 0;
   bool out_of_time = false;
   std::string first_failure;
   const auto run_start = Clock::now();
-  for (const auto& sequence : sequences) {
-    if (out_of_time) break;
-    FrameCache cache;
-    for (const auto& task : tasks) {
-      if (task.sequence != &sequence || task.done) continue;
-      if (o.max_minutes > 0 &&
-          std::chrono::duration<double>(Clock::now() - sweep_start).count() > 60 * o.max_minutes) {
-        out_of_time = true;
-        break;
+  run_workers(workers, [&](int worker) {
+    for (;;) {
+      size_t task_index = 0;
+      {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (next >= pending.size() || out_of_time) return;
+        if (o.max_minutes > 0 && std::chrono::duration<double>(Clock::now() - sweep_start).count() >
+                                     60 * o.max_minutes) {
+          out_of_time = true;
+          return;
+        }
+        task_index = pending[next++];
       }
-      ++index;
+      const Task& task = tasks[task_index];
       const sweep::SweepRun& run = *task.run;
+      const sweep::ResolvedSequence& sequence = *task.sequence;
       if (!task.redo_reason.empty()) {
+        const std::lock_guard<std::mutex> lock(mutex);
         std::cerr << "kfx sweep: running " << run.name << " on " << sequence.name << " again ("
                   << task.redo_reason << ")\n";
       }
@@ -437,64 +533,46 @@ void run_sweep(const SweepOptions& o) {
         const PreparedRun prepared = prepare_run(run_options);
         const std::string cache_key =
             sequence.input + "|" + std::to_string(prepared.config.input.depth_scale_per_m);
-        if (cache.key != cache_key) {
-          cache.frames.clear();
-          cache.key.clear();
-          cache.frames = load_frames(*prepared.reader, sequence.input, o.max_frames);
-          cache.key = cache_key;
-          std::cerr << "kfx sweep: " << sequence.name << ": " << cache.frames.size()
+        const FrameCache::Frames frames = cache.get(cache_key, [&] {
+          auto loaded = load_frames(*prepared.reader, sequence.input, o.max_frames);
+          const std::lock_guard<std::mutex> lock(mutex);
+          std::cerr << "kfx sweep: " << sequence.name << ": " << loaded.size()
                     << " frames in memory (" << prepared.reader->description() << ")\n";
-        }
-        measure(prepared, cache.frames, repeat, warmup_frames, idle, record);
+          return loaded;
+        });
+        IdleCache* energy = workers.workers() == 1 ? &idle : nullptr;
+        measure(prepared, *frames, repeat, warmup_frames, workers.device_of_worker[worker], energy,
+                record);
         record["status"] = "ok";
       } catch (const std::exception& e) {
         record["status"] = "failed";
         record["error"] = e.what();
-        ++failed;
-        if (first_failure.empty()) {
-          first_failure = run.name + " on " + sequence.name + ": " + e.what();
-        }
       }
       record["elapsed_s"] = std::chrono::duration<double>(Clock::now() - start).count();
       record["date"] = utc_now();
+
+      const std::lock_guard<std::mutex> lock(mutex);
+      ++index;
+      if (record["status"] != "ok") {
+        ++failed;
+        if (first_failure.empty()) {
+          first_failure =
+              run.name + " on " + sequence.name + ": " + record["error"].get<std::string>();
+        }
+      }
       append_log(log_path, record);
       log.push_back(record);
-      write_tables(out, log, tasks, meta, plan.max_mj_per_frame);
-
-      // "[12/87] icp_stride_px=4 on tum_fr1_xyz: 3120 frames/s, ATE 2.31 cm (3m12s, ETA 20m)"
-      const double elapsed_s = std::chrono::duration<double>(Clock::now() - run_start).count();
-      const double eta_s = elapsed_s / index * (to_run - index);
-      char line[512];
-      if (record["status"] == "ok") {
-        std::string ate = "no ATE";
-        if (record.contains("ate_rmse_m")) {
-          char buffer[64];
-          std::snprintf(buffer, sizeof(buffer), "ATE %.2f cm",
-                        record["ate_rmse_m"].get<double>() * 100.0);
-          ate = buffer;
-        }
-        std::snprintf(line, sizeof(line), "%.0f frames/s, %d/%d tracked, %s",
-                      record["frames_per_second"].get<double>(), record["tracked"].get<int>(),
-                      record["frames"].get<int>(), ate.c_str());
-        if (record.contains("mj_per_frame")) {
-          const size_t used = std::strlen(line);
-          std::snprintf(line + used, sizeof(line) - used, ", %.3f mJ/frame",
-                        record["mj_per_frame"].get<double>());
-        }
-      } else {
-        std::snprintf(line, sizeof(line), "FAILED: %s", record["error"].get<std::string>().c_str());
-      }
-      std::cerr << "[" << index << "/" << to_run << "] " << run.name << " on " << sequence.name
-                << ": " << line << " (" << format_duration(elapsed_s) << " elapsed, ETA "
-                << format_duration(eta_s) << ")\n";
+      write_tables(out, log, run_keys, meta, plan.max_mj_per_frame);
+      report_progress(record, index, to_run,
+                      std::chrono::duration<double>(Clock::now() - run_start).count());
     }
-  }
+  });
 
   const double total_s = std::chrono::duration<double>(Clock::now() - sweep_start).count();
   std::printf(
       "kfx sweep: %d run%s in %s (%d failed, %d reused); results: %s/results.{csv,json,jsonl}\n",
-      index, index == 1 ? "" : "s", format_duration(total_s).c_str(), failed,
-      static_cast<int>(tasks.size()) - to_run, out.string().c_str());
+      index, index == 1 ? "" : "s", format_duration(total_s).c_str(), failed, mine - to_run,
+      out.string().c_str());
   KFX_CHECK(!out_of_time, "stopped after --max-minutes " << o.max_minutes << " with "
                                                          << to_run - index
                                                          << " runs left; run the same command "
@@ -503,17 +581,44 @@ void run_sweep(const SweepOptions& o) {
                                 << (out / "results.csv").string() << "); first: " << first_failure);
 }
 
+/// `kfx sweep merge OUT SHARD...`: the shards' results joined into OUT as one sweep's.
+void merge_sweep(const std::string& out_dir, const std::vector<std::string>& shard_dirs) {
+  std::vector<sweep::ShardFolder> shards;
+  for (const auto& dir : shard_dirs) shards.push_back(sweep::read_shard_folder(dir));
+  const sweep::MergedSweep merged = sweep::merge_shards(shards);
+  const fs::path out = out_dir;
+  KFX_CHECK(!fs::exists(out / "results.jsonl") && !fs::exists(out / "results.json"),
+            "'" << out_dir << "' already holds sweep results; merge into a new folder");
+  fs::create_directories(out);
+  {
+    io::AtomicFile plan((out / "plan.json").string());
+    plan.stream() << merged.plan_text;
+    plan.commit();
+  }
+  const json& budget = merged.meta["plan"]["max_mj_per_frame"];
+  write_tables(out, merged.records, merged.run_keys, merged.meta,
+               budget.is_number() ? budget.get<double>() : 0.0);
+  // The log last: a folder with results.jsonl is a finished merge.
+  io::AtomicFile log((out / "results.jsonl").string());
+  for (const auto& record : merged.records) log.stream() << record.dump() << "\n";
+  log.commit();
+  int failed = 0;
+  for (const auto& record : merged.records) failed += record.value("status", "") != "ok";
+  std::printf("kfx sweep merge: %zu runs from %zu shards (%d failed); results: "
+              "%s/results.{csv,json,jsonl}\n",
+              merged.records.size(), shards.size(), failed, out.string().c_str());
+}
+
 }  // namespace
 
 void add_sweep_command(CLI::App& app) {
   auto* command = app.add_subcommand(
       "sweep", "run a plan of configurations over sequences; CSV/JSON of time, frames/s, ATE");
   auto o = std::make_shared<SweepOptions>();
-  command->add_option("plan", o->plan_path, "sweep plan (JSON; see docs/sweep.md)")
-      ->required()
-      ->check(CLI::ExistingFile);
-  command->add_option("--out", o->out_dir, "results folder (results.jsonl/.csv/.json, plan.json)")
-      ->required();
+  // Required unless the merge subcommand is given (checked in the callback).
+  auto* plan_option = command->add_option("plan", o->plan_path, "sweep plan (JSON; see docs/sweep.md)")
+                          ->check(CLI::ExistingFile);
+  command->add_option("--out", o->out_dir, "results folder (results.jsonl/.csv/.json, plan.json)");
   command->add_option("--backend", o->backend, "cpu, cuda or auto (CUDA when a GPU is present)")
       ->capture_default_str();
   command
@@ -557,7 +662,26 @@ void add_sweep_command(CLI::App& app) {
       ->capture_default_str();
   command->add_flag("--dry-run", o->dry_run,
                     "validate the plan and list the runs (done or to run); run nothing");
-  command->callback([o] { run_sweep(*o); });
+  add_parallel_options(*command, o->parallel);
+  command->add_option("--shard", o->shard,
+                      "run only slice i of n (0 <= i < n): the runs at positions j with j mod n = "
+                      "i of the plan's run list; join the slices with `kfx sweep merge`");
+
+  auto* merge = command->add_subcommand(
+      "merge", "join the folders of `kfx sweep --shard i/n` into one sweep's results");
+  auto merge_out = std::make_shared<std::string>();
+  auto merge_shards = std::make_shared<std::vector<std::string>>();
+  merge->add_option("out", *merge_out, "folder for the joined results (new)")->required();
+  merge->add_option("shards", *merge_shards, "the n shard folders")->required();
+  merge->callback([merge_out, merge_shards] { merge_sweep(*merge_out, *merge_shards); });
+
+  command->callback([o, plan_option, merge] {
+    if (merge->parsed()) return;
+    KFX_CHECK(plan_option->count() > 0, "kfx sweep: a plan is required (kfx sweep PLAN.json --out "
+                                        "DIR, or kfx sweep merge OUT SHARD...)");
+    KFX_CHECK(!o->out_dir.empty(), "kfx sweep: --out DIR is required");
+    run_sweep(*o);
+  });
 }
 
 }  // namespace kfx::cli
