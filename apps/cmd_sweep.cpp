@@ -6,9 +6,11 @@
 /// whose (name, sequence, backend) already succeeded with the same settings are skipped.
 /// Energy per frame of the backend's device is measured over the timed passes where a meter is
 /// available (idle power measured once, before the first run, and subtracted).
+/// `--concurrent K` / `--gpus LIST` run K runs at once (per GPU) in worker threads, with the same
+/// results as one at a time (energy then unmeasured); `--shard i/n` runs the runs j with
+/// j mod n = i of the expanded plan, and `kfx sweep merge OUT SHARD...` joins the shards.
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cstdio>
 #include <cstring>
@@ -475,6 +477,7 @@ void run_sweep(const SweepOptions& o) {
   int index = 0;
   int failed = 0;
   bool out_of_time = false;
+  bool stop = false;  // set while a worker writes the results; left set if writing throws
   std::string first_failure;
   const auto run_start = Clock::now();
   run_workers(workers, [&](int worker) {
@@ -482,7 +485,7 @@ void run_sweep(const SweepOptions& o) {
       size_t task_index = 0;
       {
         const std::lock_guard<std::mutex> lock(mutex);
-        if (next >= pending.size() || out_of_time) return;
+        if (next >= pending.size() || out_of_time || stop) return;
         if (o.max_minutes > 0 && std::chrono::duration<double>(Clock::now() - sweep_start).count() >
                                      60 * o.max_minutes) {
           out_of_time = true;
@@ -552,6 +555,9 @@ void run_sweep(const SweepOptions& o) {
       record["date"] = utc_now();
 
       const std::lock_guard<std::mutex> lock(mutex);
+      // A results file that cannot be written ends the sweep: the other workers stop taking
+      // runs, and the error is rethrown once all have ended.
+      stop = true;
       ++index;
       if (record["status"] != "ok") {
         ++failed;
@@ -565,6 +571,7 @@ void run_sweep(const SweepOptions& o) {
       write_tables(out, log, run_keys, meta, plan.max_mj_per_frame);
       report_progress(record, index, to_run,
                       std::chrono::duration<double>(Clock::now() - run_start).count());
+      stop = false;
     }
   });
 
