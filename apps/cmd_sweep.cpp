@@ -18,8 +18,8 @@
 #include <deque>
 #include <filesystem>
 #include <fstream>
-#include <iostream>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <memory>
 #include <mutex>
@@ -65,8 +65,8 @@ struct SweepOptions {
   double max_minutes = 0;                      ///< 0 = no limit; else start no run after it
   double idle_seconds = 2;                     ///< idle power measurement before the first run
   bool dry_run = false;
-  ParallelOptions parallel;                    ///< --concurrent, --gpus
-  std::string shard;                           ///< "i/n" or "" = all runs
+  ParallelOptions parallel;  ///< --concurrent, --gpus
+  std::string shard;         ///< "i/n" or "" = all runs
 };
 
 /// One (run, sequence) of the sweep.
@@ -611,9 +611,10 @@ void merge_sweep(const std::string& out_dir, const std::vector<std::string>& sha
   log.commit();
   int failed = 0;
   for (const auto& record : merged.records) failed += record.value("status", "") != "ok";
-  std::printf("kfx sweep merge: %zu runs from %zu shards (%d failed); results: "
-              "%s/results.{csv,json,jsonl}\n",
-              merged.records.size(), shards.size(), failed, out.string().c_str());
+  std::printf(
+      "kfx sweep merge: %zu runs from %zu shards (%d failed); results: "
+      "%s/results.{csv,json,jsonl}\n",
+      merged.records.size(), shards.size(), failed, out.string().c_str());
 }
 
 }  // namespace
@@ -623,8 +624,9 @@ void add_sweep_command(CLI::App& app) {
       "sweep", "run a plan of configurations over sequences; CSV/JSON of time, frames/s, ATE");
   auto o = std::make_shared<SweepOptions>();
   // Required unless the merge subcommand is given (checked in the callback).
-  auto* plan_option = command->add_option("plan", o->plan_path, "sweep plan (JSON; see docs/sweep.md)")
-                          ->check(CLI::ExistingFile);
+  auto* plan_option =
+      command->add_option("plan", o->plan_path, "sweep plan (JSON; see docs/sweep.md)")
+          ->check(CLI::ExistingFile);
   command->add_option("--out", o->out_dir, "results folder (results.jsonl/.csv/.json, plan.json)");
   command->add_option("--backend", o->backend, "cpu, cuda or auto (CUDA when a GPU is present)")
       ->capture_default_str();
@@ -684,8 +686,9 @@ void add_sweep_command(CLI::App& app) {
 
   command->callback([o, plan_option, merge] {
     if (merge->parsed()) return;
-    KFX_CHECK(plan_option->count() > 0, "kfx sweep: a plan is required (kfx sweep PLAN.json --out "
-                                        "DIR, or kfx sweep merge OUT SHARD...)");
+    KFX_CHECK(plan_option->count() > 0,
+              "kfx sweep: a plan is required (kfx sweep PLAN.json --out "
+              "DIR, or kfx sweep merge OUT SHARD...)");
     KFX_CHECK(!o->out_dir.empty(), "kfx sweep: --out DIR is required");
     run_sweep(*o);
   });

@@ -31,8 +31,8 @@ std::vector<int> parse_gpu_list(const std::string& text) {
 void add_parallel_options(CLI::App& command, ParallelOptions& options) {
   command
       .add_option("--concurrent", options.concurrent,
-                   "independent pipelines at once (per GPU with --gpus), each in its own thread "
-                   "with its own stream and graphs; results equal running them one at a time")
+                  "independent pipelines at once (per GPU with --gpus), each in its own thread "
+                  "with its own stream and graphs; results equal running them one at a time")
       ->check(count_at_least(1, ""))
       ->capture_default_str();
   command.add_option("--gpus", options.gpus,
@@ -81,8 +81,7 @@ WorkerPlan plan_workers(const ParallelOptions& options, const std::string& backe
       gpus = parse_gpu_list(options.gpus);
       for (int g : gpus) {
         KFX_CHECK(g < count, "--gpus " << options.gpus << ": GPU " << g << " does not exist ("
-                                       << count << " visible, indices 0 to " << count - 1
-                                       << ")");
+                                       << count << " visible, indices 0 to " << count - 1 << ")");
       }
     }
   }

@@ -42,8 +42,8 @@ struct WorkerPlan {
 WorkerPlan plan_workers(const ParallelOptions& options, const std::string& backend);
 
 /// Runs body(w) for every worker w of `plan` in its own thread (the calling thread when there
-/// is one worker), after capping its OpenMP threads (WorkerPlan::cpu_threads_per_worker); waits for all. The first
-/// exception thrown by a worker is rethrown here after every thread has ended.
+/// is one worker), after capping its OpenMP threads (WorkerPlan::cpu_threads_per_worker); waits for
+/// all. The first exception thrown by a worker is rethrown here after every thread has ended.
 void run_workers(const WorkerPlan& plan, const std::function<void(int worker)>& body);
 
 /// A meeting point for `count` threads: each arrive_and_wait() returns once all have arrived.

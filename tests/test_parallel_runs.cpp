@@ -260,8 +260,7 @@ TEST(ParallelRunsCli, BenchConcurrentReportsAggregateAndIdenticalTrajectories) {
   EXPECT_EQ(k2["tracked"], k1["tracked"]);
   // The CPU cores are split between the pipelines, not oversubscribed.
   EXPECT_GE(k2["cpu_threads_per_pipeline"].get<int>(), 1);
-  EXPECT_LE(k2["cpu_threads_per_pipeline"].get<int>() * 2,
-            std::max(2, cpu_threads_available()));
+  EXPECT_LE(k2["cpu_threads_per_pipeline"].get<int>() * 2, std::max(2, cpu_threads_available()));
   fs::remove_all(dir);
 }
 

@@ -27,8 +27,8 @@ std::string describe_key(const std::string& key) {
   const auto first = key.find('|');
   const auto second = key.find('|', first + 1);
   if (first == std::string::npos || second == std::string::npos) return key;
-  return "run " + key.substr(0, first) + " on " + key.substr(first + 1, second - first - 1) +
-         " (" + key.substr(second + 1) + ")";
+  return "run " + key.substr(0, first) + " on " + key.substr(first + 1, second - first - 1) + " (" +
+         key.substr(second + 1) + ")";
 }
 
 }  // namespace
@@ -64,10 +64,10 @@ MergedSweep merge_shards(const std::vector<ShardFolder>& shards) {
   KFX_CHECK(!shards.empty(), "no shard folders to merge");
   const ShardFolder& first = shards.front();
   auto shard_of = [](const ShardFolder& s) {
-    KFX_CHECK(s.meta.contains("shard") && s.meta["shard"].is_object() &&
-                  s.meta.contains("run_keys"),
-              "'" << s.folder << "' is not a shard of a sweep (its results.json has no \"shard\"; "
-                  << "shards are written by kfx sweep --shard i/n)");
+    KFX_CHECK(
+        s.meta.contains("shard") && s.meta["shard"].is_object() && s.meta.contains("run_keys"),
+        "'" << s.folder << "' is not a shard of a sweep (its results.json has no \"shard\"; "
+            << "shards are written by kfx sweep --shard i/n)");
     return Shard{s.meta["shard"].value("index", -1), s.meta["shard"].value("count", 0)};
   };
   const int count = shard_of(first).count;
@@ -84,8 +84,8 @@ MergedSweep merge_shards(const std::vector<ShardFolder>& shards) {
                   << "--frames, --repeat, --warmup or backend): shards of different sweeps "
                   << "cannot be merged");
     KFX_CHECK(shard.count == count, "'" << s.folder << "' is shard " << shard.index << "/"
-                                        << shard.count << " but '" << first.folder
-                                        << "' is one of " << count << " shards");
+                                        << shard.count << " but '" << first.folder << "' is one of "
+                                        << count << " shards");
     KFX_CHECK(shard.index >= 0 && shard.index < count,
               "'" << s.folder << "' has a bad shard index " << shard.index);
     KFX_CHECK(!by_index[shard.index], "shard " << shard.index << "/" << count << " given twice: '"

@@ -46,10 +46,9 @@ int cuda_visible_device_count() {
 
 void cuda_select_device(int index) {
   const int count = cuda_visible_device_count();
-  KFX_CHECK(index >= 0 && index < count,
-            "GPU " << index << " does not exist: " << count << " CUDA device"
-                   << (count == 1 ? " is" : "s are") << " visible (indices 0 to " << count - 1
-                   << ")");
+  KFX_CHECK(index >= 0 && index < count, "GPU " << index << " does not exist: " << count
+                                                << " CUDA device" << (count == 1 ? " is" : "s are")
+                                                << " visible (indices 0 to " << count - 1 << ")");
   KFX_CUDA_CHECK(cudaSetDevice(index));
 }
 
