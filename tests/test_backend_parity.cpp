@@ -259,9 +259,9 @@ TEST(BackendParity, PersistentIcpIsBitIdenticalToOneLaunchPerIteration) {
   expect_identical_runs(off, on);
 }
 
-// At 640×480 with one reduction block per 256 pixels (1,200 blocks, more than any GPU keeps
-// resident at 256 threads a block), each block of the persistent launch runs several reduction
-// blocks in turn: still the same bits.
+// At 640×480 with one reduction block per 256 pixels (1,200 blocks: more than fit at once on any
+// current GPU, at most 2,048 threads, i.e. 8 such blocks, per SM and at most 148 SMs), each block
+// of the persistent launch runs several reduction blocks in turn: still the same bits.
 TEST(BackendParity, PersistentIcpWithMoreReductionBlocksThanResidentIsBitIdentical) {
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=8,width=640,height=480";
