@@ -208,22 +208,34 @@ TEST(BackendParity, SyntheticTrajectoriesAgree) {
   EXPECT_LE(diff.p95_m, kTrajectoryP95Tol_m);
 }
 
-void expect_repeatable(BackendKind kind) {
+/// The synthetic sequence's configuration at compute size (every pixel tracked).
+PipelineConfig synthetic_config(const std::string& input) {
   PipelineConfig config;
   set_config_value(config, "integration_rate", "1");
   set_config_value(config, "compute_size_ratio", "1");
-  const std::string input = "synthetic:frames=25,width=320,height=240";
   auto reader = io::open_reader(input);
   for (const auto& [key, value] : reader->recommended_settings())
     set_config_value(config, key, value);
-  const auto a = test::run_sequence(input, config, kind);
-  const auto b = test::run_sequence(input, config, kind);
+  return config;
+}
+
+/// Two runs that must agree bit for bit: same frames tracked, identical poses.
+void expect_identical_runs(const test::SequenceRun& a, const test::SequenceRun& b) {
   ASSERT_EQ(a.trajectory.size(), b.trajectory.size());
-  EXPECT_GT(a.tracked, 15);
+  EXPECT_EQ(a.tracked, b.tracked);
   for (size_t i = 0; i < a.trajectory.size(); ++i) {
     for (int k = 0; k < 3; ++k) ASSERT_EQ(a.trajectory[i].t[k], b.trajectory[i].t[k]) << i;
     for (int k = 0; k < 4; ++k) ASSERT_EQ(a.trajectory[i].q[k], b.trajectory[i].q[k]) << i;
   }
+}
+
+void expect_repeatable(BackendKind kind) {
+  const std::string input = "synthetic:frames=25,width=320,height=240";
+  const PipelineConfig config = synthetic_config(input);
+  const auto a = test::run_sequence(input, config, kind);
+  const auto b = test::run_sequence(input, config, kind);
+  EXPECT_GT(a.tracked, 15);
+  expect_identical_runs(a, b);
 }
 
 TEST(BackendParity, CpuRepeatsBitForBit) { expect_repeatable(BackendKind::kCpu); }
@@ -231,6 +243,62 @@ TEST(BackendParity, CpuRepeatsBitForBit) { expect_repeatable(BackendKind::kCpu);
 TEST(BackendParity, CudaRepeatsBitForBit) {
   KFX_REQUIRE_CUDA();
   expect_repeatable(BackendKind::kCuda);
+}
+
+// cuda_icp_persistent runs a level's iterations in one cooperative launch; it must not change a
+// bit (same per-block sums, same final order, same solve).
+TEST(BackendParity, PersistentIcpIsBitIdenticalToOneLaunchPerIteration) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=25,width=320,height=240";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "cuda_icp_persistent", "off");
+  const auto off = test::run_sequence(input, config, BackendKind::kCuda);
+  set_config_value(config, "cuda_icp_persistent", "on");
+  const auto on = test::run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_GT(off.tracked, 15);
+  expect_identical_runs(off, on);
+}
+
+// At 640×480 with one reduction block per 256 pixels (1,200 blocks: more than fit at once on any
+// current GPU, at most 2,048 threads, i.e. 8 such blocks, per SM and at most 148 SMs), each block
+// of the persistent launch runs several reduction blocks in turn: still the same bits.
+TEST(BackendParity, PersistentIcpWithMoreReductionBlocksThanResidentIsBitIdentical) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=8,width=640,height=480";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "cuda_reduce_blocks", "65535");
+  set_config_value(config, "cuda_icp_persistent", "off");
+  const auto off = test::run_sequence(input, config, BackendKind::kCuda);
+  set_config_value(config, "cuda_icp_persistent", "on");
+  const auto on = test::run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_GT(off.tracked, 2);
+  expect_identical_runs(off, on);
+}
+
+TEST(BackendParity, PersistentIcpTrajectoryAgreesWithCpu) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=60,width=320,height=240";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "cuda_icp_persistent", "on");
+  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
+  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_EQ(cpu.tracked, gpu.tracked);
+  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
+  EXPECT_EQ(diff.pairs, 60);
+  EXPECT_LE(diff.median_m, kTrajectoryMedianTol_m);
+  EXPECT_LE(diff.p95_m, kTrajectoryP95Tol_m);
+}
+
+// The CPU backend ignores the CUDA settings: the same bits with cuda_icp_persistent on.
+TEST(BackendParity, CpuIgnoresPersistentIcp) {
+  const std::string input = "synthetic:frames=8,width=160,height=120";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "volume_resolution", "128");  // fast enough for CI
+  const auto off = test::run_sequence(input, config, BackendKind::kCpu);
+  set_config_value(config, "cuda_icp_persistent", "on");
+  const auto on = test::run_sequence(input, config, BackendKind::kCpu);
+  EXPECT_GT(off.tracked, 2);
+  expect_identical_runs(off, on);
 }
 
 TEST(BackendSelection, CudaRequestWithoutGpuIsAClearError) {

@@ -45,6 +45,7 @@ struct BackendSetup {
     bool programmatic_launch = true;  ///< programmatic dependent launch on sm_90 and newer
     int reduce_blocks = 0;            ///< cap on the ICP reduction grid; 0 = one block per SM
     int z_chunks = 16;                ///< z-ranges each integration column is split into
+    bool icp_persistent = false;      ///< one cooperative launch per pyramid level
   } cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
@@ -108,6 +109,11 @@ class Backend {
   virtual void begin_tracking() = 0;
   /// One ICP iteration at `level`: track, reduce, solve, update; a no-op once converged.
   virtual void icp_iteration(int level, const IcpParams& params) = 0;
+  /// Up to `iterations` ICP iterations at `level`: the same as that many icp_iteration() calls
+  /// (which this default makes); a backend may run them in one go (CUDA: cuda_icp_persistent).
+  virtual void icp_level(int level, int iterations, const IcpParams& params) {
+    for (int i = 0; i < iterations; ++i) icp_iteration(level, params);
+  }
   /// Accept test on the last iteration; reverts the pose on reject.
   virtual void accept_or_revert(const AcceptParams& params) = 0;
   /// Marks this frame as not tracked (tracking skipped).

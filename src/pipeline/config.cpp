@@ -349,6 +349,19 @@ std::vector<ConfigField> build_fields() {
   integer("cuda_z_chunks", "cuda", "", "",
           "cuda: z-ranges each integration column is split into (1..1024; speed only)",
           [](C& c) -> int& { return c.cuda.z_chunks; });
+  {
+    ConfigField f;
+    f.key = "cuda_icp_persistent";
+    f.section = "cuda";
+    f.help =
+        "cuda: each pyramid level's ICP iterations in one cooperative launch with a grid barrier "
+        "per iteration (on|off; speed only, the same bits)";
+    f.parse = [](C& c, const std::string& text) {
+      c.cuda.icp_persistent = parse_bool("cuda_icp_persistent", text);
+    };
+    f.format = [](const C& c) { return std::string(c.cuda.icp_persistent ? "on" : "off"); };
+    t.push_back(f);
+  }
   return t;
 }
 

@@ -27,6 +27,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.cuda.programmatic_launch = config_.cuda.pdl;
   setup_.cuda.reduce_blocks = config_.cuda.reduce_blocks;
   setup_.cuda.z_chunks = config_.cuda.z_chunks;
+  setup_.cuda.icp_persistent = config_.cuda.icp_persistent;
   setup_.device_index = device_index;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
@@ -80,7 +81,7 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
     b.begin_tracking();
     const auto& iterations = config_.tracking.iterations_per_level;
     for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
-      for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, params_.icp);
+      b.icp_level(level, iterations[level], params_.icp);
     }
     b.accept_or_revert(params_.accept);
   } else {

@@ -11,9 +11,11 @@
 #include <cstring>
 #include <cub/device/device_scan.cuh>
 #include <deque>
+#include <iostream>
 #include <map>
 
 #include "backend/backend.hpp"
+#include "backend/cuda/cuda_icp_persistent.cuh"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
 #include "backend/frame_buffers.hpp"
@@ -85,6 +87,19 @@ class CudaBackend final : public Backend {
     reduce_blocks_ = std::max(1, std::min((w * h + kReduceBlock - 1) / kReduceBlock, max_blocks));
     z_chunks_ = std::max(1, setup.cuda.z_chunks);
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
+    if (setup.cuda.icp_persistent) {
+      // Setting cuda_icp_persistent: one cooperative launch per pyramid level. Results are the
+      // same either way, so where the device cannot launch it, ICP falls back (and says so).
+      std::string why_not;
+      persistent_icp_blocks_ = persistent_icp_max_blocks(device_, &why_not);
+      if (persistent_icp_blocks_ > 0) {
+        level_partials_ =
+            DeviceBuffer<double>(2 * static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
+      } else {
+        std::cerr << "kfx: cuda_icp_persistent=on is not possible here (" << why_not
+                  << "); ICP runs one launch per iteration instead\n";
+      }
+    }
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
     // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
@@ -218,20 +233,18 @@ class CudaBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
-    // The level-0 outcome is kept for read_maps().
-    const ImageView<int8_t> outcome =
-        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
-    const TrackArgs a{p,
-                      buffers_.level_vertex[level].view(),
-                      buffers_.level_normal[level].view(),
-                      buffers_.ref_vertex.view(),
-                      buffers_.ref_normal.view(),
-                      state_.data(),
-                      outcome};
-    const int samples = track_grid_width(a) * track_grid_height(a);
-    const int blocks = std::min(reduce_blocks_, (samples + kReduceBlock - 1) / kReduceBlock);
-    launch(icp_iteration_kernel, dim3(blocks), dim3(kReduceBlock), a, state_.data(),
+    const TrackArgs a = track_args(level, p);
+    launch(icp_iteration_kernel, dim3(icp_reduce_blocks(a)), dim3(kReduceBlock), a, state_.data(),
            partials_.data(), blocks_done_.data(), level);
+  }
+
+  void icp_level(int level, int iterations, const IcpParams& p) override {
+    if (persistent_icp_blocks_ == 0) return Backend::icp_level(level, iterations, p);
+    if (replaying_ || iterations <= 0) return;
+    const TrackArgs a = track_args(level, p);
+    launch_icp_level(stream_.get(), persistent_icp_blocks_, a, state_.data(),
+                     level_partials_.data(), level, iterations, icp_reduce_blocks(a));
+    launched();
   }
 
   void accept_or_revert(const AcceptParams& p) override {
@@ -441,6 +454,26 @@ class CudaBackend final : public Backend {
   }
 
  private:
+  /// The ICP arguments of `level`; the level-0 outcome is kept for read_maps().
+  TrackArgs track_args(int level, const IcpParams& p) {
+    const ImageView<int8_t> outcome =
+        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
+    return TrackArgs{p,
+                     buffers_.level_vertex[level].view(),
+                     buffers_.level_normal[level].view(),
+                     buffers_.ref_vertex.view(),
+                     buffers_.ref_normal.view(),
+                     state_.data(),
+                     outcome};
+  }
+
+  /// Blocks of one ICP iteration's reduction: one per kReduceBlock samples, at most
+  /// reduce_blocks_. Both ICP paths use it: it fixes the order of the float sums.
+  int icp_reduce_blocks(const TrackArgs& a) const {
+    const int samples = track_grid_width(a) * track_grid_height(a);
+    return std::min(reduce_blocks_, (samples + kReduceBlock - 1) / kReduceBlock);
+  }
+
   template <class T>
   HostImage<T> download(const DeviceImage<T>& image) {
     HostImage<T> host(image.width(), image.height());
@@ -501,6 +534,9 @@ class CudaBackend final : public Backend {
   int z_chunks_ = 16;
   DeviceBuffer<double> partials_;
   DeviceBuffer<unsigned int> blocks_done_;
+  /// Co-resident blocks of the persistent ICP kernel; 0 = one launch per iteration.
+  int persistent_icp_blocks_ = 0;
+  DeviceBuffer<double> level_partials_;  ///< its two halves of reduce_blocks_ accumulators
   DeviceBuffer<TrackingState> state_;
   // Mesh extraction, allocated on first use (reserve_mesh_extraction()).
   DeviceBuffer<uint32_t> mesh_vertex_count_;     ///< res³ + 1 per-voxel vertex counts

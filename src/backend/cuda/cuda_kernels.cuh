@@ -166,39 +166,32 @@ __device__ inline double block_sum_accumulator(const double (&acc)[kAccumulatorS
   return total;
 }
 
-/// One ICP iteration in one launch: every thread tracks its pixels and accumulates; blocks
-/// write partial sums; the last block to finish adds the partials in block order, solves the
-/// 6×6 system and updates the pose. A no-op once the level has converged.
-__global__ void __launch_bounds__(kReduceBlock)
-    icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
-                         unsigned int* blocks_done, int level) {
-  wait_for_previous_kernel();
-  if (level_converged(*state, level)) return;  // uniform: set by an earlier launch
+/// Tracks the samples of reduction block `block` of a grid of `blocks` (sample i belongs to block
+/// (i / kReduceBlock) % blocks, thread i % kReduceBlock) and sums them over the block with
+/// block_sum_accumulator. Every sum's order depends only on (block, blocks), so any launch that
+/// calls this with the same pair gets the same bits (cuda_icp_persistent relies on it).
+__device__ inline double track_block_partial(const TrackArgs& args, int block, int blocks) {
   const int grid_w = track_grid_width(args);
   const int samples = grid_w * track_grid_height(args);
   double acc[kAccumulatorSize];
 #pragma unroll
   for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0.0;
-  for (int i = blockIdx.x * kReduceBlock + threadIdx.x; i < samples;
-       i += gridDim.x * kReduceBlock) {
+  for (int i = block * kReduceBlock + threadIdx.x; i < samples; i += blocks * kReduceBlock) {
     track_sample(i % grid_w, i / grid_w, args, acc);
   }
-  const double block_total = block_sum_accumulator(acc);
-  __shared__ bool is_last;
-  if (threadIdx.x < kAccumulatorSize) {
-    partials[blockIdx.x * kAccumulatorSize + threadIdx.x] = block_total;
-  }
-  __threadfence();
-  __syncthreads();
-  if (threadIdx.x == 0) is_last = atomicAdd(blocks_done, 1u) == gridDim.x - 1;
-  __syncthreads();
-  if (!is_last) return;
-  // Last block: 8 groups of 32 threads sum interleaved blocks, then the groups in order.
-  __shared__ double group_sums[kReduceBlock / 32][kAccumulatorSize];
-  __shared__ double total[kAccumulatorSize];
+  return block_sum_accumulator(acc);
+}
+
+/// The final reduction of `blocks` partial accumulators (kAccumulatorSize doubles each, block
+/// after block) in a fixed order: 8 groups of 32 threads sum interleaved blocks, then the groups
+/// in order. Called by all kReduceBlock threads of one block; `total` (kAccumulatorSize doubles,
+/// shared memory) holds the result after it returns. Partials are read through L2 (__ldcg): other
+/// blocks wrote them in this launch.
+__device__ inline void sum_partials_in_order(const double* partials, int blocks, double* total) {
+  __shared__ double group_sums[kReduceBlock / kAccumulatorSize][kAccumulatorSize];
   const int value = threadIdx.x % kAccumulatorSize, group = threadIdx.x / kAccumulatorSize;
   double group_sum = 0.0;
-  for (int b = group; b < gridDim.x; b += kReduceBlock / kAccumulatorSize) {
+  for (int b = group; b < blocks; b += kReduceBlock / kAccumulatorSize) {
     group_sum += __ldcg(&partials[b * kAccumulatorSize + value]);
   }
   group_sums[group][value] = group_sum;
@@ -209,6 +202,28 @@ __global__ void __launch_bounds__(kReduceBlock)
     total[threadIdx.x] = t;
   }
   __syncthreads();
+}
+
+/// One ICP iteration in one launch: every thread tracks its pixels and accumulates; blocks
+/// write partial sums; the last block to finish adds the partials in block order, solves the
+/// 6×6 system and updates the pose. A no-op once the level has converged.
+__global__ void __launch_bounds__(kReduceBlock)
+    icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
+                         unsigned int* blocks_done, int level) {
+  wait_for_previous_kernel();
+  if (level_converged(*state, level)) return;  // uniform: set by an earlier launch
+  const double block_total = track_block_partial(args, blockIdx.x, gridDim.x);
+  __shared__ bool is_last;
+  if (threadIdx.x < kAccumulatorSize) {
+    partials[blockIdx.x * kAccumulatorSize + threadIdx.x] = block_total;
+  }
+  __threadfence();
+  __syncthreads();
+  if (threadIdx.x == 0) is_last = atomicAdd(blocks_done, 1u) == gridDim.x - 1;
+  __syncthreads();
+  if (!is_last) return;
+  __shared__ double total[kAccumulatorSize];
+  sum_partials_in_order(partials, gridDim.x, total);
   if (threadIdx.x == 0) {
     icp_update(*state, total, args.icp_threshold, level);
     *blocks_done = 0;  // ready for the next launch

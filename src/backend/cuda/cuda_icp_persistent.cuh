@@ -1,0 +1,110 @@
+#pragma once
+/// Persistent ICP (setting cuda_icp_persistent): all iterations of one pyramid level in ONE
+/// cooperative launch instead of one launch per iteration. Each iteration, every block tracks
+/// and sums exactly the pixels a block of icp_iteration_kernel would (track_block_partial with
+/// the same block index and grid width), the grid meets at one barrier, and then EVERY block
+/// adds the partials in the same fixed order (sum_partials_in_order) and runs the same
+/// single-thread solve on its own shared-memory copy of the state. Same inputs, same code, so
+/// every block reaches the same bits, the same pose and the same convergence decision without a
+/// second barrier (the design note in ../shared/DESIGN.md measured barriers as the cost), and
+/// the results are bit-identical to the launch-per-iteration path.
+
+#include <cooperative_groups.h>
+
+#include <algorithm>
+#include <string>
+
+#include "backend/cuda/cuda_check.hpp"
+#include "backend/cuda/cuda_kernels.cuh"
+
+namespace kfx::cuda {
+
+/// Runs up to `iterations` ICP iterations of `level` (stopping once converged) as the grid of
+/// `blocks` reduction blocks that icp_iteration_kernel would use. The launch may have fewer
+/// physical blocks than `blocks` (all must be co-resident); each then handles the reduction
+/// blocks blockIdx.x, blockIdx.x + gridDim.x, ... one after the other, so the sums are the same.
+/// `partials` holds 2 × blocks accumulators: iterations alternate halves, so a block may write
+/// the next iteration's partials while a slower block still reads this one's.
+/// `args.state` is ignored: the kernel tracks against its shared-memory copy of `*state`, and
+/// block 0 writes that copy back at the end.
+__global__ void __launch_bounds__(kReduceBlock)
+    icp_level_kernel(TrackArgs args, TrackingState* state, double* partials, int level,
+                     int iterations, int blocks) {
+  wait_for_previous_kernel();
+  const cooperative_groups::grid_group grid = cooperative_groups::this_grid();
+  // The state in shared memory: every block keeps its own copy and updates it identically.
+  __shared__ TrackingState s;
+  __shared__ double total[kAccumulatorSize];
+  using Word = unsigned long long;
+  static_assert(sizeof(TrackingState) % sizeof(Word) == 0, "TrackingState copied as 8-byte words");
+  constexpr int kWords = sizeof(TrackingState) / sizeof(Word);
+  for (int i = threadIdx.x; i < kWords; i += kReduceBlock) {
+    reinterpret_cast<Word*>(&s)[i] = __ldcg(reinterpret_cast<const Word*>(state) + i);
+  }
+  __syncthreads();
+  if (level_converged(s, level)) return;  // uniform: every block read the same state
+  TrackArgs a = args;
+  a.state = &s;
+  for (int iteration = 0; iteration < iterations; ++iteration) {
+    double* part = partials + (iteration % 2) * blocks * kAccumulatorSize;
+    for (int b = blockIdx.x; b < blocks; b += gridDim.x) {
+      const double block_total = track_block_partial(a, b, blocks);
+      if (threadIdx.x < kAccumulatorSize) part[b * kAccumulatorSize + threadIdx.x] = block_total;
+      __syncthreads();  // block_sum_accumulator's shared sums are reused by the next block
+    }
+    // The one grid-wide barrier of the iteration: every partial is written (release/acquire at
+    // device scope inside grid.sync; the reads below go through L2 besides).
+    grid.sync();
+    sum_partials_in_order(part, blocks, total);
+    if (threadIdx.x == 0) icp_update(s, total, a.icp_threshold, level);
+    __syncthreads();
+    // Uniform across the grid: every block computed the same update from the same sums.
+    if (level_converged(s, level)) break;
+  }
+  if (blockIdx.x == 0) {
+    for (int i = threadIdx.x; i < kWords; i += kReduceBlock) {
+      reinterpret_cast<Word*>(state)[i] = reinterpret_cast<const Word*>(&s)[i];
+    }
+  }
+}
+
+/// How many blocks of icp_level_kernel this device can keep resident at once (the most a
+/// cooperative launch may have); 0 with `why_not` set when it cannot launch it at all.
+inline int persistent_icp_max_blocks(int device, std::string* why_not) {
+  int cooperative = 0;
+  KFX_CUDA_CHECK(cudaDeviceGetAttribute(&cooperative, cudaDevAttrCooperativeLaunch, device));
+  if (!cooperative) {
+    *why_not = "this device does not support cooperative launches";
+    return 0;
+  }
+  int per_sm = 0, sms = 0;
+  KFX_CUDA_CHECK(
+      cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, icp_level_kernel, kReduceBlock, 0));
+  KFX_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
+  if (per_sm < 1) {
+    *why_not = "no block of the persistent ICP kernel fits on a multiprocessor";
+    return 0;
+  }
+  return per_sm * sms;
+}
+
+/// Launches icp_level_kernel cooperatively on `stream` with min(blocks, max_blocks) blocks
+/// (max_blocks from persistent_icp_max_blocks). Capturable in a CUDA graph (a cooperative
+/// kernel node). No programmatic dependent launch: the kernel starts after its predecessor.
+inline void launch_icp_level(cudaStream_t stream, int max_blocks, const TrackArgs& args,
+                             TrackingState* state, double* partials, int level, int iterations,
+                             int blocks) {
+  cudaLaunchConfig_t config{};
+  config.gridDim = dim3(static_cast<unsigned>(std::min(blocks, max_blocks)));
+  config.blockDim = dim3(kReduceBlock);
+  config.stream = stream;
+  cudaLaunchAttribute attribute{};
+  attribute.id = cudaLaunchAttributeCooperative;
+  attribute.val.cooperative = 1;
+  config.attrs = &attribute;
+  config.numAttrs = 1;
+  KFX_CUDA_CHECK(cudaLaunchKernelEx(&config, icp_level_kernel, args, state, partials, level,
+                                    iterations, blocks));
+}
+
+}  // namespace kfx::cuda
