@@ -34,8 +34,9 @@ struct Fixture {
     kfx::PipelineConfig config;
     config.volume.size_m = 4.0f;
     config.integration.rate = 1;
-    pipeline = std::make_unique<kfx::Pipeline>(config, kfx::Intrinsics{525, 525, 319.5f, 239.5f},
-                                               640, 480, kfx::parse_backend_kind(kfx::bench::backend_name()));
+    pipeline =
+        std::make_unique<kfx::Pipeline>(config, kfx::Intrinsics{525, 525, 319.5f, 239.5f}, 640, 480,
+                                        kfx::parse_backend_kind(kfx::bench::backend_name()));
     for (int i = 0; i < 6; ++i) pipeline->process(frame);  // tracked frames from frame 4 on
   }
 };

@@ -311,9 +311,7 @@ class CudaBackend final : public Backend {
     return voxels;
   }
 
-  void reserve_mesh_extraction() override {
-    mesh_.reserve(setup_.volume_res_vox, stream_.get());
-  }
+  void reserve_mesh_extraction() override { mesh_.reserve(setup_.volume_res_vox, stream_.get()); }
 
   MeshView extract_mesh() override {
     // In stream order after any submitted frame.

@@ -1,5 +1,3 @@
-#include "backend/cuda/cuda_mesh.hpp"
-
 #include <thrust/iterator/counting_iterator.h>
 #include <thrust/iterator/transform_iterator.h>
 
@@ -7,7 +5,7 @@
 #include <cub/device/device_scan.cuh>
 
 #include "backend/backend.hpp"
-#include "backend/cuda/cuda_kernels.cuh"
+#include "backend/cuda/cuda_mesh.hpp"
 
 namespace kfx::cuda {
 namespace {
@@ -42,6 +40,21 @@ __global__ void brick_sign_kernel(VolumeView volume, uint8_t* signs) {
       signs[bx + blockIdx.y * b + static_cast<long long>(blockIdx.z) * b * b] =
           static_cast<uint8_t>(brick);
     }
+  }
+}
+
+/// Marching cubes: one thread per column segment (x, y, z slab = blockIdx.z); pass 1 (count)
+/// or pass 2 (write).
+template <bool kWrite>
+__global__ void marching_cubes_kernel(MarchingCubesArgs args) {
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  const int res = args.volume.res;
+  if (x >= res || y >= res) return;
+  if (kWrite) {
+    mc_write_column(x, y, blockIdx.z, args);
+  } else {
+    mc_count_column(x, y, blockIdx.z, args);
   }
 }
 
@@ -82,13 +95,12 @@ void MeshExtractor::reserve(int res, cudaStream_t stream) {
   const size_t bricks = static_cast<size_t>(bricks_per_side(res));
   const size_t segments = kMcZChunks * r * r + 1;
   size_t run_scan_bytes = 0, segment_scan_bytes = 0;
-  KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(nullptr, run_scan_bytes,
-                                               run_vertex_counts(MarchingCubesArgs{}, runs),
-                                               static_cast<uint32_t*>(nullptr),
-                                               static_cast<int>(runs + 1)));
   KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(
-      nullptr, segment_scan_bytes, static_cast<uint32_t*>(nullptr),
-      static_cast<uint32_t*>(nullptr), static_cast<int>(segments)));
+      nullptr, run_scan_bytes, run_vertex_counts(MarchingCubesArgs{}, runs),
+      static_cast<uint32_t*>(nullptr), static_cast<int>(runs + 1)));
+  KFX_CUDA_CHECK(
+      cub::DeviceScan::ExclusiveSum(nullptr, segment_scan_bytes, static_cast<uint32_t*>(nullptr),
+                                    static_cast<uint32_t*>(nullptr), static_cast<int>(segments)));
   scan_bytes_ = std::max(run_scan_bytes, segment_scan_bytes);
   const size_t needed = mesh_scratch_bytes(res) + scan_bytes_;
   size_t free_bytes = 0, total_bytes = 0;
@@ -107,11 +119,10 @@ void MeshExtractor::reserve(int res, cudaStream_t stream) {
   scan_temp_ = DeviceBuffer<uint8_t>(scan_bytes_);
   table_ = DeviceBuffer<McTable>(1);
   totals_ = PinnedBuffer<uint32_t>(2);
-  KFX_CUDA_CHECK(cudaMemcpyAsync(table_.data(), &kMcTable, sizeof(McTable),
-                                 cudaMemcpyHostToDevice, stream));
-  // The last segment count stays 0, so its exclusive sum is the total.
   KFX_CUDA_CHECK(
-      cudaMemsetAsync(triangle_count_.data(), 0, triangle_count_.bytes(), stream));
+      cudaMemcpyAsync(table_.data(), &kMcTable, sizeof(McTable), cudaMemcpyHostToDevice, stream));
+  // The last segment count stays 0, so its exclusive sum is the total.
+  KFX_CUDA_CHECK(cudaMemsetAsync(triangle_count_.data(), 0, triangle_count_.bytes(), stream));
   res_ = res;
 }
 
@@ -124,8 +135,8 @@ MeshView MeshExtractor::extract(const VolumeView& volume, cudaStream_t stream, b
   const int res = volume.res, b = bricks_per_side(res);
   const long long bricks = static_cast<long long>(b) * b * b;
   // Pass 0: which bricks can hold any of the mesh (one read of the volume).
-  brick_sign_kernel<<<dim3((res + 31) / 32, b, b), dim3(32, 8), 0, stream>>>(
-      volume, brick_signs_.data());
+  brick_sign_kernel<<<dim3((res + 31) / 32, b, b), dim3(32, 8), 0, stream>>>(volume,
+                                                                             brick_signs_.data());
   launched();
   brick_active_kernel<<<static_cast<unsigned>((bricks + 255) / 256), 256, 0, stream>>>(
       brick_signs_.data(), brick_active_.data(), b);

@@ -29,18 +29,18 @@ class MeshExtractor {
  private:
   int res_ = 0;
   size_t scan_bytes_ = 0;
-  DeviceBuffer<uint8_t> brick_signs_;        ///< mc_brick_sign_bits per brick
-  DeviceBuffer<uint8_t> brick_active_;       ///< mc_brick_active per brick
-  DeviceBuffer<uint8_t> vertex_count_;       ///< a byte per voxel, by run
-  DeviceBuffer<uint32_t> run_offset_;        ///< mc_run_count() + 1
-  DeviceBuffer<uint32_t> triangle_count_;    ///< kMcZChunks·res² + 1 per-segment counts
-  DeviceBuffer<uint32_t> triangle_offset_;   ///< their exclusive sum
+  DeviceBuffer<uint8_t> brick_signs_;       ///< mc_brick_sign_bits per brick
+  DeviceBuffer<uint8_t> brick_active_;      ///< mc_brick_active per brick
+  DeviceBuffer<uint8_t> vertex_count_;      ///< a byte per voxel, by run
+  DeviceBuffer<uint32_t> run_offset_;       ///< mc_run_count() + 1
+  DeviceBuffer<uint32_t> triangle_count_;   ///< kMcZChunks·res² + 1 per-segment counts
+  DeviceBuffer<uint32_t> triangle_offset_;  ///< their exclusive sum
   DeviceBuffer<uint8_t> scan_temp_;
   DeviceBuffer<McTable> table_;
-  PinnedBuffer<uint32_t> totals_;            ///< vertices, triangles
-  DeviceBuffer<MeshVertex> vertices_;        ///< grow to the largest mesh so far (with slack)
+  PinnedBuffer<uint32_t> totals_;      ///< vertices, triangles
+  DeviceBuffer<MeshVertex> vertices_;  ///< grow to the largest mesh so far (with slack)
   DeviceBuffer<MeshTriangle> triangles_;
-  PinnedBuffer<MeshVertex> host_vertices_;   ///< what extract() returns
+  PinnedBuffer<MeshVertex> host_vertices_;  ///< what extract() returns
   PinnedBuffer<MeshTriangle> host_triangles_;
 };
 
