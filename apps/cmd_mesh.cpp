@@ -58,7 +58,7 @@ void mesh_command(const MeshOptions& o) {
   backend->reserve_mesh_extraction();
   // Timed as a benchmark would: extraction, compaction and the copy to the host, per repeat.
   std::vector<double> extraction_ms;
-  Mesh mesh;
+  MeshView mesh;
   for (int i = 0; i < o.repeat; ++i) {
     const auto start = std::chrono::steady_clock::now();
     mesh = backend->extract_mesh();
@@ -68,9 +68,14 @@ void mesh_command(const MeshOptions& o) {
   }
   std::vector<double> sorted = extraction_ms;
   std::sort(sorted.begin(), sorted.end());
-  if (!is_identity(volume.T_trajectory_volume)) transform_mesh(mesh, volume.T_trajectory_volume);
+  Mesh moved;  // a copy only when the mesh must move into the trajectory frame
+  if (!is_identity(volume.T_trajectory_volume)) {
+    moved = Mesh(mesh);
+    transform_mesh(moved, volume.T_trajectory_volume);
+    mesh = moved;
+  }
   output::write_run_mesh(o.out_path, mesh, o.volume_path, false);
-  std::cout << mesh.vertices.size() << " vertices, " << mesh.triangles.size() << " triangles ("
+  std::cout << mesh.vertex_count << " vertices, " << mesh.triangle_count << " triangles ("
             << backend->name() << ") -> " << o.out_path << "\n"
             << "extraction " << sorted[sorted.size() / 2] << " ms median of " << o.repeat
             << " (first " << extraction_ms.front() << " ms, min " << sorted.front() << " ms)\n";

@@ -220,10 +220,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   std::string written = "trajectory.txt slambench.log stats.json config.txt";
   if (outputs.mesh) {
     const auto start = Clock::now();
-    const Mesh mesh = pipeline.backend().extract_mesh();
+    const MeshView mesh = pipeline.backend().extract_mesh();
     stats["mesh_extraction_s"] = seconds_since(start);
-    stats["mesh_vertices"] = mesh.vertices.size();
-    stats["mesh_triangles"] = mesh.triangles.size();
+    stats["mesh_vertices"] = mesh.vertex_count;
+    stats["mesh_triangles"] = mesh.triangle_count;
     output::write_run_mesh(out_dir + "/mesh.ply", mesh, options.input, options.quiet);
     written += " mesh.ply";
   }

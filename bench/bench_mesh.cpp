@@ -2,23 +2,21 @@
 /// the host, i.e. Backend::extract_mesh() end to end) on an analytic volume at 256³ and 512³:
 /// the inside of a box (walls 5 % in from the volume's faces) holding three spheres, observed
 /// everywhere, about 5·res² vertices. Run:
-///   build/release/bench/kfx_bench_mesh [--backend=cuda]
+///   build/release/bench/kfx_bench_mesh [--backend=cuda] (bench_main.hpp)
 /// Figures belong in bench/RESULTS.md with machine, date, commit and command.
 
 #include <benchmark/benchmark.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <map>
 #include <memory>
 #include <string>
 
 #include "backend/backend.hpp"
+#include "bench_main.hpp"
 
 namespace {
-
-std::string g_backend = "cpu";
 
 /// Signed distance (metres) to the scene at p: negative inside the walls and the spheres.
 float scene_distance_m(float x, float y, float z, float size_m) {
@@ -61,7 +59,7 @@ kfx::Backend& mesher(int res) {
   setup.pyramid_levels = 1;
   setup.volume_res_vox = res;
   setup.volume_size_m = size_m;
-  backend = kfx::make_backend(kfx::parse_backend_kind(g_backend), setup);
+  backend = kfx::make_backend(kfx::parse_backend_kind(kfx::bench::backend_name()), setup);
   backend->upload_volume(voxels);
   backend->extract_mesh();  // warm-up: scratch allocated, pages touched
   return *backend;
@@ -71,9 +69,9 @@ void BM_ExtractMesh(benchmark::State& state) {
   kfx::Backend& backend = mesher(static_cast<int>(state.range(0)));
   size_t vertices = 0, triangles = 0;
   for (auto _ : state) {
-    const kfx::Mesh mesh = backend.extract_mesh();
-    vertices = mesh.vertices.size();
-    triangles = mesh.triangles.size();
+    const kfx::MeshView mesh = backend.extract_mesh();
+    vertices = mesh.vertex_count;
+    triangles = mesh.triangle_count;
   }
   state.counters["vertices"] = static_cast<double>(vertices);
   state.counters["triangles"] = static_cast<double>(triangles);
@@ -82,12 +80,3 @@ void BM_ExtractMesh(benchmark::State& state) {
 BENCHMARK(BM_ExtractMesh)->Arg(256)->Arg(512)->Unit(benchmark::kMillisecond)->UseRealTime();
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) {
-    if (std::strncmp(argv[i], "--backend=", 10) == 0) g_backend = argv[i] + 10;
-  }
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  return 0;
-}

@@ -9,11 +9,10 @@
 #include <memory>
 #include <string>
 
+#include "bench_main.hpp"
 #include "pipeline/pipeline.hpp"
 
 namespace {
-
-std::string g_backend = "cpu";
 
 /// A 640×480 depth frame: a plane 2.5 m away tilted in x, a box 1.5 m away in the middle.
 kfx::HostImage<uint16_t> make_frame() {
@@ -35,8 +34,9 @@ struct Fixture {
     kfx::PipelineConfig config;
     config.volume.size_m = 4.0f;
     config.integration.rate = 1;
-    pipeline = std::make_unique<kfx::Pipeline>(config, kfx::Intrinsics{525, 525, 319.5f, 239.5f},
-                                               640, 480, kfx::parse_backend_kind(g_backend));
+    pipeline =
+        std::make_unique<kfx::Pipeline>(config, kfx::Intrinsics{525, 525, 319.5f, 239.5f}, 640, 480,
+                                        kfx::parse_backend_kind(kfx::bench::backend_name()));
     for (int i = 0; i < 6; ++i) pipeline->process(frame);  // tracked frames from frame 4 on
   }
 };
@@ -61,12 +61,3 @@ void BM_Frame(benchmark::State& state) { report_stages(state, nullptr); }
 BENCHMARK(BM_Frame)->Unit(benchmark::kMillisecond)->MinTime(2.0);
 
 }  // namespace
-
-int main(int argc, char** argv) {
-  for (int i = 1; i < argc; ++i) {
-    if (std::strncmp(argv[i], "--backend=", 10) == 0) g_backend = argv[i] + 10;
-  }
-  benchmark::Initialize(&argc, argv);
-  benchmark::RunSpecifiedBenchmarks();
-  return 0;
-}

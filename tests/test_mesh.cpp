@@ -37,7 +37,7 @@ Mesh mesh_of(const std::vector<Voxel>& voxels, int res, float size_m,
              BackendKind kind = BackendKind::kCpu) {
   auto backend = mesher(kind, res, size_m);
   backend->upload_volume(voxels);
-  return backend->extract_mesh();
+  return Mesh(backend->extract_mesh());
 }
 
 std::string read_bytes(const std::string& path) {
@@ -157,6 +157,120 @@ TEST(MarchingCubes, SameBytesRunToRun) {
   const std::string a = read_bytes(dir + "/a.ply");
   EXPECT_GT(a.size(), 10000u);
   EXPECT_EQ(a, read_bytes(dir + "/b.ply"));
+}
+
+/// The mesh from the kernel bodies alone, serially, with no brick skipped: what the backends,
+/// which skip inactive bricks, must reproduce byte for byte.
+Mesh unskipped_mesh(std::vector<Voxel> voxels, int res, float size_m) {
+  const long long runs = mc_run_count(res);
+  std::vector<uint8_t> counts(static_cast<size_t>(runs) << kBrickShift);
+  std::vector<uint32_t> run_offsets(static_cast<size_t>(runs) + 1);
+  std::vector<uint32_t> triangle_offsets(static_cast<size_t>(kMcZChunks) * res * res + 1, 0);
+  MarchingCubesArgs a{VolumeView{voxels.data(), res, size_m, nullptr},
+                      &kMcTable,
+                      nullptr,
+                      counts.data(),
+                      run_offsets.data(),
+                      triangle_offsets.data(),
+                      nullptr,
+                      nullptr};
+  for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
+    for (int y = 0; y < res; ++y) {
+      for (int x = 0; x < res; ++x) mc_count_column(x, y, chunk, a);
+    }
+  }
+  uint32_t vertices = 0, triangles = 0;
+  for (long long run = 0; run < runs; ++run) {
+    run_offsets[run] = vertices;
+    vertices += mc_run_vertex_count(a, run);
+  }
+  run_offsets.back() = vertices;
+  for (uint32_t& offset : triangle_offsets) {
+    const uint32_t count = offset;
+    offset = triangles;
+    triangles += count;
+  }
+  Mesh mesh;
+  mesh.vertices.resize(vertices);
+  mesh.triangles.resize(triangles);
+  a.vertices = mesh.vertices.data();
+  a.triangles = mesh.triangles.data();
+  for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
+    for (int y = 0; y < res; ++y) {
+      for (int x = 0; x < res; ++x) mc_write_column(x, y, chunk, a);
+    }
+  }
+  return mesh;
+}
+
+bool same_bytes(const Mesh& a, const Mesh& b) {
+  return a.vertices.size() == b.vertices.size() && a.triangles.size() == b.triangles.size() &&
+         std::memcmp(a.vertices.data(), b.vertices.data(),
+                     a.vertices.size() * sizeof(MeshVertex)) == 0 &&
+         std::memcmp(a.triangles.data(), b.triangles.data(),
+                     a.triangles.size() * sizeof(MeshTriangle)) == 0;
+}
+
+TEST(MarchingCubes, SkippingInactiveBricksChangesNoByte) {
+  // 61³ (bricks and runs cut short at the far faces), a sphere with a third of the volume
+  // unobserved: bricks far from the surface, unobserved and cut by the boundary all occur.
+  constexpr int res = 61;
+  auto voxels = test::sphere_volume(res, kSize_m, kCentre, kRadius_m, 0.1f);
+  const VolumeView view{voxels.data(), res, kSize_m, nullptr};
+  for (int z = 0; z < res; ++z) {
+    for (int y = 0; y < res; ++y) {
+      for (int x = 0; x < res / 3; ++x) view.at(x, y, z).weight = 0;
+    }
+  }
+  const Mesh reference = unskipped_mesh(voxels, res, kSize_m);
+  ASSERT_GT(reference.triangles.size(), 1000u);
+  // Some bricks are inactive, so the backends do skip.
+  const int b = bricks_per_side(res);
+  std::vector<uint8_t> signs;
+  for (int bz = 0; bz < b; ++bz) {
+    for (int by = 0; by < b; ++by) {
+      for (int bx = 0; bx < b; ++bx) signs.push_back(mc_brick_sign_bits(view, bx, by, bz));
+    }
+  }
+  int inactive = 0;
+  for (int i = 0; i < b * b * b; ++i) {
+    inactive += !mc_brick_active(signs.data(), i % b, i / b % b, i / b / b, b);
+  }
+  EXPECT_GT(inactive, b * b * b / 2);
+  EXPECT_TRUE(same_bytes(mesh_of(voxels, res, kSize_m), reference));
+  std::string why_not;
+  if (cuda_available(&why_not)) {
+    // The GPU's positions may differ by FMA rounding; its topology and order may not.
+    const Mesh gpu = mesh_of(voxels, res, kSize_m, BackendKind::kCuda);
+    ASSERT_EQ(gpu.vertices.size(), reference.vertices.size());
+    ASSERT_EQ(gpu.triangles.size(), reference.triangles.size());
+    EXPECT_EQ(std::memcmp(gpu.triangles.data(), reference.triangles.data(),
+                          gpu.triangles.size() * sizeof(MeshTriangle)),
+              0);
+  }
+}
+
+TEST(MarchingCubes, ExtractionReusesTheBackendsArrays) {
+  // A later extraction of a smaller mesh writes into the same arrays (nothing allocated) and
+  // gives its own sizes and bytes; on the GPU as on the CPU when a GPU is present.
+  const auto small_volume = test::sphere_volume(kRes, kSize_m, kCentre, 0.5f * kRadius_m, 0.1f);
+  const Mesh reference = unskipped_mesh(small_volume, kRes, kSize_m);
+  std::vector<BackendKind> kinds{BackendKind::kCpu};
+  if (cuda_available()) kinds.push_back(BackendKind::kCuda);
+  for (BackendKind kind : kinds) {
+    auto backend = mesher(kind, kRes, kSize_m);
+    backend->upload_volume(test::sphere_volume(kRes, kSize_m, kCentre, kRadius_m, 0.1f));
+    const MeshView large = backend->extract_mesh();
+    const size_t large_vertices = large.vertex_count;
+    backend->upload_volume(small_volume);
+    const MeshView small = backend->extract_mesh();
+    EXPECT_EQ(small.vertices, large.vertices);
+    EXPECT_EQ(small.triangles, large.triangles);
+    EXPECT_LT(small.vertex_count, large_vertices / 2);
+    ASSERT_EQ(small.vertex_count, reference.vertices.size());
+    ASSERT_EQ(small.triangle_count, reference.triangles.size());
+    if (kind == BackendKind::kCpu) EXPECT_TRUE(same_bytes(Mesh(small), reference));
+  }
 }
 
 TEST(MeshPly, HeaderAndBinaryLayout) {

@@ -88,7 +88,7 @@ MeshedRun run_and_mesh(const std::string& input, PipelineConfig config, int max_
     run.poses.push_back(pipeline.process(frame.depth_mm).T_world_cam);
     if (keep_frames) run.frames.push_back(frame);
   }
-  run.mesh = pipeline.backend().extract_mesh();
+  run.mesh = Mesh(pipeline.backend().extract_mesh());
   run.volume_size_m = pipeline.config().volume.size_m;
   run.voxel_m = run.volume_size_m / pipeline.config().volume.resolution_vox;
   return run;

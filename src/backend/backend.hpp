@@ -147,18 +147,25 @@ class Backend {
   /// naming the sizes. extract_mesh() calls it when needed.
   virtual void reserve_mesh_extraction() = 0;
   /// Marching cubes over the current volume (kernels/marching_cubes.hpp): the mesh on the
-  /// host, in the volume frame (metres), the same bytes run to run.
-  virtual Mesh extract_mesh() = 0;
+  /// host, in the volume frame (metres), the same bytes run to run. The arrays are the
+  /// backend's own, reused by every call (pinned memory on the GPU, so the copy from the device
+  /// is one direct transfer and nothing is allocated or zero-filled per call): the view stays
+  /// valid until the next extract_mesh() or the backend's end; Mesh(view) keeps a copy.
+  virtual MeshView extract_mesh() = 0;
   /// Replaces the volume by `voxels` (res³ of them, x fastest), e.g. a saved volume; marks
   /// every brick touched.
   virtual void upload_volume(const std::vector<Voxel>& voxels) = 0;
 };
 
-/// Scratch bytes mesh extraction needs for a res³ volume: one vertex offset per voxel and one
-/// triangle offset per column segment (the mesh itself comes on top).
+/// Scratch bytes mesh extraction needs for a res³ volume: a byte per voxel (owned vertex
+/// counts), a vertex offset per run of 8 voxels, a triangle count and offset per column segment,
+/// and two flags per 8³ brick (the mesh itself comes on top).
 inline size_t mesh_scratch_bytes(int res) {
   const size_t r = static_cast<size_t>(res);
-  return sizeof(uint32_t) * (r * r * r + 1 + kMcZChunks * r * r + 1);
+  const size_t runs = static_cast<size_t>(mc_run_count(res));
+  const size_t bricks = static_cast<size_t>(bricks_per_side(res));
+  return (runs << kBrickShift) + sizeof(uint32_t) * (runs + 1) +
+         2 * sizeof(uint32_t) * (kMcZChunks * r * r + 1) + 2 * bricks * bricks * bricks;
 }
 
 /// Backend choice on the command line.

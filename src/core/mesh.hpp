@@ -1,7 +1,9 @@
 #pragma once
 /// A host triangle mesh: vertices with normals, indexed triangles. Plain data; written to PLY by
-/// src/output/mesh_ply.*.
+/// src/output/mesh_ply.*. MeshView is the same mesh in host memory someone else owns (a
+/// backend's reused, on the GPU pinned, output buffers), so extraction needs no fresh copy.
 
+#include <cstddef>
 #include <cstdint>
 #include <vector>
 
@@ -23,10 +25,28 @@ struct MeshTriangle {
   int32_t v[3];
 };
 
+/// A read-only view of an indexed triangle mesh in host memory owned elsewhere.
+struct MeshView {
+  const MeshVertex* vertices = nullptr;
+  size_t vertex_count = 0;
+  const MeshTriangle* triangles = nullptr;
+  size_t triangle_count = 0;
+};
+
 /// An indexed triangle mesh on the host.
 struct Mesh {
   std::vector<MeshVertex> vertices;
   std::vector<MeshTriangle> triangles;
+
+  Mesh() = default;
+  /// An owning copy of `view`.
+  explicit Mesh(const MeshView& view)
+      : vertices(view.vertices, view.vertices + view.vertex_count),
+        triangles(view.triangles, view.triangles + view.triangle_count) {}
+  /// A view of this mesh (valid while it is neither changed nor destroyed).
+  operator MeshView() const {
+    return MeshView{vertices.data(), vertices.size(), triangles.data(), triangles.size()};
+  }
 };
 
 }  // namespace kfx

@@ -1,16 +1,21 @@
 #pragma once
 /// Marching cubes over the TSDF's zero crossing (Lorensen and Cline 1987), one segment of a
-/// voxel column per call (column (x, y), z slab `chunk` of kMcZChunks), in two passes that both
+/// voxel column per call (column (x, y), z slab `chunk` of kMcZChunks), in passes that both
 /// backends run:
-///   1. mc_count_column: each voxel's count of owned vertices (0–3) and each segment's triangle
-///      count; the backend turns both into exclusive prefix sums (voxel order; segment order:
-///      slab, then column);
-///   2. mc_write_column: vertices at their voxel's offset, triangles at their segment's offset.
+///   0. mc_voxel_sign_bits / mc_brick_active: an 8³ brick is active when it and its +1
+///      neighbours hold both a weighted voxel inside (tsdf < 0) and one outside; only active
+///      bricks can own a vertex or start a meshed cell, so the passes below skip the others;
+///   1. mc_count_column: each voxel's count of owned vertices (0–3, one byte) and each
+///      segment's triangle count; the backend turns them into exclusive prefix sums: vertices
+///      per run of 8 voxels along x (mc_run_vertex_count, runs in voxel order), triangles per
+///      segment (slab, then column);
+///   2. mc_write_column: vertices at their voxel's offset (its run's offset plus the counts of
+///      the voxels before it in the run), triangles at their segment's offset.
 /// A vertex belongs to the edge it lies on, and the edge to the voxel it starts from, so
-/// neighbouring cells share vertices; the output order depends on the volume alone, so the mesh
-/// is the same bytes run to run. Cells are the cubes between 8 voxel centres; a cell is meshed
-/// only when all 8 corners have weight > 0. Positions are in the volume frame (metres), the
-/// frame trajectory.txt uses.
+/// neighbouring cells share vertices; the output order depends on the volume alone (vertices in
+/// voxel order), so the mesh is the same bytes run to run. Cells are the cubes between 8 voxel
+/// centres; a cell is meshed only when all 8 corners have weight > 0. Positions are in the
+/// volume frame (metres), the frame trajectory.txt uses.
 
 #include <cstdint>
 
@@ -21,13 +26,18 @@
 
 namespace kfx {
 
-/// Arguments of both marching-cubes passes.
+/// Arguments of the marching-cubes passes.
 struct MarchingCubesArgs {
   VolumeView volume;     ///< read only
   const McTable* table;  ///< kMcTable (a device copy on the GPU)
-  /// res³ + 1 entries: pass 1 writes each voxel's vertex count; pass 2 reads their exclusive
-  /// prefix sum (entry res³ = the vertex total).
-  uint32_t* vertex_offset;
+  /// One flag per 8³ brick (mc_brick_active); 0: the passes skip the brick. Null: no skipping.
+  const uint8_t* brick_active;
+  /// mc_run_count() · 8 bytes: pass 1 writes each voxel's owned vertex count at
+  /// mc_count_index() (bricks skipped keep whatever was there: nothing reads them).
+  uint8_t* vertex_count;
+  /// mc_run_count() + 1 entries: the exclusive prefix sum of mc_run_vertex_count() (entry
+  /// mc_run_count() = the vertex total); pass 2 reads it.
+  const uint32_t* run_vertex_offset;
   /// kMcZChunks·res² + 1 entries, by segment (mc_segment): pass 1 writes triangle counts,
   /// pass 2 reads their exclusive prefix sum.
   uint32_t* triangle_offset;
@@ -48,6 +58,89 @@ KFX_HD inline long long mc_segment(int x, int y, int chunk, int res) {
 KFX_HD inline void mc_slab(int chunk, int res, int& z_begin, int& z_end) {
   z_begin = chunk * res / kMcZChunks;
   z_end = (chunk + 1) * res / kMcZChunks;
+}
+
+/// Runs of 8 voxels along x (one brick wide) in a res³ volume: bricks_per_side(res) per row.
+KFX_HD inline long long mc_run_count(int res) {
+  return static_cast<long long>(bricks_per_side(res)) * res * res;
+}
+
+/// Index of the run holding voxel (x, y, z); runs are in voxel order (x fastest, then y, z).
+KFX_HD inline long long mc_run_index(int x, int y, int z, int res) {
+  return (x >> kBrickShift) +
+         static_cast<long long>(bricks_per_side(res)) * (y + static_cast<long long>(z) * res);
+}
+
+/// Byte of voxel (x, y, z) in MarchingCubesArgs::vertex_count: its run's 8 bytes, then x & 7.
+KFX_HD inline long long mc_count_index(int x, int y, int z, int res) {
+  return (mc_run_index(x, y, z, res) << kBrickShift) + (x & ((1 << kBrickShift) - 1));
+}
+
+/// Sign bits of one voxel for brick activity: 1 weighted and inside (tsdf < 0), 2 weighted and
+/// outside, 0 unobserved.
+KFX_HD inline uint8_t mc_voxel_sign_bits(const Voxel& voxel) {
+  if (voxel.weight <= 0) return 0;
+  return voxel.tsdf < 0 ? 1 : 2;
+}
+
+/// OR of mc_voxel_sign_bits over the voxels of brick (bx, by, bz).
+KFX_HD inline uint8_t mc_brick_sign_bits(const VolumeView& v, int bx, int by, int bz) {
+  const int side = 1 << kBrickShift;
+  const int x_end = mini(v.res, (bx + 1) * side), y_end = mini(v.res, (by + 1) * side),
+            z_end = mini(v.res, (bz + 1) * side);
+  uint8_t bits = 0;
+  for (int z = bz * side; z < z_end; ++z) {
+    for (int y = by * side; y < y_end; ++y) {
+      for (int x = bx * side; x < x_end; ++x) bits |= mc_voxel_sign_bits(v.at(x, y, z));
+    }
+  }
+  return bits;
+}
+
+/// 1 when brick (bx, by, bz) may own a vertex or start a meshed cell: it and the bricks at +1
+/// along any axes (they hold every voxel its edges and cells reach) have both a weighted voxel
+/// inside and one outside. `sign_bits` holds mc_brick_sign_bits per brick (b³, x fastest).
+/// An edge with a vertex joins a weighted inside and a weighted outside voxel; a meshed cell's
+/// corners are weighted with both signs; so a brick that is not active owns no vertex and no
+/// triangle, and skipping it changes nothing in the mesh.
+KFX_HD inline uint8_t mc_brick_active(const uint8_t* sign_bits, int bx, int by, int bz, int b) {
+  uint8_t bits = 0;
+  for (int k = 0; k < 8; ++k) {
+    const int x = bx + (k & 1), y = by + ((k >> 1) & 1), z = bz + (k >> 2);
+    if (x < b && y < b && z < b) bits |= sign_bits[x + y * b + static_cast<long long>(z) * b * b];
+  }
+  return bits == 3 ? 1 : 0;
+}
+
+/// True when the passes skip voxel (x, y, z): its brick is not active.
+KFX_HD inline bool mc_skips_voxel(const MarchingCubesArgs& a, int x, int y, int z) {
+  return a.brick_active && !a.brick_active[a.volume.brick_index(x, y, z)];
+}
+
+/// Vertices owned by the voxels of run `run` (0 for a run of a skipped brick, whose bytes are
+/// stale): the scan input for MarchingCubesArgs::run_vertex_offset.
+KFX_HD inline uint32_t mc_run_vertex_count(const MarchingCubesArgs& a, long long run) {
+  const int res = a.volume.res, b = bricks_per_side(res);
+  const int bx = static_cast<int>(run % b);
+  const long long row = run / b;
+  const int y = static_cast<int>(row % res), z = static_cast<int>(row / res);
+  const int x = bx << kBrickShift;
+  if (mc_skips_voxel(a, x, y, z)) return 0;
+  const uint8_t* counts = a.vertex_count + (run << kBrickShift);
+  const int lanes = mini(1 << kBrickShift, res - x);  // the last run of a row may be short
+  uint32_t total = 0;
+  for (int k = 0; k < lanes; ++k) total += counts[k];
+  return total;
+}
+
+/// Index of the first vertex voxel (x, y, z) owns (pass 2, after the scan).
+KFX_HD inline uint32_t mc_voxel_vertex_offset(const MarchingCubesArgs& a, int x, int y, int z) {
+  const int res = a.volume.res;
+  const long long run = mc_run_index(x, y, z, res);
+  const uint8_t* counts = a.vertex_count + (run << kBrickShift);
+  uint32_t offset = a.run_vertex_offset[run];
+  for (int k = 0; k < (x & ((1 << kBrickShift) - 1)); ++k) offset += counts[k];
+  return offset;
 }
 
 /// Crossing positions closer than this fraction of a voxel to a corner are moved to it, so
@@ -147,14 +240,17 @@ KFX_HD inline void mc_count_column(int x, int y, int chunk, const MarchingCubesA
   int z_begin = 0, z_end = 0;
   mc_slab(chunk, v.res, z_begin, z_end);
   for (int z = z_begin; z < z_end; ++z) {
-    const long long voxel =
-        x + static_cast<long long>(y) * v.res + static_cast<long long>(z) * v.res * v.res;
-    // Fast path: a voxel without weight owns nothing and starts no valid cell.
-    if (v.at(x, y, z).weight <= 0) {
-      a.vertex_offset[voxel] = 0;
+    if (mc_skips_voxel(a, x, y, z)) {  // on to the next brick
+      z |= (1 << kBrickShift) - 1;
       continue;
     }
-    a.vertex_offset[voxel] = mc_owned_vertex_count(v, x, y, z);
+    uint8_t& count = a.vertex_count[mc_count_index(x, y, z, v.res)];
+    // Fast path: a voxel without weight owns nothing and starts no valid cell.
+    if (v.at(x, y, z).weight <= 0) {
+      count = 0;
+      continue;
+    }
+    count = static_cast<uint8_t>(mc_owned_vertex_count(v, x, y, z));
     triangles += a.table->triangle_count[mc_cell_case(v, x, y, z)];
   }
   a.triangle_offset[mc_segment(x, y, chunk, v.res)] = triangles;
@@ -164,8 +260,7 @@ KFX_HD inline void mc_count_column(int x, int y, int chunk, const MarchingCubesA
 /// the voxel's offset plus the vertices it owns on lower axes.
 KFX_HD inline int32_t mc_vertex_index(const MarchingCubesArgs& a, int x, int y, int z, int axis) {
   const VolumeView& v = a.volume;
-  uint32_t index = a.vertex_offset[x + static_cast<long long>(y) * v.res +
-                                   static_cast<long long>(z) * v.res * v.res];
+  uint32_t index = mc_voxel_vertex_offset(a, x, y, z);
   for (int lower = 0; lower < axis; ++lower) index += mc_edge_has_vertex(v, x, y, z, lower);
   return static_cast<int32_t>(index);
 }
@@ -178,9 +273,12 @@ KFX_HD inline void mc_write_column(int x, int y, int chunk, const MarchingCubesA
   int z_begin = 0, z_end = 0;
   mc_slab(chunk, v.res, z_begin, z_end);
   for (int z = z_begin; z < z_end; ++z) {
+    if (mc_skips_voxel(a, x, y, z)) {
+      z |= (1 << kBrickShift) - 1;
+      continue;
+    }
     if (v.at(x, y, z).weight <= 0) continue;
-    uint32_t vertex = a.vertex_offset[x + static_cast<long long>(y) * v.res +
-                                      static_cast<long long>(z) * v.res * v.res];
+    uint32_t vertex = mc_voxel_vertex_offset(a, x, y, z);
     for (int axis = 0; axis < 3; ++axis) {
       if (mc_edge_has_vertex(v, x, y, z, axis))
         a.vertices[vertex++] = mc_edge_vertex(v, x, y, z, axis);

@@ -11,7 +11,7 @@ namespace kfx::output {
 /// Writes `mesh` as PLY (output/mesh_ply.hpp) with a header comment naming `source`, the frame
 /// and units. An empty mesh (nothing integrated) is still a valid PLY; a note on stderr says so
 /// (unless quiet).
-void write_run_mesh(const std::string& path, const Mesh& mesh, const std::string& source,
+void write_run_mesh(const std::string& path, const MeshView& mesh, const std::string& source,
                     bool quiet);
 
 }  // namespace kfx::output

@@ -33,19 +33,19 @@ std::string ply_header(size_t vertices, size_t faces, const std::string& comment
 
 }  // namespace
 
-void write_mesh_ply(const std::string& path, const Mesh& mesh, const std::string& comment) {
+void write_mesh_ply(const std::string& path, const MeshView& mesh, const std::string& comment) {
   KFX_CHECK(comment.find('\n') == std::string::npos, "PLY comment must be one line");
   io::BinaryOutputFile file(path, "mesh");
-  const std::string header = ply_header(mesh.vertices.size(), mesh.triangles.size(), comment);
+  const std::string header = ply_header(mesh.vertex_count, mesh.triangle_count, comment);
   std::fwrite(header.data(), 1, header.size(), file.file());
-  if (!mesh.vertices.empty()) {
-    std::fwrite(mesh.vertices.data(), sizeof(MeshVertex), mesh.vertices.size(), file.file());
+  if (mesh.vertex_count > 0) {
+    std::fwrite(mesh.vertices, sizeof(MeshVertex), mesh.vertex_count, file.file());
   }
   // Faces in chunks: each is 13 bytes, so they are packed into a buffer first.
   std::vector<unsigned char> buffer;
   constexpr size_t kChunk = 1 << 16;
-  for (size_t begin = 0; begin < mesh.triangles.size(); begin += kChunk) {
-    const size_t end = std::min(mesh.triangles.size(), begin + kChunk);
+  for (size_t begin = 0; begin < mesh.triangle_count; begin += kChunk) {
+    const size_t end = std::min(mesh.triangle_count, begin + kChunk);
     buffer.resize((end - begin) * kFaceBytes);
     unsigned char* out = buffer.data();
     for (size_t i = begin; i < end; ++i) {

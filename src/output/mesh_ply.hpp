@@ -10,7 +10,7 @@ namespace kfx::output {
 
 /// Writes `mesh` to `path` (under a temporary name, renamed when complete). `comment` goes
 /// into the header (one line, e.g. the frame and units). Throws kfx::Error naming the file.
-void write_mesh_ply(const std::string& path, const Mesh& mesh, const std::string& comment);
+void write_mesh_ply(const std::string& path, const MeshView& mesh, const std::string& comment);
 
 /// Reads a PLY written by write_mesh_ply (exactly that layout; comments allowed). Throws
 /// kfx::Error naming the file and the problem otherwise.

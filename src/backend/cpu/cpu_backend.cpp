@@ -227,13 +227,18 @@ class CpuBackend final : public Backend {
   std::vector<Voxel> read_volume() override { return buffers_.volume; }
 
   void reserve_mesh_extraction() override {
-    if (!mesh_vertex_offset_.empty()) return;
+    if (!mesh_run_offset_.empty()) return;
     const size_t r = static_cast<size_t>(setup_.volume_res_vox);
+    const size_t runs = static_cast<size_t>(mc_run_count(setup_.volume_res_vox));
+    const size_t bricks = static_cast<size_t>(bricks_per_side(setup_.volume_res_vox));
     try {
-      mesh_vertex_offset_.assign(r * r * r + 1, 0);
+      mesh_vertex_count_.assign(runs << kBrickShift, 0);
       mesh_triangle_offset_.assign(kMcZChunks * r * r + 1, 0);
+      mesh_brick_signs_.assign(bricks * bricks * bricks, 0);
+      mesh_brick_active_.assign(bricks * bricks * bricks, 0);
+      mesh_run_offset_.assign(runs + 1, 0);
     } catch (const std::bad_alloc&) {
-      mesh_vertex_offset_ = {};
+      mesh_run_offset_ = {};
       KFX_FAIL("mesh extraction of a "
                << r << "^3 volume needs "
                << mesh_scratch_bytes(setup_.volume_res_vox) / double(1 << 30)
@@ -242,29 +247,63 @@ class CpuBackend final : public Backend {
     }
   }
 
-  Mesh extract_mesh() override {
+  MeshView extract_mesh() override {
     reserve_mesh_extraction();
     const int res = setup_.volume_res_vox;
-    MarchingCubesArgs a{buffers_.volume_view(),       &kMcTable, mesh_vertex_offset_.data(),
-                        mesh_triangle_offset_.data(), nullptr,   nullptr};
+    const VolumeView volume = buffers_.volume_view();
+    // Pass 0: which bricks can hold any of the mesh.
+    const int b = bricks_per_side(res);
+#pragma omp parallel for collapse(2) schedule(static)
+    for (int bz = 0; bz < b; ++bz) {
+      for (int by = 0; by < b; ++by) {
+        for (int bx = 0; bx < b; ++bx) {
+          mesh_brick_signs_[bx + static_cast<size_t>(by) * b + static_cast<size_t>(bz) * b * b] =
+              mc_brick_sign_bits(volume, bx, by, bz);
+        }
+      }
+    }
+#pragma omp parallel for schedule(static)
+    for (long long i = 0; i < static_cast<long long>(mesh_brick_active_.size()); ++i) {
+      const int bx = static_cast<int>(i % b), by = static_cast<int>(i / b % b),
+                bz = static_cast<int>(i / b / b);
+      mesh_brick_active_[i] = mc_brick_active(mesh_brick_signs_.data(), bx, by, bz, b);
+    }
+    MarchingCubesArgs a{volume,
+                        &kMcTable,
+                        mesh_brick_active_.data(),
+                        mesh_vertex_count_.data(),
+                        mesh_run_offset_.data(),
+                        mesh_triangle_offset_.data(),
+                        nullptr,
+                        nullptr};
 #pragma omp parallel for collapse(2) schedule(dynamic, 4)
     for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
       for (int y = 0; y < res; ++y) {
         for (int x = 0; x < res; ++x) mc_count_column(x, y, chunk, a);
       }
     }
-    Mesh mesh;
-    mesh.vertices.resize(exclusive_scan(mesh_vertex_offset_, "vertices"));
-    mesh.triangles.resize(exclusive_scan(mesh_triangle_offset_, "triangles"));
-    a.vertices = mesh.vertices.data();
-    a.triangles = mesh.triangles.data();
+    // Compaction: vertex offsets per run, triangle offsets per segment.
+    uint64_t vertex_total = 0;
+    for (size_t run = 0; run + 1 < mesh_run_offset_.size(); ++run) {
+      mesh_run_offset_[run] = static_cast<uint32_t>(vertex_total);
+      vertex_total += mc_run_vertex_count(a, static_cast<long long>(run));
+    }
+    check_mesh_total(vertex_total, "vertices");
+    mesh_run_offset_.back() = static_cast<uint32_t>(vertex_total);
+    const size_t triangle_total = exclusive_scan(mesh_triangle_offset_, "triangles");
+    // The output arrays only grow: no allocation or zero fill once they are large enough.
+    if (mesh_vertices_.size() < vertex_total) mesh_vertices_.resize(vertex_total);
+    if (mesh_triangles_.size() < triangle_total) mesh_triangles_.resize(triangle_total);
+    a.vertices = mesh_vertices_.data();
+    a.triangles = mesh_triangles_.data();
 #pragma omp parallel for collapse(2) schedule(dynamic, 4)
     for (int chunk = 0; chunk < kMcZChunks; ++chunk) {
       for (int y = 0; y < res; ++y) {
         for (int x = 0; x < res; ++x) mc_write_column(x, y, chunk, a);
       }
     }
-    return mesh;
+    return MeshView{mesh_vertices_.data(), static_cast<size_t>(vertex_total),
+                    mesh_triangles_.data(), triangle_total};
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
@@ -276,6 +315,12 @@ class CpuBackend final : public Backend {
   }
 
  private:
+  /// Throws kfx::Error when a mesh has more `what` than PLY's int indices address.
+  static void check_mesh_total(uint64_t total, const char* what) {
+    KFX_CHECK(total <= 0x7fffffffu,
+              "the mesh has " << total << " " << what << ", more than PLY's int indices address");
+  }
+
   /// Exclusive prefix sum in place over all but the last entry, which receives the total.
   static size_t exclusive_scan(std::vector<uint32_t>& counts, const char* what) {
     uint64_t total = 0;
@@ -284,8 +329,7 @@ class CpuBackend final : public Backend {
       counts[i] = static_cast<uint32_t>(total);
       total += count;
     }
-    KFX_CHECK(total <= 0x7fffffffu,
-              "the mesh has " << total << " " << what << ", more than PLY's int indices address");
+    check_mesh_total(total, what);
     counts.back() = static_cast<uint32_t>(total);
     return static_cast<size_t>(total);
   }
@@ -294,8 +338,14 @@ class CpuBackend final : public Backend {
   HostImage<uint16_t> input_mm_;
   FrameBuffers<HostImage, HostArray> buffers_;
   std::vector<double> row_partials_;
-  std::vector<uint32_t> mesh_vertex_offset_;    ///< res³ + 1, allocated on first use
+  // Mesh extraction (MarchingCubesArgs), allocated on first use.
+  std::vector<uint8_t> mesh_brick_signs_;       ///< mc_brick_sign_bits per brick
+  std::vector<uint8_t> mesh_brick_active_;      ///< mc_brick_active per brick
+  std::vector<uint8_t> mesh_vertex_count_;      ///< a byte per voxel, by run
+  std::vector<uint32_t> mesh_run_offset_;       ///< mc_run_count() + 1
   std::vector<uint32_t> mesh_triangle_offset_;  ///< kMcZChunks·res² + 1
+  std::vector<MeshVertex> mesh_vertices_;       ///< the mesh: grows to the largest so far
+  std::vector<MeshTriangle> mesh_triangles_;
   TrackingState state_{};
   std::array<std::chrono::steady_clock::time_point, static_cast<int>(Stage::kCount)> stage_start_;
   std::array<double, static_cast<int>(Stage::kCount)> stage_ms_{};

@@ -9,7 +9,6 @@
 #include <array>
 #include <cstdlib>
 #include <cstring>
-#include <cub/device/device_scan.cuh>
 #include <deque>
 #include <iostream>
 #include <map>
@@ -18,6 +17,7 @@
 #include "backend/cuda/cuda_icp_persistent.cuh"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
+#include "backend/cuda/cuda_mesh.hpp"
 #include "backend/frame_buffers.hpp"
 
 namespace kfx {
@@ -341,106 +341,11 @@ class CudaBackend final : public Backend {
     return voxels;
   }
 
-  void reserve_mesh_extraction() override {
-    if (mesh_vertex_count_.size() > 0) return;
-    const size_t r = static_cast<size_t>(setup_.volume_res_vox);
-    const size_t voxels = r * r * r + 1, columns = kMcZChunks * r * r + 1;
-    size_t scan_voxels_bytes = 0, scan_columns_bytes = 0;
-    KFX_CUDA_CHECK(
-        cub::DeviceScan::ExclusiveSum(nullptr, scan_voxels_bytes, static_cast<uint32_t*>(nullptr),
-                                      static_cast<uint32_t*>(nullptr), static_cast<int>(voxels)));
-    KFX_CUDA_CHECK(
-        cub::DeviceScan::ExclusiveSum(nullptr, scan_columns_bytes, static_cast<uint32_t*>(nullptr),
-                                      static_cast<uint32_t*>(nullptr), static_cast<int>(columns)));
-    const size_t scan_bytes = std::max(scan_voxels_bytes, scan_columns_bytes);
-    const size_t needed = 2 * mesh_scratch_bytes(setup_.volume_res_vox) + scan_bytes;
-    size_t free_bytes = 0, total_bytes = 0;
-    KFX_CUDA_CHECK(cudaMemGetInfo(&free_bytes, &total_bytes));
-    KFX_CHECK(needed < free_bytes, "mesh extraction of a "
-                                       << r << "^3 volume needs " << needed / double(1 << 30)
-                                       << " GiB of GPU memory beyond the volume, "
-                                       << free_bytes / double(1 << 30)
-                                       << " GiB are free (use --no-mesh or a smaller -v)");
-    mesh_vertex_count_ = DeviceBuffer<uint32_t>(voxels);
-    mesh_vertex_offset_ = DeviceBuffer<uint32_t>(voxels);
-    mesh_triangle_count_ = DeviceBuffer<uint32_t>(columns);
-    mesh_triangle_offset_ = DeviceBuffer<uint32_t>(columns);
-    mesh_scan_temp_ = DeviceBuffer<uint8_t>(scan_bytes);
-    mesh_table_ = DeviceBuffer<McTable>(1);
-    mesh_totals_ = PinnedBuffer<uint32_t>(2);
-    KFX_CUDA_CHECK(cudaMemcpyAsync(mesh_table_.data(), &kMcTable, sizeof(McTable),
-                                   cudaMemcpyHostToDevice, stream_.get()));
-    // The last count of each stays 0, so its exclusive sum is the total.
-    KFX_CUDA_CHECK(
-        cudaMemsetAsync(mesh_vertex_count_.data(), 0, mesh_vertex_count_.bytes(), stream_.get()));
-    KFX_CUDA_CHECK(cudaMemsetAsync(mesh_triangle_count_.data(), 0, mesh_triangle_count_.bytes(),
-                                   stream_.get()));
-  }
+  void reserve_mesh_extraction() override { mesh_.reserve(setup_.volume_res_vox, stream_.get()); }
 
-  Mesh extract_mesh() override {
-    reserve_mesh_extraction();
-    const int res = setup_.volume_res_vox;
-    const int voxels = static_cast<int>(mesh_vertex_count_.size());
-    const int columns = static_cast<int>(mesh_triangle_count_.size());
-    // Pass 1: counts per voxel and per column segment (in stream order after any submitted
-    // frame).
-    MarchingCubesArgs a{buffers_.volume_view(),
-                        mesh_table_.data(),
-                        mesh_vertex_count_.data(),
-                        mesh_triangle_count_.data(),
-                        nullptr,
-                        nullptr};
-    const dim3 block(32, 4);
-    dim3 grid = grid_for(res, res, block);
-    grid.z = kMcZChunks;
-    launch(marching_cubes_kernel<false>, grid, block, a);
-    // Compaction: exclusive sums give every voxel's first vertex and every segment's first
-    // triangle (CUB's scan is deterministic: integer sums).
-    size_t scan_bytes = mesh_scan_temp_.size();
-    KFX_CUDA_CHECK(
-        cub::DeviceScan::ExclusiveSum(mesh_scan_temp_.data(), scan_bytes, mesh_vertex_count_.data(),
-                                      mesh_vertex_offset_.data(), voxels, stream_.get()));
-    launched();
-    scan_bytes = mesh_scan_temp_.size();
-    KFX_CUDA_CHECK(cub::DeviceScan::ExclusiveSum(
-        mesh_scan_temp_.data(), scan_bytes, mesh_triangle_count_.data(),
-        mesh_triangle_offset_.data(), columns, stream_.get()));
-    launched();
-    KFX_CUDA_CHECK(cudaMemcpyAsync(mesh_totals_.data(), mesh_vertex_offset_.data() + voxels - 1,
-                                   sizeof(uint32_t), cudaMemcpyDeviceToHost, stream_.get()));
-    KFX_CUDA_CHECK(cudaMemcpyAsync(mesh_totals_.data() + 1,
-                                   mesh_triangle_offset_.data() + columns - 1, sizeof(uint32_t),
-                                   cudaMemcpyDeviceToHost, stream_.get()));
-    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    const size_t vertex_total = mesh_totals_.data()[0], triangle_total = mesh_totals_.data()[1];
-    KFX_CHECK(vertex_total <= 0x7fffffffu,
-              "the mesh has " << vertex_total << " vertices, more than PLY's int indices address");
-    if (mesh_vertices_.size() < vertex_total)
-      mesh_vertices_ = DeviceBuffer<MeshVertex>(vertex_total);
-    if (mesh_triangles_.size() < triangle_total) {
-      mesh_triangles_ = DeviceBuffer<MeshTriangle>(triangle_total);
-    }
-    // Pass 2: vertices and triangles at their offsets, then one copy each to the host.
-    a.vertex_offset = mesh_vertex_offset_.data();
-    a.triangle_offset = mesh_triangle_offset_.data();
-    a.vertices = mesh_vertices_.data();
-    a.triangles = mesh_triangles_.data();
-    launch(marching_cubes_kernel<true>, grid, block, a);
-    Mesh mesh;
-    mesh.vertices.resize(vertex_total);
-    mesh.triangles.resize(triangle_total);
-    if (vertex_total > 0) {
-      KFX_CUDA_CHECK(cudaMemcpyAsync(mesh.vertices.data(), mesh_vertices_.data(),
-                                     vertex_total * sizeof(MeshVertex), cudaMemcpyDeviceToHost,
-                                     stream_.get()));
-    }
-    if (triangle_total > 0) {
-      KFX_CUDA_CHECK(cudaMemcpyAsync(mesh.triangles.data(), mesh_triangles_.data(),
-                                     triangle_total * sizeof(MeshTriangle), cudaMemcpyDeviceToHost,
-                                     stream_.get()));
-    }
-    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    return mesh;
+  MeshView extract_mesh() override {
+    // In stream order after any submitted frame.
+    return mesh_.extract(buffers_.volume_view(), stream_.get(), debug_sync_);
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
@@ -538,16 +443,7 @@ class CudaBackend final : public Backend {
   int persistent_icp_blocks_ = 0;
   DeviceBuffer<double> level_partials_;  ///< its two halves of reduce_blocks_ accumulators
   DeviceBuffer<TrackingState> state_;
-  // Mesh extraction, allocated on first use (reserve_mesh_extraction()).
-  DeviceBuffer<uint32_t> mesh_vertex_count_;     ///< res³ + 1 per-voxel vertex counts
-  DeviceBuffer<uint32_t> mesh_vertex_offset_;    ///< their exclusive sum
-  DeviceBuffer<uint32_t> mesh_triangle_count_;   ///< kMcZChunks·res² + 1 per-segment counts
-  DeviceBuffer<uint32_t> mesh_triangle_offset_;  ///< their exclusive sum
-  DeviceBuffer<uint8_t> mesh_scan_temp_;
-  DeviceBuffer<McTable> mesh_table_;
-  DeviceBuffer<MeshVertex> mesh_vertices_;  ///< grows to the largest mesh so far
-  DeviceBuffer<MeshTriangle> mesh_triangles_;
-  PinnedBuffer<uint32_t> mesh_totals_;
+  MeshExtractor mesh_;  ///< its buffers are allocated on first use
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;
   std::array<double, kStages> last_stage_ms_{};
   std::array<bool, kStages> stage_timed_{};

@@ -7,7 +7,6 @@
 
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
-#include "kernels/marching_cubes.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
@@ -74,22 +73,6 @@ struct RenderVolumeBody {
     render_volume_pixel(x, y, a);
   }
 };
-
-/// Marching cubes: one thread per column segment (x, y, z slab = blockIdx.z); pass 1 (count)
-/// or pass 2 (write).
-template <bool kWrite>
-__global__ void marching_cubes_kernel(MarchingCubesArgs args) {
-  wait_for_previous_kernel();
-  const int x = blockIdx.x * blockDim.x + threadIdx.x;
-  const int y = blockIdx.y * blockDim.y + threadIdx.y;
-  const int res = args.volume.res;
-  if (x >= res || y >= res) return;
-  if (kWrite) {
-    mc_write_column(x, y, blockIdx.z, args);
-  } else {
-    mc_count_column(x, y, blockIdx.z, args);
-  }
-}
 
 /// mm → metres, and the frame's largest depth (block max, then one atomic per block; a max is
 /// exact whatever the order, so this stays repeatable).
