@@ -58,10 +58,10 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
   const auto exact = trajectory_with({});
   // The defaults, written out, change nothing (the robust scale and the reference depth only
   // matter once their technique is on).
-  EXPECT_TRUE(identical(exact, trajectory_with({"max_depth_m=0", "icp_robust=none",
-                                                "icp_robust_scale_m=0.003", "icp_noise_weight=off",
-                                                "integration_weight=constant",
-                                                "integration_weight_ref_m=0.5"})));
+  EXPECT_TRUE(identical(
+      exact, trajectory_with({"max_depth_m=0", "icp_robust=none", "icp_robust_scale_m=0.003",
+                              "icp_noise_weight=off", "integration_weight=constant",
+                              "integration_weight_ref_m=0.5"})));
   const std::vector<std::vector<std::string>> on = {
       {"max_depth_m=2.5"},
       {"icp_robust=huber", "icp_robust_scale_m=0.002"},
@@ -108,7 +108,7 @@ TEST(QualityKnobs, MaxDepthDropsFartherDepthAndItsBound) {
   for (int x = 0; x < 4; ++x) largest = std::max(largest, mm_to_m_pixel(x, 0, a));
   EXPECT_FLOAT_EQ(m(0, 0), 1.0f);
   EXPECT_FLOAT_EQ(m(1, 0), 2.999f);
-  EXPECT_EQ(m(2, 0), 0.0f);  // beyond 3 m: no data
+  EXPECT_EQ(m(2, 0), 0.0f);          // beyond 3 m: no data
   EXPECT_FLOAT_EQ(largest, 2.999f);  // the frame's largest depth (integration bound) too
   a.max_depth_m = 0.0f;              // the default keeps everything
   EXPECT_FLOAT_EQ(mm_to_m_pixel(2, 0, a), 3.001f);

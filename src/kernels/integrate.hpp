@@ -47,8 +47,9 @@ struct IntegrateParams {
   Intrinsics k;          ///< compute-size intrinsics
   float mu_m = 0.1f;     ///< truncation distance
   int max_weight = 100;  ///< weight cap, in measurements
-  IntegrationWeight weight_mode = IntegrationWeight::kConstant;  ///< new measurement's weight
-  float weight_ref_m = 1.0f;  ///< depth up to which a measurement has full weight (kDepth*)
+  /// A new measurement's weight, and the depth up to which it is full (the kDepth modes):
+  IntegrationWeight weight_mode = IntegrationWeight::kConstant;
+  float weight_ref_m = 1.0f;
   /// Approximations (exact values first):
   int z_stride = 1;  ///< update 1 voxel in z_stride, rotating with the frame
   IntegrationPattern pattern = IntegrationPattern::kSlices;
@@ -178,8 +179,7 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
       voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
       voxel.weight = static_cast<int16_t>(min_f(weight + 1.0f, static_cast<float>(a.max_weight)));
     } else {
-      const float w =
-          measurement_weight(p, depth, static_cast<int>(u), static_cast<int>(v), a);
+      const float w = measurement_weight(p, depth, static_cast<int>(u), static_cast<int>(v), a);
       const float tsdf =
           clampf((weight * (voxel.tsdf * kTsdfInvScale) + w * sdf) / (weight + w), -1.0f, 1.0f);
       voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);

@@ -48,8 +48,8 @@ struct IcpParams {
   float normal_threshold = 0.8f;  ///< dot(R·n, ref_n) below this → −5
   float icp_threshold = 1e-5f;    ///< a level has converged when |update| is below this
   int stride_px = 1;              ///< track one pixel per stride × stride block (perforation)
-  IcpRobust robust = IcpRobust::kNone;                  ///< robust weight of the residual
-  float robust_scale_m = 0.01f;                         ///< its scale c, metres
+  IcpRobust robust = IcpRobust::kNone;                 ///< robust weight of the residual
+  float robust_scale_m = 0.01f;                        ///< its scale c, metres
   IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
 };
 

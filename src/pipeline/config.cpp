@@ -361,23 +361,23 @@ std::vector<ConfigField> build_fields() {
   num("max_depth_m", "quality", "", "",
       "preprocess: depths beyond this many metres are dropped (read as no data; 0 = keep all)",
       [](C& c) -> float& { return c.quality.max_depth_m; });
-  quality_choice("icp_robust",
-                 "track: robust weight of each inlier's point-to-plane residual e in the normal "
-                 "equations: none (least squares) | huber (c/|e| beyond c) | tukey ((1-(e/c)^2)^2, "
-                 "0 beyond c); c = icp_robust_scale_m",
-                 Choices<IcpRobust>{{"none", IcpRobust::kNone},
-                                    {"huber", IcpRobust::kHuber},
-                                    {"tukey", IcpRobust::kTukey}},
-                 [](C& c) -> IcpRobust& { return c.quality.icp_robust; });
+  quality_choice(
+      "icp_robust",
+      "track: robust weight of each inlier's point-to-plane residual e in the normal "
+      "equations: none (least squares) | huber (c/|e| beyond c) | tukey ((1-(e/c)^2)^2, "
+      "0 beyond c); c = icp_robust_scale_m",
+      Choices<IcpRobust>{
+          {"none", IcpRobust::kNone}, {"huber", IcpRobust::kHuber}, {"tukey", IcpRobust::kTukey}},
+      [](C& c) -> IcpRobust& { return c.quality.icp_robust; });
   num("icp_robust_scale_m", "quality", "", "",
       "track: scale c of icp_robust, metres of point-to-plane residual (> 0)",
       [](C& c) -> float& { return c.quality.icp_robust_scale_m; });
-  quality_choice("icp_noise_weight",
-                 "track: weight each inlier by its depth noise: off | nguyen (1/sigma(z)^2, Kinect "
-                 "axial noise 0.0012 + 0.0019 (z - 0.4)^2 m, Nguyen et al. 2012)",
-                 Choices<IcpNoiseWeight>{{"off", IcpNoiseWeight::kOff},
-                                         {"nguyen", IcpNoiseWeight::kNguyen}},
-                 [](C& c) -> IcpNoiseWeight& { return c.quality.icp_noise_weight; });
+  quality_choice(
+      "icp_noise_weight",
+      "track: weight each inlier by its depth noise: off | nguyen (1/sigma(z)^2, Kinect "
+      "axial noise 0.0012 + 0.0019 (z - 0.4)^2 m, Nguyen et al. 2012)",
+      Choices<IcpNoiseWeight>{{"off", IcpNoiseWeight::kOff}, {"nguyen", IcpNoiseWeight::kNguyen}},
+      [](C& c) -> IcpNoiseWeight& { return c.quality.icp_noise_weight; });
   quality_choice("integration_weight",
                  "integrate: weight of a new measurement in the running average: constant (1) | "
                  "depth (min(1, (ref/d)^2), ref = integration_weight_ref_m) | depth_angle (that "
@@ -487,8 +487,8 @@ void PipelineConfig::validate() const {
     KFX_CHECK(b >= 1 && b <= 16, "raycast_block_px entries must be in 1..16, got " << b);
   }
   KFX_CHECK(approx.raycast_constant_step_m >= 0, "raycast_constant_step_m must be >= 0");
-  KFX_CHECK(quality.max_depth_m >= 0, "max_depth_m must be >= 0 (0 = no limit), got "
-                                           << quality.max_depth_m);
+  KFX_CHECK(quality.max_depth_m >= 0,
+            "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
   KFX_CHECK(quality.icp_robust_scale_m > 0,
             "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
   KFX_CHECK(quality.integration_weight_ref_m > 0,

@@ -77,9 +77,9 @@ struct PipelineConfig {
   /// Accuracy techniques beyond KFusion's (for a `quality` preset), each defaulting to exact:
   /// the default of every one gives SLAMBench's computation bit for bit.
   struct Quality {
-    float max_depth_m = 0.0f;                         ///< drop depths beyond this; 0 = keep all
-    IcpRobust icp_robust = IcpRobust::kNone;          ///< none | huber | tukey
-    float icp_robust_scale_m = 0.01f;                 ///< robust scale c, point-to-plane metres
+    float max_depth_m = 0.0f;                 ///< drop depths beyond this; 0 = keep all
+    IcpRobust icp_robust = IcpRobust::kNone;  ///< none | huber | tukey
+    float icp_robust_scale_m = 0.01f;         ///< robust scale c, point-to-plane metres
     IcpNoiseWeight icp_noise_weight = IcpNoiseWeight::kOff;  ///< off | nguyen (1/σ(z)²)
     IntegrationWeight integration_weight = IntegrationWeight::kConstant;  ///< constant | depth |
                                                                           ///< depth_angle
