@@ -8,6 +8,7 @@
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "core/volume.hpp"
+#include "kernels/preprocess.hpp"
 #include "kernels/tracking_state.hpp"
 
 namespace kfx {
@@ -28,11 +29,27 @@ enum class IntegrationPattern : int {
   kChecker = 1,  ///< a 3-D checkerboard, x + y + z ≡ f (mod s)
 };
 
+/// Weight of a new measurement in a voxel's running average (setting `integration_weight`).
+enum class IntegrationWeight : int {
+  kConstant = 0,    ///< 1 per measurement, SLAMBench's
+  kDepth = 1,       ///< min(1, (ref / d)²) for measured depth d: far depth is noisier
+  kDepthAngle = 2,  ///< the same times cos θ, θ between the surface normal and the ray
+};
+
+/// With a weighted integration, a voxel stores its weight in units of 1/kWeightUnits of a
+/// full-weight measurement (the int16 weight then still holds fractions); its cap is
+/// max_weight · kWeightUnits, so a full-weight measurement moves a saturated voxel as much as
+/// one does in the constant mode.
+constexpr int kWeightUnits = 16;
+
 /// Settings of integration, derived from the configuration.
 struct IntegrateParams {
   Intrinsics k;          ///< compute-size intrinsics
   float mu_m = 0.1f;     ///< truncation distance
-  int max_weight = 100;  ///< weight cap
+  int max_weight = 100;  ///< weight cap, in measurements
+  /// A new measurement's weight, and the depth up to which it is full (the kDepth modes):
+  IntegrationWeight weight_mode = IntegrationWeight::kConstant;
+  float weight_ref_m = 1.0f;
   /// Approximations (exact values first):
   int z_stride = 1;  ///< update 1 voxel in z_stride, rotating with the frame
   IntegrationPattern pattern = IntegrationPattern::kSlices;
@@ -45,6 +62,9 @@ struct IntegrateArgs : IntegrateParams {
   VolumeView volume;
   ImageView<const float> depth_m;  ///< unfiltered compute-size depth, metres
   const TrackingState* state;      ///< T_cam_world, integrate_now, max_depth_m
+  /// Compute-size normals of this frame (camera frame) for IntegrationWeight::kDepthAngle; may
+  /// be empty (the angle term is then left out).
+  ImageView<const Vec3f> normal;
 };
 
 /// Smallest camera z at which a voxel is considered (SLAMBench's 0.0001 m).
@@ -114,6 +134,21 @@ KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateA
   if (end < begin) end = begin;
 }
 
+/// Weight, in stored units (kWeightUnits = one full measurement), of a weighted measurement of
+/// depth `depth` at pixel (px, py) for the voxel at camera-frame point p: w = min(1, (ref/d)²),
+/// times cos θ = |n · p| / |p| with kDepthAngle where the pixel has a normal; rounded, at least
+/// one unit so every measurement still counts.
+KFX_HD inline float measurement_weight(Vec3f p, float depth, int px, int py,
+                                       const IntegrateArgs& a) {
+  float w = 1.0f;
+  if (depth > a.weight_ref_m) w = (a.weight_ref_m / depth) * (a.weight_ref_m / depth);
+  if (a.weight_mode == IntegrationWeight::kDepthAngle && a.normal.data) {
+    const Vec3f n = a.normal(px, py);
+    if (n.x != kInvalidNormal) w *= fabsf(dot(n, p)) / length(p);
+  }
+  return max_f(1.0f, rintf(w * static_cast<float>(kWeightUnits)));
+}
+
 /// Updates voxel (x, y, z), whose centre is at camera-frame point p (docs/algorithm.md §2.3), and
 /// marks its brick when its tsdf leaves +1.
 /// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
@@ -138,10 +173,19 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
     const float sdf = min_f(1.0f, diff / a.mu_m);
     Voxel& voxel = a.volume.at(x, y, z);
     const float weight = voxel.weight;
-    const float tsdf =
-        clampf((weight * (voxel.tsdf * kTsdfInvScale) + sdf) / (weight + 1.0f), -1.0f, 1.0f);
-    voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
-    voxel.weight = static_cast<int16_t>(min_f(weight + 1.0f, static_cast<float>(a.max_weight)));
+    if (a.weight_mode == IntegrationWeight::kConstant) {  // SLAMBench's expression, untouched
+      const float tsdf =
+          clampf((weight * (voxel.tsdf * kTsdfInvScale) + sdf) / (weight + 1.0f), -1.0f, 1.0f);
+      voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
+      voxel.weight = static_cast<int16_t>(min_f(weight + 1.0f, static_cast<float>(a.max_weight)));
+    } else {
+      const float w = measurement_weight(p, depth, static_cast<int>(u), static_cast<int>(v), a);
+      const float tsdf =
+          clampf((weight * (voxel.tsdf * kTsdfInvScale) + w * sdf) / (weight + w), -1.0f, 1.0f);
+      voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
+      voxel.weight = static_cast<int16_t>(
+          min_f(weight + w, static_cast<float>(a.max_weight) * static_cast<float>(kWeightUnits)));
+    }
     if (voxel.tsdf != static_cast<int16_t>(kTsdfScale)) a.volume.mark_touched(x, y, z);
   }
 }

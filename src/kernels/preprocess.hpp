@@ -20,11 +20,15 @@ struct MmToMArgs {
   ImageView<const uint16_t> in_mm;  ///< input-resolution depth, millimetres
   ImageView<float> out_m;           ///< compute-resolution depth, metres
   int ratio = 1;                    ///< compute-size ratio (nearest subsampling)
+  float max_depth_m = 0.0f;         ///< depths beyond this read as 0 (no data); 0 = keep all
 };
 
-/// Output (x, y) = input (x·ratio, y·ratio) / 1000: nearest subsampling, no averaging.
+/// Output (x, y) = input (x·ratio, y·ratio) / 1000: nearest subsampling, no averaging; a depth
+/// beyond max_depth_m (when set) becomes 0, so no later stage uses it (the sensor's noise grows
+/// with the square of the depth).
 KFX_HD inline float mm_to_m_pixel(int x, int y, const MmToMArgs& a) {
-  const float d = a.in_mm(x * a.ratio, y * a.ratio) / 1000.0f;
+  float d = a.in_mm(x * a.ratio, y * a.ratio) / 1000.0f;
+  if (a.max_depth_m > 0.0f && d > a.max_depth_m) d = 0.0f;
   a.out_m(x, y) = d;
   return d;
 }
@@ -38,8 +42,10 @@ enum class BilateralMode : int {
   kSpatial3x3 = 1,  ///< the thesis's: 3×3 spatial weights only, no range term
 };
 
-/// Settings of the bilateral filter, derived from the configuration.
+/// Settings of the preprocess stage (the depth cut-off of mm → m, then the bilateral filter),
+/// derived from the configuration.
 struct BilateralParams {
+  float max_depth_m = 0.0f;  ///< mm → m: depths beyond this read as 0; 0 = keep every depth
   int radius_px = 2;
   /// g[k] = exp(−(k−r)²/(2σ²)), k = 0..2r (spatial weight per axis).
   float spatial_weight[2 * kMaxBilateralRadius + 1] = {};

@@ -26,12 +26,31 @@ struct TrackRow {
   float jacobian[6];
 };
 
+/// Robust weight of an inlier's point-to-plane residual e (setting `icp_robust`), scale c
+/// (`icp_robust_scale_m`): an M-estimator solved by reweighting each iteration's normal
+/// equations with the residuals of the current pose.
+enum class IcpRobust : int {
+  kNone = 0,   ///< 1: least squares, SLAMBench's
+  kHuber = 1,  ///< 1 for |e| ≤ c, c/|e| beyond
+  kTukey = 2,  ///< (1 − (e/c)²)² for |e| < c, 0 beyond (redescending: far residuals drop out)
+};
+
+/// Weight of an inlier by the sensor's depth noise (setting `icp_noise_weight`).
+enum class IcpNoiseWeight : int {
+  kOff = 0,     ///< 1, SLAMBench's
+  kNguyen = 1,  ///< 1/σ(z)², σ the Kinect's axial noise (Nguyen et al. 2012), normalised to 1 at
+                ///< its smallest (z = 0.4 m)
+};
+
 /// Settings of one ICP iteration, derived from the configuration.
 struct IcpParams {
   float dist_threshold_m = 0.1f;  ///< |ref_v − p| above this → −4
   float normal_threshold = 0.8f;  ///< dot(R·n, ref_n) below this → −5
   float icp_threshold = 1e-5f;    ///< a level has converged when |update| is below this
   int stride_px = 1;              ///< track one pixel per stride × stride block (perforation)
+  IcpRobust robust = IcpRobust::kNone;                 ///< robust weight of the residual
+  float robust_scale_m = 0.01f;                        ///< its scale c, metres
+  IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
 };
 
 /// Arguments of track_pixel and track_sample: the settings and the buffers.
@@ -91,9 +110,38 @@ KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
   return row;
 }
 
+/// Kinect axial depth noise σ(z) in metres at depth z (Nguyen, Izadi, Lovell 2012, eq. 2, the
+/// surface facing the camera): 0.0012 + 0.0019 (z − 0.4)².
+KFX_HD inline float kinect_axial_sigma_m(float z_m) {
+  const float d = z_m - 0.4f;
+  return 0.0012f + 0.0019f * d * d;
+}
+
+/// Weight of an inlier row in the normal equations (not in the counts and Σe² of the accept
+/// test): the robust weight of its residual times its noise weight at camera depth `depth_m`.
+/// 1 when both are off.
+KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const IcpParams& p) {
+  float w = 1.0f;
+  const float r = fabsf(row.error_m);
+  if (p.robust == IcpRobust::kHuber) {
+    if (r > p.robust_scale_m) w = p.robust_scale_m / r;
+  } else if (p.robust == IcpRobust::kTukey) {
+    const float u = r / p.robust_scale_m;
+    w = u < 1.0f ? (1.0f - u * u) * (1.0f - u * u) : 0.0f;
+  }
+  if (p.noise_weight == IcpNoiseWeight::kNguyen) {
+    const float s = kinect_axial_sigma_m(0.4f) / kinect_axial_sigma_m(depth_m);
+    w *= s * s;
+  }
+  return w;
+}
+
 /// Adds one row to a packed accumulator (kAccumulatorSize doubles), scaled by `weight`
-/// (1 for exact; >1 when pixels are perforated and one stands for a block).
-KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weight = 1.0) {
+/// (1 for exact; >1 when pixels are perforated and one stands for a block). `fit_weight` (the
+/// robust and noise weight) further scales the row's Σe·J and JᵀJ only, so the accept test's
+/// residual RMS and inlier count keep their meaning.
+KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weight = 1.0,
+                                  double fit_weight = 1.0) {
   if (row.outcome < 1) {
     if (row.outcome == kTrackTooFar) {
       acc[kAccTooFar] += weight;
@@ -108,10 +156,11 @@ KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weigh
   double j[6];
   for (int i = 0; i < 6; ++i) j[i] = row.jacobian[i];
   acc[kAccErrorSq] += weight * e * e;
-  for (int i = 0; i < 6; ++i) acc[kAccJtE + i] += weight * e * j[i];
+  const double w = weight * fit_weight;  // == weight when fit_weight is 1: exact stays bit-exact
+  for (int i = 0; i < 6; ++i) acc[kAccJtE + i] += w * e * j[i];
   int k = kAccJtJ;
   for (int r = 0; r < 6; ++r) {
-    for (int c = r; c < 6; ++c) acc[k++] += weight * j[r] * j[c];
+    for (int c = r; c < 6; ++c) acc[k++] += w * j[r] * j[c];
   }
   acc[kAccInliers] += weight;
 }
@@ -131,7 +180,10 @@ KFX_HD inline int track_grid_height(const TrackArgs& a) {
 KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
   const int x = i * a.stride_px, y = j * a.stride_px;
   const TrackRow row = track_pixel(x, y, a);
-  accumulate_row(acc, row, static_cast<double>(a.stride_px) * a.stride_px);
+  const bool weighted = a.robust != IcpRobust::kNone || a.noise_weight != IcpNoiseWeight::kOff;
+  const float fit =
+      weighted && row.outcome == kTrackInlier ? icp_fit_weight(row, a.in_vertex(x, y).z, a) : 1.0f;
+  accumulate_row(acc, row, static_cast<double>(a.stride_px) * a.stride_px, fit);
   if (a.outcome.data) a.outcome(x, y) = static_cast<int8_t>(row.outcome);
 }
 

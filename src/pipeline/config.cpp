@@ -333,6 +333,63 @@ std::vector<ConfigField> build_fields() {
          Choices<RaycastInterp>{{"trilinear", RaycastInterp::kTrilinear},
                                 {"two_value", RaycastInterp::kTwoValue}},
          &C::Approximations::raycast_interp);
+  // Quality (accuracy beyond KFusion's), each exact by default.
+  auto quality_choice = [&](std::string key, std::string help, auto choices, auto get) {
+    ConfigField f;
+    f.key = key;
+    f.section = "quality";
+    f.help = help;
+    f.parse = [key, choices, get](C& c, const std::string& text) {
+      std::string allowed;
+      for (const auto& [name, value] : choices) {
+        if (name == text) {
+          get(c) = value;
+          return;
+        }
+        allowed += (allowed.empty() ? "" : ", ") + name;
+      }
+      KFX_FAIL("setting '" << key << "': '" << text << "' is not one of " << allowed);
+    };
+    f.format = [choices, get](const C& c) {
+      for (const auto& [name, value] : choices) {
+        if (value == get(const_cast<C&>(c))) return name;
+      }
+      return std::string("?");
+    };
+    t.push_back(f);
+  };
+  num("max_depth_m", "quality", "", "",
+      "preprocess: depths beyond this many metres are dropped (read as no data; 0 = keep all)",
+      [](C& c) -> float& { return c.quality.max_depth_m; });
+  quality_choice(
+      "icp_robust",
+      "track: robust weight of each inlier's point-to-plane residual e in the normal "
+      "equations: none (least squares) | huber (c/|e| beyond c) | tukey ((1-(e/c)^2)^2, "
+      "0 beyond c); c = icp_robust_scale_m",
+      Choices<IcpRobust>{
+          {"none", IcpRobust::kNone}, {"huber", IcpRobust::kHuber}, {"tukey", IcpRobust::kTukey}},
+      [](C& c) -> IcpRobust& { return c.quality.icp_robust; });
+  num("icp_robust_scale_m", "quality", "", "",
+      "track: scale c of icp_robust, metres of point-to-plane residual (> 0)",
+      [](C& c) -> float& { return c.quality.icp_robust_scale_m; });
+  quality_choice(
+      "icp_noise_weight",
+      "track: weight each inlier by its depth noise: off | nguyen (1/sigma(z)^2, Kinect "
+      "axial noise 0.0012 + 0.0019 (z - 0.4)^2 m, Nguyen et al. 2012)",
+      Choices<IcpNoiseWeight>{{"off", IcpNoiseWeight::kOff}, {"nguyen", IcpNoiseWeight::kNguyen}},
+      [](C& c) -> IcpNoiseWeight& { return c.quality.icp_noise_weight; });
+  quality_choice("integration_weight",
+                 "integrate: weight of a new measurement in the running average: constant (1) | "
+                 "depth (min(1, (ref/d)^2), ref = integration_weight_ref_m) | depth_angle (that "
+                 "times cos of the angle between surface normal and ray); weighted modes store "
+                 "weights in 1/16 steps, max_weight still counts full measurements",
+                 Choices<IntegrationWeight>{{"constant", IntegrationWeight::kConstant},
+                                            {"depth", IntegrationWeight::kDepth},
+                                            {"depth_angle", IntegrationWeight::kDepthAngle}},
+                 [](C& c) -> IntegrationWeight& { return c.quality.integration_weight; });
+  num("integration_weight_ref_m", "quality", "", "",
+      "integrate: depth in metres up to which a weighted measurement has full weight (> 0)",
+      [](C& c) -> float& { return c.quality.integration_weight_ref_m; });
   // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
   {
     ConfigField f;
@@ -443,6 +500,18 @@ void PipelineConfig::validate() const {
     KFX_CHECK(b >= 1 && b <= 16, "raycast_block_px entries must be in 1..16, got " << b);
   }
   KFX_CHECK(approx.raycast_constant_step_m >= 0, "raycast_constant_step_m must be >= 0");
+  KFX_CHECK(quality.max_depth_m >= 0,
+            "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
+  KFX_CHECK(quality.icp_robust_scale_m > 0,
+            "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
+  KFX_CHECK(quality.integration_weight_ref_m > 0,
+            "integration_weight_ref_m must be > 0, got " << quality.integration_weight_ref_m);
+  KFX_CHECK(quality.integration_weight == IntegrationWeight::kConstant ||
+                volume.max_weight * kWeightUnits <= 32767,
+            "max_weight must be at most " << 32767 / kWeightUnits
+                                          << " with a weighted integration_weight (weights are "
+                                             "stored in 1/"
+                                          << kWeightUnits << " steps), got " << volume.max_weight);
   KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
             "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
   KFX_CHECK(cuda.z_chunks >= 1 && cuda.z_chunks <= 1024,
@@ -471,6 +540,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
       make_bilateral_params(approx.bilateral_mode, config.preprocess.bilateral_radius_px,
                             config.preprocess.bilateral_spatial_sigma_px,
                             config.preprocess.bilateral_range_sigma_m, approx.zero_padded_depth);
+  p.bilateral.max_depth_m = config.quality.max_depth_m;
   p.pyramid.half_sample_range_m = config.tracking.half_sample_range_m;
   for (int l = 0; l < static_cast<int>(config.tracking.iterations_per_level.size()); ++l) {
     p.pyramid.level_intrinsics[l] = compute_k.scaled_down(static_cast<float>(1 << l));
@@ -479,12 +549,17 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.icp.normal_threshold = config.tracking.normal_threshold;
   p.icp.icp_threshold = config.tracking.icp_threshold;
   p.icp.stride_px = approx.icp_stride_px;
+  p.icp.robust = config.quality.icp_robust;
+  p.icp.robust_scale_m = config.quality.icp_robust_scale_m;
+  p.icp.noise_weight = config.quality.icp_noise_weight;
   p.accept.max_rms_error_m = config.tracking.max_rms_error_m;
   p.accept.min_inlier_fraction = config.tracking.min_inlier_fraction;
   p.accept.compute_pixels = compute_width_px * compute_height_px;
   p.integrate.k = compute_k;
   p.integrate.mu_m = config.volume.mu_m;
   p.integrate.max_weight = config.volume.max_weight;
+  p.integrate.weight_mode = config.quality.integration_weight;
+  p.integrate.weight_ref_m = config.quality.integration_weight_ref_m;
   p.integrate.z_stride = approx.integration_z_stride;
   p.integrate.pattern = approx.integration_pattern;
   p.integrate.ray_factor = approx.ray_factor;

@@ -74,6 +74,18 @@ struct PipelineConfig {
     RaycastInterp raycast_interp = RaycastInterp::kTrilinear;  ///< trilinear | two_value
   } approx;
 
+  /// Accuracy techniques beyond KFusion's (for a `quality` preset), each defaulting to exact:
+  /// the default of every one gives SLAMBench's computation bit for bit.
+  struct Quality {
+    float max_depth_m = 0.0f;                 ///< drop depths beyond this; 0 = keep all
+    IcpRobust icp_robust = IcpRobust::kNone;  ///< none | huber | tukey
+    float icp_robust_scale_m = 0.01f;         ///< robust scale c, point-to-plane metres
+    IcpNoiseWeight icp_noise_weight = IcpNoiseWeight::kOff;  ///< off | nguyen (1/σ(z)²)
+    IntegrationWeight integration_weight = IntegrationWeight::kConstant;  ///< constant | depth |
+                                                                          ///< depth_angle
+    float integration_weight_ref_m = 1.0f;  ///< full weight up to this depth, (ref/d)² beyond
+  } quality;
+
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
   struct Cuda {
     bool pdl = true;              ///< programmatic dependent launch (on sm_90 and newer)

@@ -97,6 +97,10 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
     // and, as later frames integrate only when tracked, the map would never fill in.
     IntegrateParams params = params_.integrate;
     if (always) params.z_stride = 1;
+    // The angle weight reads this frame's level-0 normals, built only when the frame is tracked.
+    if (!track && params.weight_mode == IntegrationWeight::kDepthAngle) {
+      params.weight_mode = IntegrationWeight::kDepth;
+    }
     b.integrate(params, always);
   }
   b.end_stage(Stage::kIntegrate);

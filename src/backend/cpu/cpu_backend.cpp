@@ -88,7 +88,8 @@ class CpuBackend final : public Backend {
 
   void preprocess(const BilateralParams& p) override {
     begin_frame_state(state_);
-    const MmToMArgs mm{input_mm_.view(), buffers_.depth_m.view(), setup_.compute_ratio};
+    const MmToMArgs mm{input_mm_.view(), buffers_.depth_m.view(), setup_.compute_ratio,
+                       p.max_depth_m};
     const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
     float max_depth_m = 0.0f;
 #pragma omp parallel for schedule(static) reduction(max : max_depth_m)
@@ -155,7 +156,8 @@ class CpuBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), &state_};
+    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), &state_,
+                          buffers_.level_normal[0].view()};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag.
     const int res = setup_.volume_res_vox;

@@ -196,7 +196,7 @@ class CudaBackend final : public Backend {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     KFX_CUDA_CHECK(cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
-    const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio};
+    const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio, p.max_depth_m};
     const dim3 block(32, 8);
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
     const BilateralArgs b{p, buffers_.depth_m.view(), buffers_.level_depth[0].view()};
@@ -260,7 +260,8 @@ class CudaBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
-    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), state_.data()};
+    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), state_.data(),
+                          buffers_.level_normal[0].view()};
     const int res = setup_.volume_res_vox;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
