@@ -201,16 +201,7 @@ class CudaBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
-    // The level-0 outcome is kept for read_maps().
-    const ImageView<int8_t> outcome =
-        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
-    const TrackArgs a{p,
-                      buffers_.level_vertex[level].view(),
-                      buffers_.level_normal[level].view(),
-                      buffers_.ref_vertex.view(),
-                      buffers_.ref_normal.view(),
-                      state_.data(),
-                      outcome};
+    const TrackArgs a = buffers_.track_args(level, p, state_.data());
     const int samples = track_grid_width(a) * track_grid_height(a);
     const int blocks = std::min(reduce_blocks_, (samples + kReduceBlock - 1) / kReduceBlock);
     launch(icp_iteration_kernel, dim3(blocks), dim3(kReduceBlock), a, state_.data(),
