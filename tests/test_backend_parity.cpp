@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <memory>
+#include <string>
 
 #include "backend/backend.hpp"
 #include "io/reader.hpp"
@@ -105,19 +107,28 @@ TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track
   return b.read_state();
 }
 
+/// The CPU and CUDA backends from the same start pose, each after fusing `depth` four times
+/// (untracked frames, integration forced): identical volumes up to the backends' rounding.
+struct BackendPair {
+  std::unique_ptr<Backend> cpu, gpu;
+};
+BackendPair backends_after_fusing(const HostImage<uint16_t>& depth) {
+  BackendPair pair{make_backend(BackendKind::kCpu, small_setup()),
+                   make_backend(BackendKind::kCuda, small_setup())};
+  const Mat4f start = Mat4f::translation(Vec3f{2.0f, 2.0f, 0.0f});
+  for (Backend* b : {pair.cpu.get(), pair.gpu.get()}) {
+    b->reset(start);
+    for (int f = 0; f < 4; ++f) run_frame(*b, depth, false, true);
+  }
+  return pair;
+}
+
 TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
   KFX_REQUIRE_CUDA();
-  auto cpu = make_backend(BackendKind::kCpu, small_setup());
-  auto gpu = make_backend(BackendKind::kCuda, small_setup());
-  const Mat4f start = Mat4f::translation(Vec3f{2.0f, 2.0f, 0.0f});
-  cpu->reset(start);
-  gpu->reset(start);
   const HostImage<uint16_t> depth = scene_depth();
-  for (int f = 0; f < 4; ++f) {
-    run_frame(*cpu, depth, false, true);
-    run_frame(*gpu, depth, false, true);
-  }
-  const DebugMaps c = cpu->read_maps(), g = gpu->read_maps();
+  const BackendPair pair = backends_after_fusing(depth);
+  Backend &cpu = *pair.cpu, &gpu = *pair.gpu;
+  const DebugMaps c = cpu.read_maps(), g = gpu.read_maps();
   int depth_mismatch = 0, filtered_mismatch = 0;
   for (int i = 0; i < 320 * 240; ++i) {
     depth_mismatch += c.depth_m.pixels()[i] != g.depth_m.pixels()[i];
@@ -126,7 +137,7 @@ TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
   }
   EXPECT_EQ(depth_mismatch, 0);
   EXPECT_EQ(filtered_mismatch, 0);
-  const auto vc = cpu->read_volume(), vg = gpu->read_volume();
+  const auto vc = cpu.read_volume(), vg = gpu.read_volume();
   long long voxel_mismatch = 0, touched = 0;
   for (size_t i = 0; i < vc.size(); ++i) {
     touched += vc[i].weight > 0;
@@ -146,8 +157,8 @@ TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
   // A tracked frame from a slightly shifted depth: both converge to the same pose.
   HostImage<uint16_t> moved = depth;
   for (auto& v : moved.pixels()) v = v ? static_cast<uint16_t>(v + 8) : 0;  // 8 mm farther
-  const TrackingState sc = run_frame(*cpu, moved, true, false);
-  const TrackingState sg = run_frame(*gpu, moved, true, false);
+  const TrackingState sc = run_frame(cpu, moved, true, false);
+  const TrackingState sg = run_frame(gpu, moved, true, false);
   EXPECT_EQ(sc.tracked, 1);
   EXPECT_EQ(sg.tracked, 1);
   for (int r = 0; r < 3; ++r) {
@@ -157,19 +168,12 @@ TEST(BackendParity, StagesAgreeOnIdenticalInputs) {
 
 TEST(BackendParity, RendersAgree) {
   KFX_REQUIRE_CUDA();
-  auto cpu = make_backend(BackendKind::kCpu, small_setup());
-  auto gpu = make_backend(BackendKind::kCuda, small_setup());
-  const Mat4f start = Mat4f::translation(Vec3f{2.0f, 2.0f, 0.0f});
-  cpu->reset(start);
-  gpu->reset(start);
   const HostImage<uint16_t> depth = scene_depth();
-  for (int f = 0; f < 4; ++f) {
-    run_frame(*cpu, depth, false, true);
-    run_frame(*gpu, depth, false, true);
-  }
-  run_frame(*cpu, depth, true, false, true);
-  run_frame(*gpu, depth, true, false, true);
-  const Renders c = cpu->read_renders(), g = gpu->read_renders();
+  const BackendPair pair = backends_after_fusing(depth);
+  Backend &cpu = *pair.cpu, &gpu = *pair.gpu;
+  run_frame(cpu, depth, true, false, true);
+  run_frame(gpu, depth, true, false, true);
+  const Renders c = cpu.read_renders(), g = gpu.read_renders();
   auto differ = [](Rgba8 a, Rgba8 b, int tol) {
     return std::abs(a.r - b.r) > tol || std::abs(a.g - b.g) > tol || std::abs(a.b - b.b) > tol ||
            a.a != b.a;
@@ -190,15 +194,21 @@ TEST(BackendParity, RendersAgree) {
   EXPECT_LE(volume_mismatch, kMaxPixelMismatchFraction * 320 * 240);
 }
 
-TEST(BackendParity, SyntheticTrajectoriesAgree) {
-  KFX_REQUIRE_CUDA();
+/// Settings for a synthetic `input`: its reader's recommended ones, integration every frame and
+/// the compute size equal to the input size.
+PipelineConfig synthetic_config(const std::string& input) {
   PipelineConfig config;
   set_config_value(config, "integration_rate", "1");
   set_config_value(config, "compute_size_ratio", "1");
-  const std::string input = "synthetic:frames=60,width=320,height=240";
-  auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings())
+  for (const auto& [key, value] : io::open_reader(input)->recommended_settings())
     set_config_value(config, key, value);
+  return config;
+}
+
+TEST(BackendParity, SyntheticTrajectoriesAgree) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=60,width=320,height=240";
+  const PipelineConfig config = synthetic_config(input);
   const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
   const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
   EXPECT_EQ(cpu.tracked, gpu.tracked);
@@ -206,17 +216,6 @@ TEST(BackendParity, SyntheticTrajectoriesAgree) {
   EXPECT_EQ(diff.pairs, 60);
   EXPECT_LE(diff.median_m, kTrajectoryMedianTol_m);
   EXPECT_LE(diff.p95_m, kTrajectoryP95Tol_m);
-}
-
-/// The synthetic sequence's configuration at compute size (every pixel tracked).
-PipelineConfig synthetic_config(const std::string& input) {
-  PipelineConfig config;
-  set_config_value(config, "integration_rate", "1");
-  set_config_value(config, "compute_size_ratio", "1");
-  auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings())
-    set_config_value(config, key, value);
-  return config;
 }
 
 /// Two runs that must agree bit for bit: same frames tracked, identical poses.

@@ -146,6 +146,18 @@ Reference reference_from(const HostImage<Vec3f>& v, const HostImage<Vec3f>& n, c
   return r;
 }
 
+/// ICP arguments (default IcpParams) of a frame's vertices and normals against `ref`.
+TrackArgs track_args(const HostImage<Vec3f>& vertex, const HostImage<Vec3f>& normal,
+                     const Reference& ref, const TrackingState& state) {
+  TrackArgs a;
+  a.in_vertex = vertex.view();
+  a.in_normal = normal.view();
+  a.ref_vertex = ref.vertex.view();
+  a.ref_normal = ref.normal.view();
+  a.state = &state;
+  return a;
+}
+
 TEST(Track, PlaneShiftedAlongItsNormalGivesThatError) {
   const HostImage<float> depth = plane_depth(80, 60, 2.0f);
   HostImage<Vec3f> vertex, normal;
@@ -156,12 +168,7 @@ TEST(Track, PlaneShiftedAlongItsNormalGivesThatError) {
   const Reference ref = reference_from(vertex, normal, state.T_world_cam);
   // The current estimate sits 3 cm farther back than the reference view.
   state.T_world_cam = Mat4f::translation(Vec3f{1, 1, -0.03f});
-  TrackArgs a;
-  a.in_vertex = vertex.view();
-  a.in_normal = normal.view();
-  a.ref_vertex = ref.vertex.view();
-  a.ref_normal = ref.normal.view();
-  a.state = &state;
+  const TrackArgs a = track_args(vertex, normal, ref, state);
   const TrackRow row = track_pixel(40, 30, a);
   ASSERT_EQ(row.outcome, kTrackInlier);
   // e = dot(ref_n, ref_v − p) with ref_n = (0,0,−1): the point is 3 cm short → −0.03.
@@ -177,12 +184,7 @@ TEST(Track, OutcomesForEachRejection) {
   state.T_world_cam = Mat4f::identity();
   set_reference_view(state, kK);
   Reference ref = reference_from(vertex, normal, state.T_world_cam);
-  TrackArgs a;
-  a.in_vertex = vertex.view();
-  a.in_normal = normal.view();
-  a.ref_vertex = ref.vertex.view();
-  a.ref_normal = ref.normal.view();
-  a.state = &state;
+  const TrackArgs a = track_args(vertex, normal, ref, state);
   EXPECT_EQ(track_pixel(20, 20, a).outcome, kTrackInlier);
   ref.normal(20, 20) = Vec3f{kInvalidNormal, 0, 0};
   EXPECT_EQ(track_pixel(20, 20, a).outcome, kTrackNoReferenceNormal);

@@ -14,6 +14,7 @@
 #include "backend/backend.hpp"
 #include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
+#include "kernels/track.hpp"
 
 namespace kfx {
 
@@ -53,6 +54,19 @@ struct FrameBuffers {
   /// The volume and its brick flags as the kernels see them.
   VolumeView volume_view() {
     return VolumeView{volume.data(), volume_res_vox, volume_size_m, brick_touched.data()};
+  }
+
+  /// The arguments of one ICP iteration at pyramid `level` against the raycast reference; only
+  /// level 0 writes its per-pixel outcome (kept for read_maps() and the track render).
+  TrackArgs track_args(int level, const IcpParams& p, const TrackingState* state) {
+    const ImageView<int8_t> outcome = level == 0 ? track_outcome.view() : ImageView<int8_t>{};
+    return TrackArgs{p,
+                     level_vertex[level].view(),
+                     level_normal[level].view(),
+                     ref_vertex.view(),
+                     ref_normal.view(),
+                     state,
+                     outcome};
   }
 
   Image<float> depth_m;  ///< unfiltered compute-size depth, metres

@@ -233,7 +233,7 @@ class CudaBackend final : public Backend {
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
-    const TrackArgs a = track_args(level, p);
+    const TrackArgs a = buffers_.track_args(level, p, state_.data());
     launch(icp_iteration_kernel, dim3(icp_reduce_blocks(a)), dim3(kReduceBlock), a, state_.data(),
            partials_.data(), blocks_done_.data(), level);
   }
@@ -241,7 +241,7 @@ class CudaBackend final : public Backend {
   void icp_level(int level, int iterations, const IcpParams& p) override {
     if (persistent_icp_blocks_ == 0) return Backend::icp_level(level, iterations, p);
     if (replaying_ || iterations <= 0) return;
-    const TrackArgs a = track_args(level, p);
+    const TrackArgs a = buffers_.track_args(level, p, state_.data());
     launch_icp_level(stream_.get(), persistent_icp_blocks_, a, state_.data(),
                      level_partials_.data(), level, iterations, icp_reduce_blocks(a));
     launched();
@@ -360,19 +360,6 @@ class CudaBackend final : public Backend {
   }
 
  private:
-  /// The ICP arguments of `level`; the level-0 outcome is kept for read_maps().
-  TrackArgs track_args(int level, const IcpParams& p) {
-    const ImageView<int8_t> outcome =
-        level == 0 ? buffers_.track_outcome.view() : ImageView<int8_t>{};
-    return TrackArgs{p,
-                     buffers_.level_vertex[level].view(),
-                     buffers_.level_normal[level].view(),
-                     buffers_.ref_vertex.view(),
-                     buffers_.ref_normal.view(),
-                     state_.data(),
-                     outcome};
-  }
-
   /// Blocks of one ICP iteration's reduction: one per kReduceBlock samples, at most
   /// reduce_blocks_. Both ICP paths use it: it fixes the order of the float sums.
   int icp_reduce_blocks(const TrackArgs& a) const {
