@@ -132,6 +132,9 @@ FrameReport Pipeline::collect() {
   const bool always = pending.always;
   const TrackingState state = backend_->read_state();
   report.stage_ms = backend_->frame_stage_ms();
+  // A frame that renders nothing spent no rendering time: the GPU's empty event pair can still
+  // read a nanosecond, which would mark the frame as rendered in slambench.log.
+  if (!report.rendered) report.stage_ms[static_cast<int>(Stage::kRender)] = 0.0;
   report.tracking_ran = track;
   report.tracked = track && state.tracked;
   report.integrated = may_integrate && (always || state.tracked);
