@@ -293,6 +293,7 @@ TEST(BackendParity, CpuIgnoresPersistentIcp) {
   const std::string input = "synthetic:frames=8,width=160,height=120";
   PipelineConfig config = synthetic_config(input);
   set_config_value(config, "volume_resolution", "128");  // fast enough for CI
+  set_config_value(config, "cuda_icp_persistent", "off");
   const auto off = test::run_sequence(input, config, BackendKind::kCpu);
   set_config_value(config, "cuda_icp_persistent", "on");
   const auto on = test::run_sequence(input, config, BackendKind::kCpu);

@@ -45,7 +45,7 @@ struct BackendSetup {
     bool programmatic_launch = true;  ///< programmatic dependent launch on sm_90 and newer
     int reduce_blocks = 0;            ///< cap on the ICP reduction grid; 0 = one block per SM
     int z_chunks = 16;                ///< z-ranges each integration column is split into
-    bool icp_persistent = false;      ///< one cooperative launch per pyramid level
+    bool icp_persistent = true;       ///< one cooperative launch per pyramid level
   } cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
