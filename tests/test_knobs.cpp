@@ -85,6 +85,14 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(thesis.tracking.iterations_per_level, std::vector<int>{2});
   EXPECT_EQ(thesis.approx.raycast_rate, 2);
   EXPECT_EQ(thesis.approx.ray_factor, RayFactor::kThesis);
+  const PipelineConfig fast = make_preset("fast");
+  EXPECT_EQ(fast.quality.icp_robust, IcpRobust::kHuber);  // what keeps tum_fr1_rpy tracked
+  EXPECT_EQ(fast.approx.integration_z_stride, 2);
+  EXPECT_FLOAT_EQ(fast.approx.raycast_constant_step_m, 0.05f);
+  const PipelineConfig quality = make_preset("quality");
+  EXPECT_EQ(quality.quality.icp_robust, IcpRobust::kHuber);
+  EXPECT_FLOAT_EQ(quality.quality.icp_robust_scale_m, 0.005f);
+  EXPECT_EQ(quality.quality.integration_weight, IntegrationWeight::kDepthAngle);
 }
 
 TEST(Knobs, SpatialBilateralIsAWeightedMeanWithoutRangeTerm) {
