@@ -188,7 +188,8 @@ TEST(RunRenders, WritesThreePngsEveryRenderRateFramesAndTimesThemAsRendering) {
     } else {
       EXPECT_EQ(render, 0.0) << line;
     }
-    EXPECT_NEAR(computation, pre + track + integrate + raycast, 2e-6) << line;
+    // Each of the five figures is printed rounded to 1 µs: the sum can be off by 2.5 µs.
+    EXPECT_NEAR(computation, pre + track + integrate + raycast, 2.6e-6) << line;
     ++lines;
   }
   EXPECT_EQ(lines, 11);
