@@ -12,6 +12,7 @@
 
 #include "cli_runner.hpp"
 #include "io/png.hpp"
+#include "test_dir.hpp"
 
 namespace kfx {
 namespace {
@@ -23,13 +24,7 @@ using test::run_kfx;
 
 class CliTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ =
-        fs::temp_directory_path() /
-        ("kfx_cli_" + std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = kfx::test::fresh_test_dir("kfx_cli_"); }
   void TearDown() override { fs::remove_all(dir_); }
 
   /// A tiny TUM folder of `frames` 64×48 depth PNGs (a plane 1.5 m away), depth.txt listed.

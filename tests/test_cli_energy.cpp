@@ -11,6 +11,7 @@
 
 #include "cli_runner.hpp"
 #include "study/sweep_plan.hpp"
+#include "test_dir.hpp"
 
 namespace kfx {
 namespace {
@@ -21,13 +22,7 @@ using test::run_kfx;
 
 class CliEnergy : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("kfx_cli_energy_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = kfx::test::fresh_test_dir("kfx_cli_energy_"); }
   void TearDown() override { fs::remove_all(dir_); }
 
   static json read_json(const fs::path& path) {

@@ -12,6 +12,7 @@
 #include "energy/energy_meter.hpp"
 #include "energy/power_sampler.hpp"
 #include "energy/run_energy.hpp"
+#include "test_dir.hpp"
 
 namespace kfx::energy {
 namespace {
@@ -20,13 +21,7 @@ namespace fs = std::filesystem;
 
 class FakePowercap : public ::testing::Test {
  protected:
-  void SetUp() override {
-    root_ = fs::temp_directory_path() /
-            ("kfx_powercap_" +
-             std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(root_);
-    fs::create_directories(root_);
-  }
+  void SetUp() override { root_ = kfx::test::fresh_test_dir("kfx_powercap_"); }
   void TearDown() override { fs::remove_all(root_); }
 
   /// A package zone intel-rapl:N with the counter at `energy_uj`.

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <vector>
 
+#include "integrate_test_support.hpp"
 #include "io/reader.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
@@ -156,23 +157,8 @@ TEST(Knobs, IcpStrideTracksOnePixelPerBlockWeighted) {
   EXPECT_NEAR(strided[kAccInliers], full[kAccInliers], 0.05 * full[kAccInliers]);
 }
 
-struct SmallVolume {
-  int res = 32;
-  std::vector<Voxel> voxels = std::vector<Voxel>(32 * 32 * 32, Voxel{32766, 0});
-  VolumeView view() { return VolumeView{voxels.data(), res, 3.2f}; }
-};
-
-IntegrateArgs integrate_args(SmallVolume& vol, const HostImage<float>& depth, TrackingState& s) {
-  IntegrateArgs a;
-  a.volume = vol.view();
-  a.depth_m = depth.view();
-  a.k = Intrinsics{40, 40, 20, 15};
-  a.state = &s;
-  a.mu_m = 0.3f;
-  s.max_depth_m = 3.0f;
-  prepare_integration(s, true);
-  return a;
-}
+using test::integrate_args;
+using test::SmallVolume;
 
 TEST(Knobs, IntegrationZStrideUpdatesRotatingSlices) {
   SmallVolume vol;

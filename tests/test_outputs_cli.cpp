@@ -16,6 +16,7 @@
 #include "output/mesh_ply.hpp"
 #include "output/slambench_log_writer.hpp"
 #include "output/volume_file.hpp"
+#include "test_dir.hpp"
 
 namespace kfx {
 namespace {
@@ -25,13 +26,7 @@ using test::run_kfx;
 
 class OutputsCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("kfx_outputs_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = kfx::test::fresh_test_dir("kfx_outputs_"); }
   void TearDown() override { fs::remove_all(dir_); }
   /// A short run small enough to take a second: 160×120 input, 64³ volume.
   static std::string small_run() {

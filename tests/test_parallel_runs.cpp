@@ -16,6 +16,7 @@
 #include "cli_runner.hpp"
 #include "core/platform.hpp"
 #include "study/sweep_shard.hpp"
+#include "test_dir.hpp"
 
 namespace kfx {
 namespace {
@@ -56,11 +57,7 @@ json read_json(const fs::path& path) {
 class ParallelRuns : public ::testing::Test {
  protected:
   void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("kfx_parallel_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
+    dir_ = kfx::test::fresh_test_dir("kfx_parallel_");
     plan_ = dir_ / "plan.json";
     std::ofstream(plan_) << kPlan;
   }

@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "backend/backend.hpp"
+#include "integrate_test_support.hpp"
 #include "io/reader.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
@@ -212,23 +213,8 @@ TEST(QualityKnobs, RobustWeightDownweightsAnOutlierPlaneInTheSample) {
   EXPECT_EQ(tukey[kAccInliers], exact[kAccInliers]);
 }
 
-struct SmallVolume {
-  int res = 32;
-  std::vector<Voxel> voxels = std::vector<Voxel>(32 * 32 * 32, Voxel{32766, 0});
-  VolumeView view() { return VolumeView{voxels.data(), res, 3.2f}; }
-};
-
-IntegrateArgs integrate_args(SmallVolume& vol, const HostImage<float>& depth, TrackingState& s) {
-  IntegrateArgs a;
-  a.volume = vol.view();
-  a.depth_m = depth.view();
-  a.k = Intrinsics{40, 40, 20, 15};
-  a.state = &s;
-  a.mu_m = 0.3f;
-  s.max_depth_m = 3.0f;
-  prepare_integration(s, true);
-  return a;
-}
+using test::integrate_args;
+using test::SmallVolume;
 
 TEST(QualityKnobs, DepthWeightIsAWeightedRunningAverage) {
   // One voxel measured first at 2 m (sdf +0.5) by a full-weight reading, then at 2 m again with

@@ -15,6 +15,7 @@
 #include "cli_runner.hpp"
 #include "core/platform.hpp"
 #include "output/mesh_view.hpp"
+#include "test_dir.hpp"
 
 namespace kfx {
 namespace {
@@ -50,13 +51,7 @@ void write_grid_ply(const std::string& path, int n, bool truncate = false) {
 
 class ReportTest : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("kfx_report_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = kfx::test::fresh_test_dir("kfx_report_"); }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path dir_;
 };

@@ -17,6 +17,7 @@
 #include "cli_runner.hpp"
 #include "core/platform.hpp"
 #include "study/sweep_plan.hpp"
+#include "test_dir.hpp"
 
 namespace kfx::sweep {
 namespace {
@@ -475,13 +476,7 @@ int count_lines(const fs::path& path) {
 
 class SweepCli : public ::testing::Test {
  protected:
-  void SetUp() override {
-    dir_ = fs::temp_directory_path() /
-           ("kfx_sweep_" +
-            std::string(::testing::UnitTest::GetInstance()->current_test_info()->name()));
-    fs::remove_all(dir_);
-    fs::create_directories(dir_);
-  }
+  void SetUp() override { dir_ = kfx::test::fresh_test_dir("kfx_sweep_"); }
   void TearDown() override { fs::remove_all(dir_); }
   fs::path write_plan(const std::string& text) {
     const fs::path path = dir_ / "plan.json";
