@@ -244,18 +244,25 @@ TEST(BackendParity, CudaRepeatsBitForBit) {
   expect_repeatable(BackendKind::kCuda);
 }
 
+/// Runs `input` with cuda_icp_persistent off, then on, on `kind`: at least `min_tracked` frames
+/// tracked, and the two runs the same bits.
+void expect_persistent_icp_changes_no_bit(const std::string& input, PipelineConfig config,
+                                          BackendKind kind, int min_tracked) {
+  set_config_value(config, "cuda_icp_persistent", "off");
+  const auto off = test::run_sequence(input, config, kind);
+  set_config_value(config, "cuda_icp_persistent", "on");
+  const auto on = test::run_sequence(input, config, kind);
+  EXPECT_GT(off.tracked, min_tracked);
+  expect_identical_runs(off, on);
+}
+
 // cuda_icp_persistent runs a level's iterations in one cooperative launch; it must not change a
 // bit (same per-block sums, same final order, same solve).
 TEST(BackendParity, PersistentIcpIsBitIdenticalToOneLaunchPerIteration) {
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=25,width=320,height=240";
   PipelineConfig config = synthetic_config(input);
-  set_config_value(config, "cuda_icp_persistent", "off");
-  const auto off = test::run_sequence(input, config, BackendKind::kCuda);
-  set_config_value(config, "cuda_icp_persistent", "on");
-  const auto on = test::run_sequence(input, config, BackendKind::kCuda);
-  EXPECT_GT(off.tracked, 15);
-  expect_identical_runs(off, on);
+  expect_persistent_icp_changes_no_bit(input, config, BackendKind::kCuda, 15);
 }
 
 // At 640×480 with one reduction block per 256 pixels (1,200 blocks: more than fit at once on any
@@ -266,12 +273,7 @@ TEST(BackendParity, PersistentIcpWithMoreReductionBlocksThanResidentIsBitIdentic
   const std::string input = "synthetic:frames=8,width=640,height=480";
   PipelineConfig config = synthetic_config(input);
   set_config_value(config, "cuda_reduce_blocks", "65535");
-  set_config_value(config, "cuda_icp_persistent", "off");
-  const auto off = test::run_sequence(input, config, BackendKind::kCuda);
-  set_config_value(config, "cuda_icp_persistent", "on");
-  const auto on = test::run_sequence(input, config, BackendKind::kCuda);
-  EXPECT_GT(off.tracked, 2);
-  expect_identical_runs(off, on);
+  expect_persistent_icp_changes_no_bit(input, config, BackendKind::kCuda, 2);
 }
 
 TEST(BackendParity, PersistentIcpTrajectoryAgreesWithCpu) {
@@ -293,12 +295,7 @@ TEST(BackendParity, CpuIgnoresPersistentIcp) {
   const std::string input = "synthetic:frames=8,width=160,height=120";
   PipelineConfig config = synthetic_config(input);
   set_config_value(config, "volume_resolution", "128");  // fast enough for CI
-  set_config_value(config, "cuda_icp_persistent", "off");
-  const auto off = test::run_sequence(input, config, BackendKind::kCpu);
-  set_config_value(config, "cuda_icp_persistent", "on");
-  const auto on = test::run_sequence(input, config, BackendKind::kCpu);
-  EXPECT_GT(off.tracked, 2);
-  expect_identical_runs(off, on);
+  expect_persistent_icp_changes_no_bit(input, config, BackendKind::kCpu, 2);
 }
 
 TEST(BackendSelection, CudaRequestWithoutGpuIsAClearError) {
