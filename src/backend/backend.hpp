@@ -27,6 +27,15 @@
 
 namespace kfx {
 
+/// CUDA launch tuning: speed only, never results (settings cuda_*; the CPU backend ignores it).
+/// The one place its defaults live, measured on an H200 (bench/RESULTS.md).
+struct CudaTuning {
+  bool pdl = true;             ///< programmatic dependent launch (on sm_90 and newer)
+  int reduce_blocks = 0;       ///< cap on the ICP reduction grid; 0 = one block per SM
+  int z_chunks = 16;           ///< z-ranges each integration column is split into
+  bool icp_persistent = true;  ///< one cooperative launch per pyramid level, not per iteration
+};
+
 /// Sizes fixed for a backend's lifetime; every buffer is allocated once from these.
 struct BackendSetup {
   int input_width_px = 640;
@@ -39,14 +48,8 @@ struct BackendSetup {
   /// backend accepts only −1. Selecting a device makes it the calling thread's current one, so
   /// a pipeline is used from the thread that created it (one thread per pipeline).
   int device_index = -1;
-  /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them). Defaults measured on an
-  /// H200 (bench/RESULTS.md).
-  struct CudaTuning {
-    bool programmatic_launch = true;  ///< programmatic dependent launch on sm_90 and newer
-    int reduce_blocks = 0;            ///< cap on the ICP reduction grid; 0 = one block per SM
-    int z_chunks = 16;                ///< z-ranges each integration column is split into
-    bool icp_persistent = true;       ///< one cooperative launch per pyramid level
-  } cuda;
+  /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them).
+  CudaTuning cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
 };

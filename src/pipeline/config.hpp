@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "backend/backend.hpp"
 #include "core/camera.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
@@ -87,12 +88,7 @@ struct PipelineConfig {
   } quality;
 
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
-  struct Cuda {
-    bool pdl = true;             ///< programmatic dependent launch (on sm_90 and newer)
-    int reduce_blocks = 0;       ///< cap on the ICP reduction grid; 0 = one block per SM
-    int z_chunks = 16;           ///< z-ranges each integration column is split into
-    bool icp_persistent = true;  ///< one cooperative launch per pyramid level, not per iteration
-  } cuda;
+  CudaTuning cuda;
 
   /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.
   void validate() const;

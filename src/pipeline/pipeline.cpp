@@ -24,10 +24,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.pyramid_levels = levels;
   setup_.volume_res_vox = config_.volume.resolution_vox;
   setup_.volume_size_m = config_.volume.size_m;
-  setup_.cuda.programmatic_launch = config_.cuda.pdl;
-  setup_.cuda.reduce_blocks = config_.cuda.reduce_blocks;
-  setup_.cuda.z_chunks = config_.cuda.z_chunks;
-  setup_.cuda.icp_persistent = config_.cuda.icp_persistent;
+  setup_.cuda = config_.cuda;
   setup_.device_index = device_index;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));

@@ -72,7 +72,7 @@ class CudaBackend final : public Backend {
     debug_sync_ = sync && std::string(sync) == "1";
     // Programmatic dependent launch needs sm_90 (measured on an H200: −2.4 % per frame,
     // bench/RESULTS.md); setting cuda_pdl=off turns it off.
-    programmatic_launch_ = setup.cuda.programmatic_launch && properties_.major >= 9;
+    programmatic_launch_ = setup.cuda.pdl && properties_.major >= 9;
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     const size_t input_pixels = static_cast<size_t>(setup.input_width_px) * setup.input_height_px;
     for (int p = 0; p < 2; ++p) {
