@@ -46,6 +46,7 @@ struct BackendSetup {
     int reduce_blocks = 0;            ///< cap on the ICP reduction grid; 0 = one block per SM
     int z_chunks = 16;                ///< z-ranges each integration column is split into
     bool icp_persistent = true;       ///< one cooperative launch per pyramid level
+    bool fused_preprocess = true;     ///< preprocess and pyramid in one launch each
   } cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
@@ -71,6 +72,10 @@ struct DebugMaps {
   HostImage<Vec3f> ref_vertex;      ///< raycast vertices
   HostImage<Vec3f> ref_normal;      ///< raycast normals
   HostImage<int8_t> track_outcome;  ///< last level-0 ICP outcome per pixel
+  /// The pyramid of the last tracked frame, one image per level (level 0's depth = filtered_m).
+  std::vector<HostImage<float>> level_depth_m;
+  std::vector<HostImage<Vec3f>> level_vertex;
+  std::vector<HostImage<Vec3f>> level_normal;
 };
 
 /// One stage-per-call backend.

@@ -88,10 +88,11 @@ struct PipelineConfig {
 
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
   struct Cuda {
-    bool pdl = true;             ///< programmatic dependent launch (on sm_90 and newer)
-    int reduce_blocks = 0;       ///< cap on the ICP reduction grid; 0 = one block per SM
-    int z_chunks = 16;           ///< z-ranges each integration column is split into
-    bool icp_persistent = true;  ///< one cooperative launch per pyramid level, not per iteration
+    bool pdl = true;               ///< programmatic dependent launch (on sm_90 and newer)
+    int reduce_blocks = 0;         ///< cap on the ICP reduction grid; 0 = one block per SM
+    int z_chunks = 16;             ///< z-ranges each integration column is split into
+    bool icp_persistent = true;    ///< one cooperative launch per pyramid level, not per iteration
+    bool fused_preprocess = true;  ///< preprocess, then the pyramid, in one launch each
   } cuda;
 
   /// Throws kfx::Error naming the setting and the allowed range on any nonsense value.

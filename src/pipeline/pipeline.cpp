@@ -28,6 +28,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.cuda.reduce_blocks = config_.cuda.reduce_blocks;
   setup_.cuda.z_chunks = config_.cuda.z_chunks;
   setup_.cuda.icp_persistent = config_.cuda.icp_persistent;
+  setup_.cuda.fused_preprocess = config_.cuda.fused_preprocess;
   setup_.device_index = device_index;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
