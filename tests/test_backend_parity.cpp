@@ -4,7 +4,9 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <memory>
 #include <string>
 
@@ -66,13 +68,20 @@ HostImage<uint16_t> scene_depth() {
   return d;
 }
 
-/// Drives one backend through a frame of a given kind by hand.
-TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track, bool always,
-                        bool render = false) {
+/// The preprocess settings of `exact` (bilateral radius 2, clamped borders, no cut-off).
+BilateralParams exact_bilateral() {
   BilateralParams pre;
   for (int i = 0; i < 5; ++i) pre.spatial_weight[i] = std::exp(-((i - 2) * (i - 2)) / 32.0f);
+  return pre;
+}
+
+/// Drives one backend through a frame of a given kind by hand.
+TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track, bool always,
+                        bool render = false, const BilateralParams& pre = exact_bilateral()) {
   PyramidParams pyr;
-  for (int l = 0; l < 3; ++l) pyr.level_intrinsics[l] = kK.scaled_down(static_cast<float>(1 << l));
+  for (int l = 0; l < kMaxPyramidLevels; ++l) {
+    pyr.level_intrinsics[l] = kK.scaled_down(static_cast<float>(1 << l));
+  }
   IntegrateParams integ;
   integ.k = kK;
   RaycastParams ray;
@@ -244,13 +253,13 @@ TEST(BackendParity, CudaRepeatsBitForBit) {
   expect_repeatable(BackendKind::kCuda);
 }
 
-/// Runs `input` with cuda_icp_persistent off, then on, on `kind`: at least `min_tracked` frames
-/// tracked, and the two runs the same bits.
-void expect_persistent_icp_changes_no_bit(const std::string& input, PipelineConfig config,
-                                          BackendKind kind, int min_tracked) {
-  set_config_value(config, "cuda_icp_persistent", "off");
+/// Runs `input` with the on|off setting `key` off, then on, on `kind`: at least `min_tracked`
+/// frames tracked, and the two runs the same bits.
+void expect_setting_changes_no_bit(const std::string& key, const std::string& input,
+                                   PipelineConfig config, BackendKind kind, int min_tracked) {
+  set_config_value(config, key, "off");
   const auto off = test::run_sequence(input, config, kind);
-  set_config_value(config, "cuda_icp_persistent", "on");
+  set_config_value(config, key, "on");
   const auto on = test::run_sequence(input, config, kind);
   EXPECT_GT(off.tracked, min_tracked);
   expect_identical_runs(off, on);
@@ -262,7 +271,7 @@ TEST(BackendParity, PersistentIcpIsBitIdenticalToOneLaunchPerIteration) {
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=25,width=320,height=240";
   PipelineConfig config = synthetic_config(input);
-  expect_persistent_icp_changes_no_bit(input, config, BackendKind::kCuda, 15);
+  expect_setting_changes_no_bit("cuda_icp_persistent", input, config, BackendKind::kCuda, 15);
 }
 
 // At 640×480 with one reduction block per 256 pixels (1,200 blocks: more than fit at once on any
@@ -273,7 +282,7 @@ TEST(BackendParity, PersistentIcpWithMoreReductionBlocksThanResidentIsBitIdentic
   const std::string input = "synthetic:frames=8,width=640,height=480";
   PipelineConfig config = synthetic_config(input);
   set_config_value(config, "cuda_reduce_blocks", "65535");
-  expect_persistent_icp_changes_no_bit(input, config, BackendKind::kCuda, 2);
+  expect_setting_changes_no_bit("cuda_icp_persistent", input, config, BackendKind::kCuda, 2);
 }
 
 TEST(BackendParity, PersistentIcpTrajectoryAgreesWithCpu) {
@@ -295,7 +304,7 @@ TEST(BackendParity, CpuIgnoresPersistentIcp) {
   const std::string input = "synthetic:frames=8,width=160,height=120";
   PipelineConfig config = synthetic_config(input);
   set_config_value(config, "volume_resolution", "128");  // fast enough for CI
-  expect_persistent_icp_changes_no_bit(input, config, BackendKind::kCpu, 2);
+  expect_setting_changes_no_bit("cuda_icp_persistent", input, config, BackendKind::kCpu, 2);
 }
 
 TEST(BackendSelection, CudaRequestWithoutGpuIsAClearError) {
@@ -308,6 +317,112 @@ TEST(BackendSelection, CudaRequestWithoutGpuIsAClearError) {
     EXPECT_NE(std::string(e.what()).find("CUDA backend was requested"), std::string::npos);
   }
   EXPECT_EQ(make_backend(BackendKind::kAuto, small_setup())->name(), "cpu");
+}
+
+/// Bilateral settings of `mode` as make_stage_params derives them (sigma 4 px, 0.1 m).
+BilateralParams bilateral(BilateralMode mode, int radius_px, bool zero_padded, float max_depth_m) {
+  BilateralParams p = make_bilateral_params(mode, radius_px, 4.0f, 0.1f, zero_padded);
+  p.max_depth_m = max_depth_m;
+  return p;
+}
+
+/// Pixels whose bits differ (all three components for vectors).
+template <class T>
+int differing_pixels(const HostImage<T>& a, const HostImage<T>& b) {
+  int n = 0;
+  for (size_t i = 0; i < a.pixels().size(); ++i) {
+    n += std::memcmp(&a.pixels()[i], &b.pixels()[i], sizeof(T)) != 0;
+  }
+  return n;
+}
+
+/// The CUDA backend with cuda_fused_preprocess off and on, fed the same frames (far, shifted,
+/// nearer: the largest depth goes down as well as up) with preprocess settings `pre`: after every
+/// frame, the unfiltered and filtered depth, every pyramid level and the state the same bits,
+/// and the largest depth the one of the frame (the fused path resets it without a memset).
+void expect_fused_preprocess_changes_no_bit(BackendSetup setup, const BilateralParams& pre) {
+  setup.cuda.fused_preprocess = false;
+  const auto off = make_backend(BackendKind::kCuda, setup);
+  setup.cuda.fused_preprocess = true;
+  const auto on = make_backend(BackendKind::kCuda, setup);
+  const Mat4f start = Mat4f::translation(Vec3f{2.0f, 2.0f, 0.0f});
+  off->reset(start);
+  on->reset(start);
+  const HostImage<uint16_t> far = scene_depth();
+  HostImage<uint16_t> shifted = far, nearer = far;
+  for (auto& v : shifted.pixels()) v = v ? static_cast<uint16_t>(v + 8) : 0;
+  for (auto& v : nearer.pixels()) v = static_cast<uint16_t>(v * 4 / 5);
+  const HostImage<uint16_t>* frames[] = {&far, &far, &shifted, &nearer, &far, &shifted};
+  int f = 0;
+  for (const HostImage<uint16_t>* depth : frames) {
+    const bool track = f > 0;
+    const TrackingState a = run_frame(*off, *depth, track, !track, false, pre);
+    const TrackingState b = run_frame(*on, *depth, track, !track, false, pre);
+    const std::string at = "frame " + std::to_string(f++);
+    EXPECT_EQ(std::memcmp(&a, &b, sizeof a), 0) << at;  // pose, largest depth, decisions
+    const MmToMArgs mm{depth->view(), {}, setup.compute_ratio, pre.max_depth_m};
+    float max_depth_m = 0.0f;
+    for (int y = 0; y < setup.compute_height_px(); ++y) {
+      for (int x = 0; x < setup.compute_width_px(); ++x) {
+        max_depth_m = std::max(max_depth_m, mm_to_m_value(x, y, mm));
+      }
+    }
+    EXPECT_EQ(b.max_depth_m, max_depth_m) << at;
+    const DebugMaps ma = off->read_maps(), mb = on->read_maps();
+    EXPECT_EQ(differing_pixels(ma.depth_m, mb.depth_m), 0) << at;
+    EXPECT_EQ(differing_pixels(ma.filtered_m, mb.filtered_m), 0) << at;
+    if (!track) continue;
+    ASSERT_EQ(ma.level_depth_m.size(), static_cast<size_t>(setup.pyramid_levels));
+    ASSERT_EQ(mb.level_depth_m.size(), static_cast<size_t>(setup.pyramid_levels));
+    for (int l = 0; l < setup.pyramid_levels; ++l) {
+      EXPECT_EQ(differing_pixels(ma.level_depth_m[l], mb.level_depth_m[l]), 0) << at << l;
+      EXPECT_EQ(differing_pixels(ma.level_vertex[l], mb.level_vertex[l]), 0) << at << l;
+      EXPECT_EQ(differing_pixels(ma.level_normal[l], mb.level_normal[l]), 0) << at << l;
+    }
+  }
+}
+
+// cuda_fused_preprocess runs mm → m with the bilateral filter in one launch and the whole
+// pyramid in one more; every output must keep its bits, for every preprocess setting.
+TEST(BackendParity, FusedPreprocessIsBitIdenticalPerFrame) {
+  KFX_REQUIRE_CUDA();
+  expect_fused_preprocess_changes_no_bit(small_setup(), exact_bilateral());
+  expect_fused_preprocess_changes_no_bit(small_setup(),
+                                         bilateral(BilateralMode::kExact, 4, true, 2.2f));
+  expect_fused_preprocess_changes_no_bit(small_setup(),
+                                         bilateral(BilateralMode::kSpatial3x3, 2, true, 0.0f));
+  // Compute ratio 2 (160×120, partial tiles) and four levels down to 20×15.
+  BackendSetup half = small_setup();
+  half.compute_ratio = 2;
+  half.pyramid_levels = 4;
+  expect_fused_preprocess_changes_no_bit(half,
+                                         bilateral(BilateralMode::kSpatial3x3, 2, false, 2.5f));
+  expect_fused_preprocess_changes_no_bit(half, bilateral(BilateralMode::kExact, 3, false, 0.0f));
+}
+
+TEST(BackendParity, FusedPreprocessIsBitIdenticalOverASequence) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=25,width=320,height=240";
+  PipelineConfig config = synthetic_config(input);
+  expect_setting_changes_no_bit("cuda_fused_preprocess", input, config, BackendKind::kCuda, 15);
+  // A depth cut-off (the synthetic room reaches beyond 3 m).
+  PipelineConfig cut = config;
+  set_config_value(cut, "max_depth_m", "3");
+  expect_setting_changes_no_bit("cuda_fused_preprocess", input, cut, BackendKind::kCuda, 10);
+  // The thesis's approximate filter, zero padding and four pyramid levels. (With the cut-off as
+  // well it loses track: the spatial-only filter averages the cut pixels' zeros in.)
+  set_config_value(config, "bilateral_mode", "spatial3x3");
+  set_config_value(config, "zero_padded_depth", "on");
+  set_config_value(config, "pyramid_iterations", "4,3,2,2");
+  expect_setting_changes_no_bit("cuda_fused_preprocess", input, config, BackendKind::kCuda, 15);
+}
+
+TEST(BackendParity, FusedPreprocessAtComputeRatioTwoIsBitIdentical) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=12,width=640,height=480";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "compute_size_ratio", "2");
+  expect_setting_changes_no_bit("cuda_fused_preprocess", input, config, BackendKind::kCuda, 5);
 }
 
 }  // namespace

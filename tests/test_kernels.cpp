@@ -380,6 +380,38 @@ TEST(Integrate, ColumnBoundsNeverChangeTheResult) {
   EXPECT_GT(touched_total, 10000);  // the poses do see the volume
 }
 
+TEST(Integrate, FarBehindSurfaceSkipsOnlyVoxelsNoRayFactorUpdates) {
+  // Voxels right at the −mu boundary (depth − z within a few ulps of −mu, the hard cases) and
+  // anywhere in a wide frustum: where the early-out skips a voxel, the full test diff > −mu
+  // fails too, for every ray factor it is used with; kThesis (factor < 1 off-axis) never skips.
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  IntegrateArgs a;
+  a.mu_m = 0.1f;
+  int skipped = 0;
+  for (int i = 0; i < 200000; ++i) {
+    const float z = 0.3f + 2.0f * (unit(rng) + 1.0f);
+    const Vec3f p{1.5f * z * unit(rng), 1.2f * z * unit(rng), z};
+    float depth = z - a.mu_m + 0.002f * unit(rng);
+    for (int k = static_cast<int>(8 * unit(rng)); k != 0; k += k > 0 ? -1 : 1) {
+      depth = std::nextafter(depth, k > 0 ? 10.0f : 0.0f);
+    }
+    if (i % 4 == 0) depth = z + 3.0f * unit(rng);  // and depths anywhere around the voxel
+    const float depth_minus_z_m = depth - p.z;
+    for (RayFactor mode : {RayFactor::kExact, RayFactor::kApprox, RayFactor::kNone}) {
+      a.ray_factor = mode;
+      if (!far_behind_surface(depth_minus_z_m, a)) continue;
+      ++skipped;
+      ASSERT_FALSE(depth_minus_z_m * ray_factor_of(p, mode) > -a.mu_m)
+          << "mode " << static_cast<int>(mode) << " p " << p.x << " " << p.y << " " << p.z
+          << " depth " << depth;
+    }
+    a.ray_factor = RayFactor::kThesis;
+    ASSERT_FALSE(far_behind_surface(depth_minus_z_m, a));
+  }
+  EXPECT_GT(skipped, 100000);  // the early-out does take many of these voxels
+}
+
 /// Raycast arguments over a test volume: settings plus buffers, as the backends build them.
 RaycastArgs raycast_args(VolumeFixture& vol, HostImage<Vec3f>& vertex, HostImage<Vec3f>& normal,
                          const TrackingState& state, float step_m, float large_step_m) {

@@ -30,10 +30,11 @@ namespace kfx {
 /// CUDA launch tuning: speed only, never results (settings cuda_*; the CPU backend ignores it).
 /// The one place its defaults live, measured on an H200 (bench/RESULTS.md).
 struct CudaTuning {
-  bool pdl = true;             ///< programmatic dependent launch (on sm_90 and newer)
-  int reduce_blocks = 0;       ///< cap on the ICP reduction grid; 0 = one block per SM
-  int z_chunks = 16;           ///< z-ranges each integration column is split into
-  bool icp_persistent = true;  ///< one cooperative launch per pyramid level, not per iteration
+  bool pdl = true;               ///< programmatic dependent launch (on sm_90 and newer)
+  int reduce_blocks = 0;         ///< cap on the ICP reduction grid; 0 = one block per SM
+  int z_chunks = 16;             ///< z-ranges each integration column is split into
+  bool icp_persistent = true;    ///< one cooperative launch per pyramid level, not per iteration
+  bool fused_preprocess = true;  ///< preprocess, then the pyramid, in one launch each
 };
 
 /// Sizes fixed for a backend's lifetime; every buffer is allocated once from these.
@@ -74,6 +75,10 @@ struct DebugMaps {
   HostImage<Vec3f> ref_vertex;      ///< raycast vertices
   HostImage<Vec3f> ref_normal;      ///< raycast normals
   HostImage<int8_t> track_outcome;  ///< last level-0 ICP outcome per pixel
+  /// The pyramid of the last tracked frame, one image per level (level 0's depth = filtered_m).
+  std::vector<HostImage<float>> level_depth_m;
+  std::vector<HostImage<Vec3f>> level_vertex;
+  std::vector<HostImage<Vec3f>> level_normal;
 };
 
 /// One stage-per-call backend.

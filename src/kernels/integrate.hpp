@@ -149,6 +149,29 @@ KFX_HD inline float measurement_weight(Vec3f p, float depth, int px, int py,
   return max_f(1.0f, rintf(w * static_cast<float>(kWeightUnits)));
 }
 
+/// Distance along the ray per unit of camera z for the voxel at camera-frame point p (p.z > 0).
+KFX_HD inline float ray_factor_of(Vec3f p, RayFactor mode) {
+  if (mode == RayFactor::kExact) {
+    return sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
+  }
+  if (mode == RayFactor::kApprox) {
+    return 1.0f + 0.5f * (p.x * p.x + p.y * p.y) / (p.z * p.z);  // sqrt(1+r²) ≈ 1 + r²/2
+  }
+  if (mode == RayFactor::kThesis) {
+    return 1.0f + p.x / p.z + (p.y / p.z) * (p.y / p.z);  // as the thesis writes it
+  }
+  return 1.0f;
+}
+
+/// True when the voxel at camera depth p_z lies so far behind the measured depth that no ray
+/// factor of at least 1 (every setting but kThesis) can bring diff = (depth − p_z)·factor above
+/// −mu: the product of a non-positive number and a factor ≥ 1 is at most the number, and float
+/// rounding is monotone, so diff ≤ depth − p_z ≤ −mu. Skipping such voxels before the factor
+/// (a square root and two divisions) updates exactly the same voxels.
+KFX_HD inline bool far_behind_surface(float depth_minus_z_m, const IntegrateArgs& a) {
+  return a.ray_factor != RayFactor::kThesis && depth_minus_z_m <= -a.mu_m;
+}
+
 /// integrate_voxel with a weighted measurement (IntegrationWeight other than kConstant): the same
 /// tests and sdf, then a running average with weight measurement_weight() in kWeightUnits.
 KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
@@ -158,15 +181,9 @@ KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const 
   if (u < 0.0f || u > a.depth_m.width - 1 || v < 0.0f || v > a.depth_m.height - 1) return;
   const float depth = a.depth_m(static_cast<int>(u), static_cast<int>(v));
   if (a.zero_depth_test && depth == 0.0f) return;
-  float ray_factor = 1.0f;
-  if (a.ray_factor == RayFactor::kExact) {
-    ray_factor = sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
-  } else if (a.ray_factor == RayFactor::kApprox) {
-    ray_factor = 1.0f + 0.5f * (p.x * p.x + p.y * p.y) / (p.z * p.z);
-  } else if (a.ray_factor == RayFactor::kThesis) {
-    ray_factor = 1.0f + p.x / p.z + (p.y / p.z) * (p.y / p.z);
-  }
-  const float diff = (depth - p.z) * ray_factor;
+  const float depth_minus_z_m = depth - p.z;
+  if (far_behind_surface(depth_minus_z_m, a)) return;
+  const float diff = depth_minus_z_m * ray_factor_of(p, a.ray_factor);
   if (diff > -a.mu_m) {
     const float sdf = min_f(1.0f, diff / a.mu_m);
     Voxel& voxel = a.volume.at(x, y, z);
@@ -196,15 +213,9 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
   if (u < 0.0f || u > a.depth_m.width - 1 || v < 0.0f || v > a.depth_m.height - 1) return;
   const float depth = a.depth_m(static_cast<int>(u), static_cast<int>(v));
   if (a.zero_depth_test && depth == 0.0f) return;
-  float ray_factor = 1.0f;  // distance along the ray per unit of z
-  if (a.ray_factor == RayFactor::kExact) {
-    ray_factor = sqrtf(1.0f + (p.x / p.z) * (p.x / p.z) + (p.y / p.z) * (p.y / p.z));
-  } else if (a.ray_factor == RayFactor::kApprox) {
-    ray_factor = 1.0f + 0.5f * (p.x * p.x + p.y * p.y) / (p.z * p.z);  // sqrt(1+r²) ≈ 1 + r²/2
-  } else if (a.ray_factor == RayFactor::kThesis) {
-    ray_factor = 1.0f + p.x / p.z + (p.y / p.z) * (p.y / p.z);  // as the thesis writes it
-  }
-  const float diff = (depth - p.z) * ray_factor;
+  const float depth_minus_z_m = depth - p.z;
+  if (far_behind_surface(depth_minus_z_m, a)) return;
+  const float diff = depth_minus_z_m * ray_factor_of(p, a.ray_factor);
   if (diff > -a.mu_m) {
     const float sdf = min_f(1.0f, diff / a.mu_m);
     Voxel& voxel = a.volume.at(x, y, z);

@@ -1,6 +1,16 @@
 #pragma once
 /// Preprocessing kernels, one output pixel each: mm → metres, bilateral filter, the robust
 /// half-sample of the pyramid, and vertex/normal maps (docs/algorithm.md §2.1–2.2).
+///
+/// Each step is a value function (what one pixel gets, its inputs read through a callable) and a
+/// *_pixel body over images; the CPU backend runs the *_pixel bodies one step after the other.
+/// The CUDA backend fuses the steps (setting cuda_fused_preprocess): preprocess_pixel does
+/// mm → m and the bilateral filter in one pass, pyramid_vertex then pyramid_normal_pixel every
+/// pyramid level in one launch, each thread recomputing the neighbour values it needs with the
+/// same value functions. The bits stay those of the separate steps: a value with products (a
+/// vertex) still goes through memory before the next step uses it, so no compiler can contract
+/// it into that step's arithmetic (FMA); only sums, quotients and comparisons (mm → m, the
+/// half-sample) are recomputed inline.
 
 #include <array>
 #include <cmath>
@@ -23,12 +33,18 @@ struct MmToMArgs {
   float max_depth_m = 0.0f;         ///< depths beyond this read as 0 (no data); 0 = keep all
 };
 
-/// Output (x, y) = input (x·ratio, y·ratio) / 1000: nearest subsampling, no averaging; a depth
-/// beyond max_depth_m (when set) becomes 0, so no later stage uses it (the sensor's noise grows
-/// with the square of the depth).
-KFX_HD inline float mm_to_m_pixel(int x, int y, const MmToMArgs& a) {
+/// Depth of compute-size pixel (x, y) in metres: input (x·ratio, y·ratio) / 1000, nearest
+/// subsampling, no averaging; a depth beyond max_depth_m (when set) becomes 0, so no later stage
+/// uses it (the sensor's noise grows with the square of the depth).
+KFX_HD inline float mm_to_m_value(int x, int y, const MmToMArgs& a) {
   float d = a.in_mm(x * a.ratio, y * a.ratio) / 1000.0f;
   if (a.max_depth_m > 0.0f && d > a.max_depth_m) d = 0.0f;
+  return d;
+}
+
+/// Output (x, y) = mm_to_m_value(x, y); returns it (for the frame's largest depth).
+KFX_HD inline float mm_to_m_pixel(int x, int y, const MmToMArgs& a) {
+  const float d = mm_to_m_value(x, y, a);
   a.out_m(x, y) = d;
   return d;
 }
@@ -81,42 +97,78 @@ struct BilateralArgs : BilateralParams {
   ImageView<float> out_m;
 };
 
-/// Edge-preserving bilateral filter of one pixel (coordinates clamped at the borders;
-/// neighbours ≤ 0 skipped; a centre of 0 gives 0).
-KFX_HD inline void bilateral_pixel(int x, int y, const BilateralArgs& a) {
-  const float centre = a.in_m(x, y);
-  if (centre == 0.0f) {
-    a.out_m(x, y) = 0.0f;
-    return;
-  }
-  const int r = a.radius_px;
+/// The depth the bilateral filter of a width × height image reads at (x, y), which may lie
+/// outside the image: 0 there when zero padded, else depth_m(x, y) with both coordinates
+/// clamped into the image. depth_m(u, v) reads a pixel inside the image.
+template <class DepthM>
+KFX_HD float bilateral_input_m(int x, int y, int width, int height, bool zero_padded,
+                               DepthM depth_m) {
+  if (zero_padded) return x >= 0 && y >= 0 && x < width && y < height ? depth_m(x, y) : 0.0f;
+  return depth_m(clampi(x, 0, width - 1), clampi(y, 0, height - 1));
+}
+
+/// Edge-preserving bilateral filter of a pixel of depth centre_m; neighbour_m(i, j) gives the
+/// input at offset (i, j) as bilateral_input_m reads it. With the range term, neighbours ≤ 0
+/// are skipped; a centre of 0 gives 0.
+template <class NeighbourM>
+KFX_HD float bilateral_filter_m(float centre_m, const BilateralParams& p, NeighbourM neighbour_m) {
+  if (centre_m == 0.0f) return 0.0f;
+  const int r = p.radius_px;
   float weight_sum = 0.0f;
   float value_sum = 0.0f;
   // NOTE: outer loop over the x offset, inner over y, as SLAMBench sums them.
   for (int i = -r; i <= r; ++i) {
     for (int j = -r; j <= r; ++j) {
-      float pixel;
-      if (a.zero_padded) {
-        pixel = a.in_m.contains(x + i, y + j) ? a.in_m(x + i, y + j) : 0.0f;
-      } else {
-        pixel = a.in_m(clampi(x + i, 0, a.in_m.width - 1), clampi(y + j, 0, a.in_m.height - 1));
-      }
-      if (a.use_range_term) {
+      const float pixel = neighbour_m(i, j);
+      if (p.use_range_term) {
         if (pixel > 0.0f) {
-          const float mod = (pixel - centre) * (pixel - centre);
-          const float factor = a.spatial_weight[i + r] * a.spatial_weight[j + r] *
-                               expf(-mod / a.range_denominator_m2);
+          const float mod = (pixel - centre_m) * (pixel - centre_m);
+          const float factor = p.spatial_weight[i + r] * p.spatial_weight[j + r] *
+                               expf(-mod / p.range_denominator_m2);
           value_sum += factor * pixel;
           weight_sum += factor;
         }
       } else {
-        const float factor = a.spatial_weight[i + r] * a.spatial_weight[j + r];
+        const float factor = p.spatial_weight[i + r] * p.spatial_weight[j + r];
         value_sum += factor * pixel;
         weight_sum += factor;
       }
     }
   }
-  a.out_m(x, y) = value_sum / weight_sum;
+  return value_sum / weight_sum;
+}
+
+/// Bilateral filter of one pixel of in_m (borders as bilateral_input_m).
+KFX_HD inline void bilateral_pixel(int x, int y, const BilateralArgs& a) {
+  const auto in_m = [&](int u, int v) { return a.in_m(u, v); };
+  a.out_m(x, y) = bilateral_filter_m(a.in_m(x, y), a, [&](int i, int j) {
+    return bilateral_input_m(x + i, y + j, a.in_m.width, a.in_m.height, a.zero_padded, in_m);
+  });
+}
+
+/// Arguments of the fused preprocess (preprocess_pixel): mm → m and the bilateral filter in one
+/// pass, with the results of mm_to_m_pixel then bilateral_pixel.
+struct PreprocessArgs : BilateralParams {
+  MmToMArgs mm;  ///< the input and its conversion; mm.out_m gets the unfiltered depth
+  ImageView<float> filtered_m;  ///< the bilateral output (pyramid level 0)
+};
+
+/// What bilateral_pixel would read at (x, y) (possibly outside the image) from the unfiltered
+/// depth mm_to_m_pixel stores, computed from the millimetres.
+KFX_HD inline float preprocess_input_m(int x, int y, const PreprocessArgs& a) {
+  return bilateral_input_m(x, y, a.mm.out_m.width, a.mm.out_m.height, a.zero_padded,
+                           [&](int u, int v) { return mm_to_m_value(u, v, a.mm); });
+}
+
+/// The fused preprocess of pixel (x, y): stores its unfiltered depth (integration reads it) and
+/// its filtered depth; returns the unfiltered one (for the frame's largest depth). input_m(i, j)
+/// gives preprocess_input_m(x + i, y + j) (the CUDA backend reads it from a shared-memory tile).
+template <class InputM>
+KFX_HD float preprocess_pixel(int x, int y, const PreprocessArgs& a, InputM input_m) {
+  const float depth_m = input_m(0, 0);
+  a.mm.out_m(x, y) = depth_m;
+  a.filtered_m(x, y) = bilateral_filter_m(depth_m, a, input_m);
+  return depth_m;
 }
 
 /// Most pyramid levels supported.
@@ -136,22 +188,31 @@ struct HalfSampleArgs {
   float range_m = 0.3f;         ///< only pixels within this of the block's top-left count
 };
 
-/// Robust 2×2 average for the next pyramid level.
-KFX_HD inline void half_sample_pixel(int x, int y, const HalfSampleArgs& a) {
+/// Robust 2×2 average for pixel (x, y) of a coarser level of out_width × out_height pixels:
+/// finer_m(u, v) reads the finer level. Sums and a quotient only: no product to contract.
+template <class FinerM>
+KFX_HD float half_sample_value(int x, int y, int out_width, int out_height, float range_m,
+                               FinerM finer_m) {
   const int x0 = 2 * x, y0 = 2 * y;
-  const float centre = a.in_m(x0, y0);
-  const int max_x = 2 * a.out_m.width - 1, max_y = 2 * a.out_m.height - 1;
+  const float centre = finer_m(x0, y0);
+  const int max_x = 2 * out_width - 1, max_y = 2 * out_height - 1;
   float sum = 0.0f, count = 0.0f;
   for (int i = 0; i <= 1; ++i) {
     for (int j = 0; j <= 1; ++j) {
-      const float v = a.in_m(mini(x0 + j, max_x), mini(y0 + i, max_y));
-      if (fabsf(v - centre) < a.range_m) {
+      const float v = finer_m(mini(x0 + j, max_x), mini(y0 + i, max_y));
+      if (fabsf(v - centre) < range_m) {
         count += 1.0f;
         sum += v;
       }
     }
   }
-  a.out_m(x, y) = sum / count;
+  return sum / count;
+}
+
+/// Robust 2×2 average for the next pyramid level.
+KFX_HD inline void half_sample_pixel(int x, int y, const HalfSampleArgs& a) {
+  a.out_m(x, y) = half_sample_value(x, y, a.out_m.width, a.out_m.height, a.range_m,
+                                    [&](int u, int v) { return a.in_m(u, v); });
 }
 
 /// Arguments of depth_to_vertex_pixel.
@@ -161,11 +222,16 @@ struct DepthToVertexArgs {
   Mat4f inverse_k;          ///< K⁻¹ of this level
 };
 
-/// Back-projects one pixel with integer coordinates (no +0.5).
+/// Back-projects pixel (x, y) of depth depth_m with integer coordinates (no +0.5); (0,0,0)
+/// where the depth is 0.
+KFX_HD inline Vec3f depth_to_vertex_value(int x, int y, float depth_m, const Mat4f& inverse_k) {
+  return depth_m > 0.0f ? rotate(inverse_k, Vec3f{float(x), float(y), 1.0f}) * depth_m
+                        : Vec3f{0.0f, 0.0f, 0.0f};
+}
+
+/// Back-projects one pixel (depth_to_vertex_value).
 KFX_HD inline void depth_to_vertex_pixel(int x, int y, const DepthToVertexArgs& a) {
-  const float d = a.depth_m(x, y);
-  a.vertex(x, y) =
-      d > 0.0f ? rotate(a.inverse_k, Vec3f{float(x), float(y), 1.0f}) * d : Vec3f{0.0f, 0.0f, 0.0f};
+  a.vertex(x, y) = depth_to_vertex_value(x, y, a.depth_m(x, y), a.inverse_k);
 }
 
 /// Arguments of vertex_to_normal_pixel.
@@ -175,19 +241,90 @@ struct VertexToNormalArgs {
   float handedness = 1.0f;  ///< Intrinsics::handedness(): keeps normals facing the camera
 };
 
-/// Normal from the four neighbours (clamped): normalize(cross(down − up, right − left)).
-KFX_HD inline void vertex_to_normal_pixel(int x, int y, const VertexToNormalArgs& a) {
-  const int w = a.vertex.width, h = a.vertex.height;
-  const Vec3f left = a.vertex(maxi(x - 1, 0), y);
-  const Vec3f right = a.vertex(mini(x + 1, w - 1), y);
-  const Vec3f up = a.vertex(x, maxi(y - 1, 0));
-  const Vec3f down = a.vertex(x, mini(y + 1, h - 1));
+/// Normal of pixel (x, y) of a width × height vertex map from its four neighbours (clamped):
+/// normalize(cross(down − up, right − left)) · handedness; x = kInvalidNormal where a neighbour
+/// has no depth. vertex(u, v) reads the vertex map inside the image.
+template <class VertexAt>
+KFX_HD Vec3f vertex_to_normal_value(int x, int y, int width, int height, float handedness,
+                                    VertexAt vertex) {
+  const Vec3f left = vertex(maxi(x - 1, 0), y);
+  const Vec3f right = vertex(mini(x + 1, width - 1), y);
+  const Vec3f up = vertex(x, maxi(y - 1, 0));
+  const Vec3f down = vertex(x, mini(y + 1, height - 1));
   if (left.z == 0.0f || right.z == 0.0f || up.z == 0.0f || down.z == 0.0f) {
-    a.normal(x, y) = Vec3f{kInvalidNormal, 0.0f, 0.0f};
-    return;
+    return Vec3f{kInvalidNormal, 0.0f, 0.0f};
   }
   const Vec3f n = normalize(cross(down - up, right - left));
-  a.normal(x, y) = n * a.handedness;
+  return n * handedness;
+}
+
+/// Normal from the four neighbours (vertex_to_normal_value).
+KFX_HD inline void vertex_to_normal_pixel(int x, int y, const VertexToNormalArgs& a) {
+  a.normal(x, y) = vertex_to_normal_value(x, y, a.vertex.width, a.vertex.height, a.handedness,
+                                          [&](int u, int v) { return a.vertex(u, v); });
+}
+
+/// Arguments of the fused pyramid (pyramid_vertex, pyramid_normal_pixel): every level's depth,
+/// vertices and normals from the filtered depth of level 0, with the results of half_sample_pixel
+/// level after level, then depth_to_vertex_pixel and vertex_to_normal_pixel at each level.
+struct PyramidArgs {
+  int levels = 1;                    ///< pyramid levels built (1..kMaxPyramidLevels)
+  float half_sample_range_m = 0.3f;  ///< HalfSampleArgs::range_m
+  /// Depth per level: level 0 is read (the bilateral output), the coarser ones are written.
+  ImageView<float> depth_m[kMaxPyramidLevels] = {};
+  ImageView<Vec3f> vertex[kMaxPyramidLevels] = {};  ///< as DepthToVertexArgs::vertex
+  ImageView<Vec3f> normal[kMaxPyramidLevels] = {};  ///< as VertexToNormalArgs::normal
+  Mat4f inverse_k[kMaxPyramidLevels] = {};          ///< K⁻¹ per level
+  float handedness[kMaxPyramidLevels] = {};         ///< Intrinsics::handedness()
+};
+
+/// Depth of pixel (x, y) of pyramid level kLevel, half-sampled level after level from level 0:
+/// the value half_sample_pixel stores there (no products, so recomputing gives the same bits).
+template <int kLevel>
+KFX_HD float pyramid_depth_m(int x, int y, const PyramidArgs& a) {
+  if constexpr (kLevel == 0) {
+    return a.depth_m[0](x, y);
+  } else {
+    return half_sample_value(x, y, a.depth_m[kLevel].width, a.depth_m[kLevel].height,
+                             a.half_sample_range_m,
+                             [&](int u, int v) { return pyramid_depth_m<kLevel - 1>(u, v, a); });
+  }
+}
+
+/// pyramid_depth_m<level> for a level known at run time.
+KFX_HD inline float pyramid_depth_m(int level, int x, int y, const PyramidArgs& a) {
+  static_assert(kMaxPyramidLevels == 4, "one case per level");
+  switch (level) {
+    case 0:
+      return pyramid_depth_m<0>(x, y, a);
+    case 1:
+      return pyramid_depth_m<1>(x, y, a);
+    case 2:
+      return pyramid_depth_m<2>(x, y, a);
+    default:
+      return pyramid_depth_m<3>(x, y, a);
+  }
+}
+
+/// First step of the fused pyramid for pixel (x, y) of `level`: its depth and vertex. Stores
+/// both (the depth only below level 0, whose depth is the input) when `store` (the pixel's own
+/// thread; others compute it as a neighbour); returns the vertex for pyramid_normal_pixel.
+KFX_HD inline Vec3f pyramid_vertex(int level, int x, int y, const PyramidArgs& a, bool store) {
+  const float depth_m = pyramid_depth_m(level, x, y, a);
+  const Vec3f vertex = depth_to_vertex_value(x, y, depth_m, a.inverse_k[level]);
+  if (store) {
+    if (level > 0) a.depth_m[level](x, y) = depth_m;
+    a.vertex[level](x, y) = vertex;
+  }
+  return vertex;
+}
+
+/// Second step of the fused pyramid: the normal of pixel (x, y) of `level`, vertex(u, v)
+/// giving the vertices pyramid_vertex returned.
+template <class VertexAt>
+KFX_HD void pyramid_normal_pixel(int level, int x, int y, const PyramidArgs& a, VertexAt vertex) {
+  a.normal[level](x, y) = vertex_to_normal_value(
+      x, y, a.normal[level].width, a.normal[level].height, a.handedness[level], vertex);
 }
 
 }  // namespace kfx

@@ -419,6 +419,19 @@ std::vector<ConfigField> build_fields() {
     f.format = [](const C& c) { return std::string(c.cuda.icp_persistent ? "on" : "off"); };
     t.push_back(f);
   }
+  {
+    ConfigField f;
+    f.key = "cuda_fused_preprocess";
+    f.section = "cuda";
+    f.help =
+        "cuda: mm to m with the bilateral filter in one launch, and every pyramid level's depth, "
+        "vertices and normals in one more (on|off; speed only, the same bits)";
+    f.parse = [](C& c, const std::string& text) {
+      c.cuda.fused_preprocess = parse_bool("cuda_fused_preprocess", text);
+    };
+    f.format = [](const C& c) { return std::string(c.cuda.fused_preprocess ? "on" : "off"); };
+    t.push_back(f);
+  }
   return t;
 }
 

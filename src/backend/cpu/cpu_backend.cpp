@@ -224,8 +224,18 @@ class CpuBackend final : public Backend {
   }
 
   DebugMaps read_maps() override {
-    return DebugMaps{buffers_.depth_m, buffers_.level_depth[0], buffers_.ref_vertex,
-                     buffers_.ref_normal, buffers_.track_outcome};
+    DebugMaps maps;
+    maps.depth_m = buffers_.depth_m;
+    maps.filtered_m = buffers_.level_depth[0];
+    maps.ref_vertex = buffers_.ref_vertex;
+    maps.ref_normal = buffers_.ref_normal;
+    maps.track_outcome = buffers_.track_outcome;
+    for (int l = 0; l < setup_.pyramid_levels; ++l) {
+      maps.level_depth_m.push_back(buffers_.level_depth[l]);
+      maps.level_vertex.push_back(buffers_.level_vertex[l]);
+      maps.level_normal.push_back(buffers_.level_normal[l]);
+    }
+    return maps;
   }
   Renders read_renders() override {
     return Renders{buffers_.render_depth, buffers_.render_track, buffers_.render_volume};

@@ -102,6 +102,11 @@ class CudaBackend final : public Backend {
     }
     blocks_done_ = DeviceBuffer<unsigned int>(1);
     KFX_CUDA_CHECK(cudaMemsetAsync(blocks_done_.data(), 0, sizeof(unsigned int), stream_.get()));
+    // Setting cuda_fused_preprocess: preprocess and pyramid in one launch each (the same bits).
+    fused_preprocess_ = setup.cuda.fused_preprocess;
+    max_depth_scratch_ = DeviceBuffer<unsigned int>(2);
+    KFX_CUDA_CHECK(
+        cudaMemsetAsync(max_depth_scratch_.data(), 0, max_depth_scratch_.bytes(), stream_.get()));
     // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0, buffers_.track_outcome.bytes(),
                                    stream_.get()));
@@ -145,6 +150,8 @@ class CudaBackend final : public Backend {
                                    cudaMemcpyHostToDevice, stream_.get()));
     KFX_CUDA_CHECK(
         cudaMemsetAsync(buffers_.ref_vertex.data(), 0, buffers_.ref_vertex.bytes(), stream_.get()));
+    KFX_CUDA_CHECK(
+        cudaMemsetAsync(max_depth_scratch_.data(), 0, max_depth_scratch_.bytes(), stream_.get()));
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     pending_.clear();
     frames_submitted_ = 0;
@@ -195,6 +202,15 @@ class CudaBackend final : public Backend {
   void preprocess(const BilateralParams& p) override {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
+    if (fused_preprocess_) {
+      const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio,
+                         p.max_depth_m};
+      const PreprocessArgs a{p, mm, buffers_.level_depth[0].view()};
+      const dim3 tile(kTileWidthPx, kTileHeightPx);
+      launch(preprocess_kernel, grid_for(w, h, tile), tile, a, state_.data(),
+             max_depth_scratch_.data());
+      return;
+    }
     KFX_CUDA_CHECK(cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
     const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio, p.max_depth_m};
     const dim3 block(32, 8);
@@ -205,6 +221,7 @@ class CudaBackend final : public Backend {
 
   void build_pyramid(const PyramidParams& p) override {
     if (replaying_) return;
+    if (fused_preprocess_) return build_pyramid_fused(p);
     const dim3 block(32, 8);
     for (int l = 1; l < setup_.pyramid_levels; ++l) {
       const HalfSampleArgs a{buffers_.level_depth[l - 1].view(), buffers_.level_depth[l].view(),
@@ -224,6 +241,27 @@ class CudaBackend final : public Backend {
       launch(pixel_kernel<VertexToNormalBody, VertexToNormalArgs>, grid_for(w, h, block), block, n,
              w, h);
     }
+  }
+
+  /// Every level's depth, vertices and normals in one launch (pyramid_kernel).
+  void build_pyramid_fused(const PyramidParams& p) {
+    PyramidArgs a;
+    a.levels = setup_.pyramid_levels;
+    a.half_sample_range_m = p.half_sample_range_m;
+    PyramidGrid grid;
+    for (int l = 0; l < a.levels; ++l) {
+      a.depth_m[l] = buffers_.level_depth[l].view();
+      a.vertex[l] = buffers_.level_vertex[l].view();
+      a.normal[l] = buffers_.level_normal[l].view();
+      a.inverse_k[l] = p.level_intrinsics[l].inverse_matrix();
+      a.handedness[l] = p.level_intrinsics[l].handedness();
+      const dim3 tiles =
+          grid_for(a.vertex[l].width, a.vertex[l].height, dim3(kTileWidthPx, kTileHeightPx));
+      grid.blocks_across[l] = static_cast<int>(tiles.x);
+      grid.first_block[l + 1] = grid.first_block[l] + static_cast<int>(tiles.x * tiles.y);
+    }
+    launch(pyramid_kernel, dim3(grid.first_block[a.levels]), dim3(kTileWidthPx, kTileHeightPx), a,
+           grid);
   }
 
   void begin_tracking() override {
@@ -325,6 +363,11 @@ class CudaBackend final : public Backend {
     maps.ref_vertex = download(buffers_.ref_vertex);
     maps.ref_normal = download(buffers_.ref_normal);
     maps.track_outcome = download(buffers_.track_outcome);
+    for (int l = 0; l < setup_.pyramid_levels; ++l) {
+      maps.level_depth_m.push_back(download(buffers_.level_depth[l]));
+      maps.level_vertex.push_back(download(buffers_.level_vertex[l]));
+      maps.level_normal.push_back(download(buffers_.level_normal[l]));
+    }
     return maps;
   }
 
@@ -427,6 +470,9 @@ class CudaBackend final : public Backend {
   int z_chunks_ = 16;
   DeviceBuffer<double> partials_;
   DeviceBuffer<unsigned int> blocks_done_;
+  bool fused_preprocess_ = true;  ///< setting cuda_fused_preprocess
+  /// The fused preprocess's frame maximum and finished-block count (0, 0 between frames).
+  DeviceBuffer<unsigned int> max_depth_scratch_;
   /// Co-resident blocks of the persistent ICP kernel; 0 = one launch per iteration.
   int persistent_icp_blocks_ = 0;
   DeviceBuffer<double> level_partials_;  ///< its two halves of reduce_blocks_ accumulators

@@ -74,8 +74,30 @@ struct RenderVolumeBody {
   }
 };
 
-/// mm → metres, and the frame's largest depth (block max, then one atomic per block; a max is
-/// exact whatever the order, so this stays repeatable).
+/// The largest of every thread's `value` (≥ 0) in the block; valid in thread (0, 0). A max is
+/// exact whatever the order, so this stays repeatable.
+__device__ inline float block_max(float value) {
+  for (int offset = 16; offset > 0; offset /= 2) {
+    value = fmaxf(value, __shfl_down_sync(0xffffffffu, value, offset));
+  }
+  __shared__ float warp_max[32];
+  const int lane = (threadIdx.y * blockDim.x + threadIdx.x) % 32;
+  const int warp = (threadIdx.y * blockDim.x + threadIdx.x) / 32;
+  if (lane == 0) warp_max[warp] = value;
+  __syncthreads();
+  float m = 0.0f;
+  if (warp == 0) {
+    const int warps = (blockDim.x * blockDim.y + 31) / 32;
+    m = lane < warps ? warp_max[lane] : 0.0f;
+    for (int offset = 16; offset > 0; offset /= 2) {
+      m = fmaxf(m, __shfl_down_sync(0xffffffffu, m, offset));
+    }
+  }
+  return m;
+}
+
+/// mm → metres, and the frame's largest depth (block max, then one atomic per block into
+/// state->max_depth_m, which must be 0 before the launch).
 __global__ void mm_to_m_kernel(MmToMArgs args, TrackingState* state) {
   wait_for_previous_kernel();
   const int x = blockIdx.x * blockDim.x + threadIdx.x;
@@ -83,22 +105,97 @@ __global__ void mm_to_m_kernel(MmToMArgs args, TrackingState* state) {
   float d = 0.0f;
   if (x < args.out_m.width && y < args.out_m.height) d = mm_to_m_pixel(x, y, args);
   if (x == 0 && y == 0) begin_frame_state(*state);  // once per frame, first thing
-  for (int offset = 16; offset > 0; offset /= 2) {
-    d = fmaxf(d, __shfl_down_sync(0xffffffffu, d, offset));
+  const float m = block_max(d);
+  // Non-negative floats order like their bit patterns as ints.
+  if (threadIdx.x == 0 && threadIdx.y == 0) {
+    atomicMax(reinterpret_cast<int*>(&state->max_depth_m), __float_as_int(m));
   }
-  __shared__ float warp_max[32];
-  const int lane = (threadIdx.y * blockDim.x + threadIdx.x) % 32;
-  const int warp = (threadIdx.y * blockDim.x + threadIdx.x) / 32;
-  if (lane == 0) warp_max[warp] = d;
+}
+
+/// Block shape of the fused preprocess and pyramid kernels: one tile of output pixels each.
+constexpr int kTileWidthPx = 32;
+constexpr int kTileHeightPx = 8;
+
+/// The frame's largest depth without a memset per frame: every block folds its maximum into
+/// scratch[0] (bit patterns: non-negative floats order like unsigned ints) and counts itself in
+/// scratch[1]; the last block to finish moves the maximum into state->max_depth_m and zeroes
+/// both for the next frame. `scratch` is 0, 0 before the first frame. Called by every thread.
+__device__ inline void publish_max_depth(float depth_m, TrackingState* state,
+                                         unsigned int* scratch) {
+  const float m = block_max(depth_m);
+  if (threadIdx.x != 0 || threadIdx.y != 0) return;
+  atomicMax(&scratch[0], __float_as_uint(m));
+  __threadfence();  // the max before the count: the last block sees every block's max
+  const unsigned int blocks = gridDim.x * gridDim.y;
+  if (atomicAdd(&scratch[1], 1u) == blocks - 1) {
+    state->max_depth_m = __uint_as_float(atomicExch(&scratch[0], 0u));
+    scratch[1] = 0;
+  }
+}
+
+/// mm → metres and the bilateral filter in one launch (preprocess_pixel), with the frame's
+/// largest depth. Each block converts its tile and a halo of the filter radius into shared
+/// memory once (preprocess_input_m), then filters its pixels from there.
+__global__ void __launch_bounds__(kTileWidthPx* kTileHeightPx)
+    preprocess_kernel(PreprocessArgs args, TrackingState* state, unsigned int* max_scratch) {
+  wait_for_previous_kernel();
+  constexpr int kMaxSide = 2 * kMaxBilateralRadius;
+  __shared__ float tile_m[kTileHeightPx + kMaxSide][kTileWidthPx + kMaxSide];
+  const int r = args.radius_px;
+  const int x0 = blockIdx.x * kTileWidthPx, y0 = blockIdx.y * kTileHeightPx;
+  const int tile_w = kTileWidthPx + 2 * r, tile_h = kTileHeightPx + 2 * r;
+  for (int t = threadIdx.y * kTileWidthPx + threadIdx.x; t < tile_w * tile_h;
+       t += kTileWidthPx * kTileHeightPx) {
+    const int tx = t % tile_w, ty = t / tile_w;
+    tile_m[ty][tx] = preprocess_input_m(x0 + tx - r, y0 + ty - r, args);
+  }
   __syncthreads();
-  if (warp == 0) {
-    const int warps = (blockDim.x * blockDim.y + 31) / 32;
-    float m = lane < warps ? warp_max[lane] : 0.0f;
-    for (int offset = 16; offset > 0; offset /= 2) {
-      m = fmaxf(m, __shfl_down_sync(0xffffffffu, m, offset));
-    }
-    // Non-negative floats order like their bit patterns as ints.
-    if (lane == 0) atomicMax(reinterpret_cast<int*>(&state->max_depth_m), __float_as_int(m));
+  const int x = x0 + threadIdx.x, y = y0 + threadIdx.y;
+  float d = 0.0f;
+  if (x < args.mm.out_m.width && y < args.mm.out_m.height) {
+    d = preprocess_pixel(
+        x, y, args, [&](int i, int j) { return tile_m[threadIdx.y + r + j][threadIdx.x + r + i]; });
+  }
+  if (x == 0 && y == 0) begin_frame_state(*state);  // once per frame, first thing
+  publish_max_depth(d, state, max_scratch);
+}
+
+/// Where the blocks of the fused pyramid launch go: level l has blocks first_block[l] up to
+/// first_block[l + 1], blocks_across[l] tiles per row.
+struct PyramidGrid {
+  int first_block[kMaxPyramidLevels + 1] = {};
+  int blocks_across[kMaxPyramidLevels] = {};
+};
+
+/// Every pyramid level in one launch: each block takes a tile of one level, computes the depth
+/// and vertex of its pixels and a one-pixel halo into shared memory (pyramid_vertex), then the
+/// normals of its pixels from there (pyramid_normal_pixel).
+__global__ void __launch_bounds__(kTileWidthPx* kTileHeightPx)
+    pyramid_kernel(PyramidArgs args, PyramidGrid grid) {
+  wait_for_previous_kernel();
+  int level = 0;
+  while (level + 1 < args.levels && static_cast<int>(blockIdx.x) >= grid.first_block[level + 1]) {
+    ++level;
+  }
+  const int block = blockIdx.x - grid.first_block[level];
+  const int x0 = (block % grid.blocks_across[level]) * kTileWidthPx;
+  const int y0 = (block / grid.blocks_across[level]) * kTileHeightPx;
+  const int w = args.vertex[level].width, h = args.vertex[level].height;
+  constexpr int kTileW = kTileWidthPx + 2, kTileH = kTileHeightPx + 2;
+  __shared__ Vec3f tile[kTileH][kTileW];
+  for (int t = threadIdx.y * kTileWidthPx + threadIdx.x; t < kTileW * kTileH;
+       t += kTileWidthPx * kTileHeightPx) {
+    const int tx = t % kTileW, ty = t / kTileW;
+    const int x = x0 + tx - 1, y = y0 + ty - 1;
+    if (x < 0 || y < 0 || x >= w || y >= h) continue;  // never read: neighbours are clamped
+    const bool own = tx >= 1 && tx <= kTileWidthPx && ty >= 1 && ty <= kTileHeightPx;
+    tile[ty][tx] = pyramid_vertex(level, x, y, args, own);
+  }
+  __syncthreads();
+  const int x = x0 + threadIdx.x, y = y0 + threadIdx.y;
+  if (x < w && y < h) {
+    pyramid_normal_pixel(level, x, y, args,
+                         [&](int u, int v) { return tile[v - y0 + 1][u - x0 + 1]; });
   }
 }
 
