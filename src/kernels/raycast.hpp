@@ -75,27 +75,91 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
   return g;
 }
 
-/// True when every voxel a trilinear sample at p_m reads lies in an untouched brick, so the
-/// sample is (1 ± rounding) ≥ 0.8: the march would neither stop nor refine there.
-KFX_HD inline bool sample_in_untouched_space(const VolumeView& vol, Vec3f p_m) {
-  if (!vol.brick_touched) return false;
-  const float s[3] = {p_m.x * vol.res / vol.size_m - 0.5f, p_m.y * vol.res / vol.size_m - 0.5f,
-                      p_m.z * vol.res / vol.size_m - 0.5f};
+/// Empty-space skipping (docs/algorithm.md §2.4). A march sample whose voxels all lie in
+/// untouched bricks reads (1 ± rounding) ≥ 0.8: it can neither stop nor refine the march, so the
+/// march only has to advance t over it. The test need not reproduce the sample's arithmetic; it
+/// only has to include every voxel the sample could read.
+///
+/// Slack of the test's voxel range: s = p·(res/size) differs from the sample's p·res/size by a
+/// few ulps (< 3e-4 voxel at res 1024), so widening the range by 0.01 voxel on both sides keeps
+/// every voxel the exact sample reads.
+constexpr float kSkipSlackVox = 0.01f;
+/// How far inside its super-brick a fast-forward stops, in voxels: far above the float error
+/// of the exit parameter and of the sample positions (a few ulps of ≤ 1024 voxels, < 1e-3).
+constexpr float kFastForwardMarginVox = 0.05f;
+
+/// Outcome of the empty-space test of one march sample.
+struct UntouchedSample {
+  bool untouched = false;  ///< every voxel the sample may read lies in an untouched brick
+  /// All of them lie in one untouched super-brick, this one (index per axis): the march may
+  /// fast-forward through it (raycast_fast_forward_end_t). -1 when not.
+  int super_x = -1, super_y = -1, super_z = -1;
+};
+
+/// Empty-space test at volume-frame point p_m; vox_per_m = res / size_m. Looks at one
+/// super-brick flag when the sample's voxels share a super-brick, else at up to 8 brick flags.
+KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m, float vox_per_m) {
+  UntouchedSample u;
+  if (!vol.brick_touched) return u;
+  const float s[3] = {p_m.x * vox_per_m - 0.5f, p_m.y * vox_per_m - 0.5f, p_m.z * vox_per_m - 0.5f};
+  // The sample reads voxels max(b, 0) and min(b + 1, res − 1) per axis, b = floor(s); the
+  // two-value sample reads one of them in x and y.
   int lo[3], hi[3];
   for (int i = 0; i < 3; ++i) {
-    const int base = static_cast<int>(floorf(s[i]));
-    lo[i] = maxi(base, 0) >> kBrickShift;
-    hi[i] = mini(base + 1, vol.res - 1) >> kBrickShift;
+    lo[i] = maxi(static_cast<int>(floorf(s[i] - kSkipSlackVox)), 0);
+    hi[i] = mini(static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1, vol.res - 1);
+  }
+  if (vol.super_brick_touched && (lo[0] >> kSuperBrickShift) == (hi[0] >> kSuperBrickShift) &&
+      (lo[1] >> kSuperBrickShift) == (hi[1] >> kSuperBrickShift) &&
+      (lo[2] >> kSuperBrickShift) == (hi[2] >> kSuperBrickShift)) {
+    if (!vol.super_brick_touched[vol.super_brick_index(lo[0], lo[1], lo[2])]) {
+      u.untouched = true;
+      u.super_x = lo[0] >> kSuperBrickShift;
+      u.super_y = lo[1] >> kSuperBrickShift;
+      u.super_z = lo[2] >> kSuperBrickShift;
+      return u;
+    }
   }
   const int b = bricks_per_side(vol.res);
-  for (int z = lo[2]; z <= hi[2]; ++z) {
-    for (int y = lo[1]; y <= hi[1]; ++y) {
-      for (int x = lo[0]; x <= hi[0]; ++x) {
-        if (vol.brick_touched[x + y * b + z * b * b]) return false;
+  for (int z = lo[2] >> kBrickShift; z <= hi[2] >> kBrickShift; ++z) {
+    for (int y = lo[1] >> kBrickShift; y <= hi[1] >> kBrickShift; ++y) {
+      for (int x = lo[0] >> kBrickShift; x <= hi[0] >> kBrickShift; ++x) {
+        if (vol.brick_touched[x + y * b + z * b * b]) return u;
       }
     }
   }
-  return true;
+  u.untouched = true;
+  return u;
+}
+
+/// Ray parameter (metres along `direction`, inv_dir = 1 / direction) before which every sample
+/// of the ray lies safely in super-brick u's voxel range, shrunk by kFastForwardMarginVox: a
+/// slab test against that box, open on the sides where the super-brick meets the volume's faces
+/// (the sample clamps to the volume there, and the march stops at the volume's exit anyway).
+/// Only the exit matters: the sample at the current t was tested, and the float positions of
+/// later samples move monotonically along each axis. voxel_m = size_m / res.
+KFX_HD inline float super_brick_exit_t(const VolumeView& vol, const UntouchedSample& u,
+                                       Vec3f origin, Vec3f inv_dir, float voxel_m) {
+  constexpr float kOpen_m = 1e30f;  // a face of the volume: no exit there
+  constexpr int kSide = 1 << kSuperBrickShift;
+  const int super[3] = {u.super_x, u.super_y, u.super_z};
+  const float o[3] = {origin.x, origin.y, origin.z}, inv[3] = {inv_dir.x, inv_dir.y, inv_dir.z};
+  float t_exit = kOpen_m;
+  for (int i = 0; i < 3; ++i) {
+    const int first_vox = super[i] * kSide;
+    // The sample reads voxels floor(s − 0.5) and the next: both stay in the super-brick while
+    // s ∈ [first + 0.5, first + side − 0.5).
+    float bound_m;
+    if (inv[i] >= 0.0f) {
+      bound_m = first_vox + kSide >= vol.res
+                    ? kOpen_m
+                    : (first_vox + kSide - 0.5f - kFastForwardMarginVox) * voxel_m;
+    } else {
+      bound_m = first_vox == 0 ? -kOpen_m : (first_vox + 0.5f + kFastForwardMarginVox) * voxel_m;
+    }
+    t_exit = min_f(t_exit, (bound_m - o[i]) * inv[i]);
+  }
+  return t_exit;
 }
 
 /// How the march samples the tsdf (setting `raycast_interp`).
@@ -167,15 +231,26 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
   float f_t = raycast_sample(a, origin + direction * t);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
-  // Samples in untouched bricks are skipped: they are ≥ 0.8, so they would only have advanced
-  // t and set f_t. f_t is evaluated for real (at t_prev) only if the secant step needs it.
+  // Samples in untouched space are skipped: they are ≥ 0.8, so they would only have advanced t
+  // and set f_t. f_t is evaluated for real (at t_prev) only if the secant step needs it.
   bool f_t_skipped = false;
   float t_prev = t;
-  for (; t < t_far; t += step) {
+  const float vox_per_m = a.volume.res / size, voxel_m = size / a.volume.res;
+  while (t < t_far) {
     const Vec3f p = origin + direction * t;
-    if (sample_in_untouched_space(a.volume, p)) {
+    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m);
+    if (u.untouched) {
       f_t_skipped = true;
-      t_prev = t;
+      // In an untouched super-brick, fast-forward to its exit without testing each sample.
+      // t advances by the same float additions as sample by sample, so later samples (and the
+      // hit) are bit for bit the same.
+      const float t_end =
+          u.super_x >= 0 ? min_f(super_brick_exit_t(a.volume, u, origin, inv_dir, voxel_m), t_far)
+                         : t;
+      do {
+        t_prev = t;
+        t += step;
+      } while (t < t_end);
       continue;
     }
     f_tt = raycast_sample(a, p);
@@ -183,6 +258,7 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
     if (f_tt < 0.8f && !constant_step) step = a.step_m;
     f_t = f_tt;
     f_t_skipped = false;
+    t += step;
   }
   if (!(f_tt < 0.0f)) return 0.0f;
   if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev);
