@@ -88,7 +88,7 @@ struct FrameBuffers {
   Image<Rgba8> render_volume;
   Array<Voxel> volume;                 ///< res³ voxels, x fastest
   Array<uint8_t> brick_touched;        ///< one flag per 8³ brick (VolumeView::brick_touched)
-  Array<uint8_t> super_brick_touched;  ///< one flag per 32³ (VolumeView::super_brick_touched)
+  Array<uint8_t> super_brick_touched;  ///< one flag per 16³ (VolumeView::super_brick_touched)
   int volume_res_vox = 0;
   float volume_size_m = 0.0f;
 };

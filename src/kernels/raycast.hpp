@@ -91,13 +91,35 @@ constexpr float kFastForwardMarginVox = 0.05f;
 /// Outcome of the empty-space test of one march sample.
 struct UntouchedSample {
   bool untouched = false;  ///< every voxel the sample may read lies in an untouched brick
-  /// All of them lie in one untouched super-brick, this one (index per axis): the march may
-  /// fast-forward through it (raycast_fast_forward_end_t). -1 when not.
-  int super_x = -1, super_y = -1, super_z = -1;
+  /// When untouched: the untouched box of whole bricks or super-bricks around those voxels,
+  /// voxels [box_begin_vox, box_end_vox) per axis; the march may fast-forward through it
+  /// (untouched_box_exit_t).
+  int box_begin_vox[3] = {0, 0, 0};
+  int box_end_vox[3] = {0, 0, 0};
 };
 
-/// Empty-space test at volume-frame point p_m; vox_per_m = res / size_m. Looks at one
-/// super-brick flag when the sample's voxels share a super-brick, else at up to 8 brick flags.
+/// True when every cube of 2^shift voxels that voxels lo..hi (per axis) reach has a 0 flag in
+/// `flags` (cubes_per_side per axis, x fastest); then `u` gets their union as its box.
+KFX_HD inline bool untouched_cubes(const uint8_t* flags, int cubes_per_side, int shift,
+                                   const int lo[3], const int hi[3], UntouchedSample& u) {
+  const int n = cubes_per_side;
+  for (int z = lo[2] >> shift; z <= hi[2] >> shift; ++z) {
+    for (int y = lo[1] >> shift; y <= hi[1] >> shift; ++y) {
+      for (int x = lo[0] >> shift; x <= hi[0] >> shift; ++x) {
+        if (flags[x + y * n + z * n * n]) return false;
+      }
+    }
+  }
+  u.untouched = true;
+  for (int i = 0; i < 3; ++i) {
+    u.box_begin_vox[i] = (lo[i] >> shift) << shift;
+    u.box_end_vox[i] = ((hi[i] >> shift) + 1) << shift;
+  }
+  return true;
+}
+
+/// Empty-space test at volume-frame point p_m; vox_per_m = res / size_m. Looks at the
+/// super-brick flags first (usually one), then at the brick flags (usually one or two).
 KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m, float vox_per_m) {
   UntouchedSample u;
   if (!vol.brick_touched) return u;
@@ -109,53 +131,38 @@ KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m,
     lo[i] = maxi(static_cast<int>(floorf(s[i] - kSkipSlackVox)), 0);
     hi[i] = mini(static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1, vol.res - 1);
   }
-  if (vol.super_brick_touched && (lo[0] >> kSuperBrickShift) == (hi[0] >> kSuperBrickShift) &&
-      (lo[1] >> kSuperBrickShift) == (hi[1] >> kSuperBrickShift) &&
-      (lo[2] >> kSuperBrickShift) == (hi[2] >> kSuperBrickShift)) {
-    if (!vol.super_brick_touched[vol.super_brick_index(lo[0], lo[1], lo[2])]) {
-      u.untouched = true;
-      u.super_x = lo[0] >> kSuperBrickShift;
-      u.super_y = lo[1] >> kSuperBrickShift;
-      u.super_z = lo[2] >> kSuperBrickShift;
-      return u;
-    }
+  if (vol.super_brick_touched &&
+      untouched_cubes(vol.super_brick_touched, super_bricks_per_side(vol.res), kSuperBrickShift, lo,
+                      hi, u)) {
+    return u;
   }
-  const int b = bricks_per_side(vol.res);
-  for (int z = lo[2] >> kBrickShift; z <= hi[2] >> kBrickShift; ++z) {
-    for (int y = lo[1] >> kBrickShift; y <= hi[1] >> kBrickShift; ++y) {
-      for (int x = lo[0] >> kBrickShift; x <= hi[0] >> kBrickShift; ++x) {
-        if (vol.brick_touched[x + y * b + z * b * b]) return u;
-      }
-    }
-  }
-  u.untouched = true;
+  untouched_cubes(vol.brick_touched, bricks_per_side(vol.res), kBrickShift, lo, hi, u);
   return u;
 }
 
 /// Ray parameter (metres along `direction`, inv_dir = 1 / direction) before which every sample
-/// of the ray lies safely in super-brick u's voxel range, shrunk by kFastForwardMarginVox: a
-/// slab test against that box, open on the sides where the super-brick meets the volume's faces
-/// (the sample clamps to the volume there, and the march stops at the volume's exit anyway).
-/// Only the exit matters: the sample at the current t was tested, and the float positions of
-/// later samples move monotonically along each axis. voxel_m = size_m / res.
-KFX_HD inline float super_brick_exit_t(const VolumeView& vol, const UntouchedSample& u,
-                                       Vec3f origin, Vec3f inv_dir, float voxel_m) {
+/// of the ray lies safely in u's untouched box, shrunk by kFastForwardMarginVox: a slab test
+/// against that box, open on the sides where the box meets the volume's faces (the sample
+/// clamps to the volume there, and the march stops at the volume's exit anyway). Only the exit
+/// matters: the sample at the current t was tested, and the float positions of later samples
+/// move monotonically along each axis. voxel_m = size_m / res.
+KFX_HD inline float untouched_box_exit_t(const VolumeView& vol, const UntouchedSample& u,
+                                         Vec3f origin, Vec3f inv_dir, float voxel_m) {
   constexpr float kOpen_m = 1e30f;  // a face of the volume: no exit there
-  constexpr int kSide = 1 << kSuperBrickShift;
-  const int super[3] = {u.super_x, u.super_y, u.super_z};
   const float o[3] = {origin.x, origin.y, origin.z}, inv[3] = {inv_dir.x, inv_dir.y, inv_dir.z};
   float t_exit = kOpen_m;
   for (int i = 0; i < 3; ++i) {
-    const int first_vox = super[i] * kSide;
-    // The sample reads voxels floor(s − 0.5) and the next: both stay in the super-brick while
-    // s ∈ [first + 0.5, first + side − 0.5).
+    // The sample reads voxels floor(s − 0.5) and the next: both stay in the box while
+    // s ∈ [begin + 0.5, end − 0.5).
     float bound_m;
     if (inv[i] >= 0.0f) {
-      bound_m = first_vox + kSide >= vol.res
+      bound_m = u.box_end_vox[i] >= vol.res
                     ? kOpen_m
-                    : (first_vox + kSide - 0.5f - kFastForwardMarginVox) * voxel_m;
+                    : (u.box_end_vox[i] - 0.5f - kFastForwardMarginVox) * voxel_m;
     } else {
-      bound_m = first_vox == 0 ? -kOpen_m : (first_vox + 0.5f + kFastForwardMarginVox) * voxel_m;
+      bound_m = u.box_begin_vox[i] == 0
+                    ? -kOpen_m
+                    : (u.box_begin_vox[i] + 0.5f + kFastForwardMarginVox) * voxel_m;
     }
     t_exit = min_f(t_exit, (bound_m - o[i]) * inv[i]);
   }
@@ -241,12 +248,10 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
     const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m);
     if (u.untouched) {
       f_t_skipped = true;
-      // In an untouched super-brick, fast-forward to its exit without testing each sample.
+      // Fast-forward to the exit of the untouched box without testing each sample.
       // t advances by the same float additions as sample by sample, so later samples (and the
       // hit) are bit for bit the same.
-      const float t_end =
-          u.super_x >= 0 ? min_f(super_brick_exit_t(a.volume, u, origin, inv_dir, voxel_m), t_far)
-                         : t;
+      const float t_end = min_f(untouched_box_exit_t(a.volume, u, origin, inv_dir, voxel_m), t_far);
       do {
         t_prev = t;
         t += step;
