@@ -5,7 +5,8 @@
 /// backend (input staging, reduction partials, streams) stays in the backend.
 ///
 /// A reset (Backend::reset) returns them to: an empty volume (every voxel tsdf +1, weight 0),
-/// no brick touched, reference vertices 0, and the state initial_tracking_state(pose).
+/// no brick or super-brick touched, reference vertices 0, and the state
+/// initial_tracking_state(pose).
 
 #include <array>
 #include <cstddef>
@@ -32,6 +33,7 @@ struct FrameBuffers {
         render_volume(setup.compute_width_px(), setup.compute_height_px()),
         volume(voxel_count(setup)),
         brick_touched(brick_count(setup)),
+        super_brick_touched(super_brick_count(setup)),
         volume_res_vox(setup.volume_res_vox),
         volume_size_m(setup.volume_size_m) {
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
@@ -50,10 +52,15 @@ struct FrameBuffers {
     const size_t bricks = static_cast<size_t>(bricks_per_side(setup.volume_res_vox));
     return bricks * bricks * bricks;
   }
+  static size_t super_brick_count(const BackendSetup& setup) {
+    const size_t supers = static_cast<size_t>(super_bricks_per_side(setup.volume_res_vox));
+    return supers * supers * supers;
+  }
 
   /// The volume and its brick flags as the kernels see them.
   VolumeView volume_view() {
-    return VolumeView{volume.data(), volume_res_vox, volume_size_m, brick_touched.data()};
+    return VolumeView{volume.data(), volume_res_vox, volume_size_m, brick_touched.data(),
+                      super_brick_touched.data()};
   }
 
   /// The arguments of one ICP iteration at pyramid `level` against the raycast reference; only
@@ -79,8 +86,9 @@ struct FrameBuffers {
   Image<Rgba8> render_depth;    ///< the renders (Backend::render), opaque RGBA
   Image<Rgba8> render_track;
   Image<Rgba8> render_volume;
-  Array<Voxel> volume;           ///< res³ voxels, x fastest
-  Array<uint8_t> brick_touched;  ///< one flag per 8³ brick (VolumeView::brick_touched)
+  Array<Voxel> volume;                 ///< res³ voxels, x fastest
+  Array<uint8_t> brick_touched;        ///< one flag per 8³ brick (VolumeView::brick_touched)
+  Array<uint8_t> super_brick_touched;  ///< one flag per 16³ (VolumeView::super_brick_touched)
   int volume_res_vox = 0;
   float volume_size_m = 0.0f;
 };

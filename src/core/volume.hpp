@@ -25,6 +25,28 @@ constexpr int kBrickShift = 3;
 /// Bricks per volume side for a resolution.
 KFX_HD inline int bricks_per_side(int res) { return (res + (1 << kBrickShift) - 1) >> kBrickShift; }
 
+/// Voxels per super-brick side (log2): 2³ bricks = 16³ voxels carry a coarse "touched" flag, so
+/// the raycast can cross large empty regions in few tests. (32³ tested about as many samples
+/// on icl_office_kt0 and 11 % more on tum_fr1_xyz, whose noisy depth touches more space.)
+constexpr int kSuperBrickShift = kBrickShift + 1;
+
+/// Super-bricks per volume side for a resolution.
+KFX_HD inline int super_bricks_per_side(int res) {
+  return (res + (1 << kSuperBrickShift) - 1) >> kSuperBrickShift;
+}
+
+/// Sets a flag byte that several threads may set at once (same value, so the order does not
+/// matter). On the GPU a plain store; on the host a relaxed atomic (compiles to the same byte
+/// store, but keeps concurrent OpenMP writers free of a data race in C++'s memory model).
+KFX_HD inline void set_shared_flag(uint8_t& flag) {
+#if defined(__CUDA_ARCH__)
+  if (!flag) flag = 1;
+#else
+  if (!__atomic_load_n(&flag, __ATOMIC_RELAXED))
+    __atomic_store_n(&flag, uint8_t{1}, __ATOMIC_RELAXED);
+#endif
+}
+
 /// A non-owning view of a cubic TSDF volume (host or device memory).
 struct VolumeView {
   Voxel* data = nullptr;
@@ -34,16 +56,28 @@ struct VolumeView {
   /// 1 once any may differ. Lets the raycast step over space it knows is empty without changing
   /// its result. May be null (no skipping).
   uint8_t* brick_touched = nullptr;
+  /// One byte per 16³ super-brick (kSuperBrickShift): 1 once any of its bricks is touched. Set
+  /// together with brick_touched; may be null (the raycast then skips brick by brick only).
+  uint8_t* super_brick_touched = nullptr;
 
   KFX_HD int brick_index(int x, int y, int z) const {
     const int b = bricks_per_side(res);
     return (x >> kBrickShift) + (y >> kBrickShift) * b + (z >> kBrickShift) * b * b;
   }
-  /// Marks the brick of voxel (x, y, z) as touched.
+  KFX_HD int super_brick_index(int x, int y, int z) const {
+    const int s = super_bricks_per_side(res);
+    return (x >> kSuperBrickShift) + (y >> kSuperBrickShift) * s + (z >> kSuperBrickShift) * s * s;
+  }
+  /// Marks the brick and the super-brick of voxel (x, y, z) as touched.
   KFX_HD void mark_touched(int x, int y, int z) const {
     if (brick_touched) {
       uint8_t& flag = brick_touched[brick_index(x, y, z)];
-      if (!flag) flag = 1;
+      if (!flag) {
+        flag = 1;
+        // Only the thread that touches the brick first gets here: one coarse store per brick.
+        // Other threads (other bricks of the super-brick) may set the same flag concurrently.
+        if (super_brick_touched) set_shared_flag(super_brick_touched[super_brick_index(x, y, z)]);
+      }
     }
   }
 

@@ -75,27 +75,98 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
   return g;
 }
 
-/// True when every voxel a trilinear sample at p_m reads lies in an untouched brick, so the
-/// sample is (1 ± rounding) ≥ 0.8: the march would neither stop nor refine there.
-KFX_HD inline bool sample_in_untouched_space(const VolumeView& vol, Vec3f p_m) {
-  if (!vol.brick_touched) return false;
-  const float s[3] = {p_m.x * vol.res / vol.size_m - 0.5f, p_m.y * vol.res / vol.size_m - 0.5f,
-                      p_m.z * vol.res / vol.size_m - 0.5f};
-  int lo[3], hi[3];
-  for (int i = 0; i < 3; ++i) {
-    const int base = static_cast<int>(floorf(s[i]));
-    lo[i] = maxi(base, 0) >> kBrickShift;
-    hi[i] = mini(base + 1, vol.res - 1) >> kBrickShift;
-  }
-  const int b = bricks_per_side(vol.res);
-  for (int z = lo[2]; z <= hi[2]; ++z) {
-    for (int y = lo[1]; y <= hi[1]; ++y) {
-      for (int x = lo[0]; x <= hi[0]; ++x) {
-        if (vol.brick_touched[x + y * b + z * b * b]) return false;
+/// Empty-space skipping (docs/algorithm.md §2.4). A march sample whose voxels all lie in
+/// untouched bricks reads (1 ± rounding) ≥ 0.8: it can neither stop nor refine the march, so the
+/// march only has to advance t over it. The test need not reproduce the sample's arithmetic; it
+/// only has to include every voxel the sample could read.
+///
+/// Slack of the test's voxel range: s = p·(res/size) differs from the sample's p·res/size by a
+/// few ulps (< 3e-4 voxel at res 1024), so widening the range by 0.01 voxel on both sides keeps
+/// every voxel the exact sample reads.
+constexpr float kSkipSlackVox = 0.01f;
+/// How far inside its super-brick a fast-forward stops, in voxels: far above the float error
+/// of the exit parameter and of the sample positions (a few ulps of ≤ 1024 voxels, < 1e-3).
+constexpr float kFastForwardMarginVox = 0.05f;
+
+/// Outcome of the empty-space test of one march sample.
+struct UntouchedSample {
+  bool untouched = false;  ///< every voxel the sample may read lies in an untouched brick
+  /// When untouched: the untouched box of whole bricks or super-bricks around those voxels,
+  /// voxels [box_begin_vox, box_end_vox) per axis; the march may fast-forward through it
+  /// (untouched_box_exit_t).
+  int box_begin_vox[3] = {0, 0, 0};
+  int box_end_vox[3] = {0, 0, 0};
+};
+
+/// True when every cube of 2^shift voxels that voxels lo..hi (per axis) reach has a 0 flag in
+/// `flags` (cubes_per_side per axis, x fastest); then `u` gets their union as its box.
+KFX_HD inline bool untouched_cubes(const uint8_t* flags, int cubes_per_side, int shift,
+                                   const int lo[3], const int hi[3], UntouchedSample& u) {
+  const int n = cubes_per_side;
+  for (int z = lo[2] >> shift; z <= hi[2] >> shift; ++z) {
+    for (int y = lo[1] >> shift; y <= hi[1] >> shift; ++y) {
+      for (int x = lo[0] >> shift; x <= hi[0] >> shift; ++x) {
+        if (flags[x + y * n + z * n * n]) return false;
       }
     }
   }
+  u.untouched = true;
+  for (int i = 0; i < 3; ++i) {
+    u.box_begin_vox[i] = (lo[i] >> shift) << shift;
+    u.box_end_vox[i] = ((hi[i] >> shift) + 1) << shift;
+  }
   return true;
+}
+
+/// Empty-space test at volume-frame point p_m; vox_per_m = res / size_m. Looks at the
+/// super-brick flags first (usually one), then at the brick flags (usually one or two).
+KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m, float vox_per_m) {
+  UntouchedSample u;
+  if (!vol.brick_touched) return u;
+  const float s[3] = {p_m.x * vox_per_m - 0.5f, p_m.y * vox_per_m - 0.5f, p_m.z * vox_per_m - 0.5f};
+  // The sample reads voxels max(b, 0) and min(b + 1, res − 1) per axis, b = floor(s); the
+  // two-value sample reads one of them in x and y.
+  int lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    lo[i] = maxi(static_cast<int>(floorf(s[i] - kSkipSlackVox)), 0);
+    hi[i] = mini(static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1, vol.res - 1);
+  }
+  if (vol.super_brick_touched &&
+      untouched_cubes(vol.super_brick_touched, super_bricks_per_side(vol.res), kSuperBrickShift, lo,
+                      hi, u)) {
+    return u;
+  }
+  untouched_cubes(vol.brick_touched, bricks_per_side(vol.res), kBrickShift, lo, hi, u);
+  return u;
+}
+
+/// Ray parameter (metres along `direction`, inv_dir = 1 / direction) before which every sample
+/// of the ray lies safely in u's untouched box, shrunk by kFastForwardMarginVox: a slab test
+/// against that box, open on the sides where the box meets the volume's faces (the sample
+/// clamps to the volume there, and the march stops at the volume's exit anyway). Only the exit
+/// matters: the sample at the current t was tested, and the float positions of later samples
+/// move monotonically along each axis. voxel_m = size_m / res.
+KFX_HD inline float untouched_box_exit_t(const VolumeView& vol, const UntouchedSample& u,
+                                         Vec3f origin, Vec3f inv_dir, float voxel_m) {
+  constexpr float kOpen_m = 1e30f;  // a face of the volume: no exit there
+  const float o[3] = {origin.x, origin.y, origin.z}, inv[3] = {inv_dir.x, inv_dir.y, inv_dir.z};
+  float t_exit = kOpen_m;
+  for (int i = 0; i < 3; ++i) {
+    // The sample reads voxels floor(s − 0.5) and the next: both stay in the box while
+    // s ∈ [begin + 0.5, end − 0.5).
+    float bound_m;
+    if (inv[i] >= 0.0f) {
+      bound_m = u.box_end_vox[i] >= vol.res
+                    ? kOpen_m
+                    : (u.box_end_vox[i] - 0.5f - kFastForwardMarginVox) * voxel_m;
+    } else {
+      bound_m = u.box_begin_vox[i] == 0
+                    ? -kOpen_m
+                    : (u.box_begin_vox[i] + 0.5f + kFastForwardMarginVox) * voxel_m;
+    }
+    t_exit = min_f(t_exit, (bound_m - o[i]) * inv[i]);
+  }
+  return t_exit;
 }
 
 /// How the march samples the tsdf (setting `raycast_interp`).
@@ -167,15 +238,24 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
   float f_t = raycast_sample(a, origin + direction * t);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
-  // Samples in untouched bricks are skipped: they are ≥ 0.8, so they would only have advanced
-  // t and set f_t. f_t is evaluated for real (at t_prev) only if the secant step needs it.
+  // Samples in untouched space are skipped: they are ≥ 0.8, so they would only have advanced t
+  // and set f_t. f_t is evaluated for real (at t_prev) only if the secant step needs it.
   bool f_t_skipped = false;
   float t_prev = t;
-  for (; t < t_far; t += step) {
+  const float vox_per_m = a.volume.res / size, voxel_m = size / a.volume.res;
+  while (t < t_far) {
     const Vec3f p = origin + direction * t;
-    if (sample_in_untouched_space(a.volume, p)) {
+    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m);
+    if (u.untouched) {
       f_t_skipped = true;
-      t_prev = t;
+      // Fast-forward to the exit of the untouched box without testing each sample.
+      // t advances by the same float additions as sample by sample, so later samples (and the
+      // hit) are bit for bit the same.
+      const float t_end = min_f(untouched_box_exit_t(a.volume, u, origin, inv_dir, voxel_m), t_far);
+      do {
+        t_prev = t;
+        t += step;
+      } while (t < t_end);
       continue;
     }
     f_tt = raycast_sample(a, p);
@@ -183,6 +263,7 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
     if (f_tt < 0.8f && !constant_step) step = a.step_m;
     f_t = f_tt;
     f_t_skipped = false;
+    t += step;
   }
   if (!(f_tt < 0.0f)) return 0.0f;
   if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev);

@@ -82,6 +82,7 @@ class CpuBackend final : public Backend {
     const Voxel empty{static_cast<int16_t>(kTsdfScale), 0};
     std::fill(buffers_.volume.begin(), buffers_.volume.end(), empty);
     std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 0);
+    std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 0);
     auto& vertices = buffers_.ref_vertex.pixels();
     std::fill(vertices.begin(), vertices.end(), Vec3f{0, 0, 0});
     state_ = initial_tracking_state(T_world_cam);
@@ -165,7 +166,8 @@ class CpuBackend final : public Backend {
     const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), &state_,
                           buffers_.level_normal[0].view()};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
-    // take whole brick layers, so no two write the same brick flag.
+    // take whole brick layers, so no two write the same brick flag (super-brick flags are shared:
+    // VolumeView::mark_touched sets them atomically).
     const int res = setup_.volume_res_vox;
     const int brick = 1 << kBrickShift;
 #pragma omp parallel for schedule(dynamic, 1)
@@ -328,6 +330,7 @@ class CpuBackend final : public Backend {
                            << buffers_.volume.size());
     std::copy(voxels.begin(), voxels.end(), buffers_.volume.begin());
     std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 1);
+    std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 1);
   }
 
  private:

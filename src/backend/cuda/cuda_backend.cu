@@ -145,6 +145,8 @@ class CudaBackend final : public Backend {
            buffers_.volume.data(), voxels);
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0, buffers_.brick_touched.bytes(),
                                    stream_.get()));
+    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.super_brick_touched.data(), 0,
+                                   buffers_.super_brick_touched.bytes(), stream_.get()));
     *state_readback_[0].data() = initial_tracking_state(T_world_cam);
     KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(), sizeof(TrackingState),
                                    cudaMemcpyHostToDevice, stream_.get()));
@@ -400,6 +402,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaMemcpy(buffers_.volume.data(), voxels.data(), buffers_.volume.bytes(),
                               cudaMemcpyHostToDevice));
     KFX_CUDA_CHECK(cudaMemset(buffers_.brick_touched.data(), 1, buffers_.brick_touched.bytes()));
+    KFX_CUDA_CHECK(
+        cudaMemset(buffers_.super_brick_touched.data(), 1, buffers_.super_brick_touched.bytes()));
   }
 
  private:
