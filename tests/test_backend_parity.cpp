@@ -94,7 +94,7 @@ TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track
   b.preprocess(pre);
   if (track) {
     b.build_pyramid(pyr);
-    b.begin_tracking();
+    b.begin_tracking(IcpGuessParams{});
     const int iterations[3] = {10, 5, 4};
     for (int level = 2; level >= 0; --level) {
       for (int i = 0; i < iterations[level]; ++i) b.icp_iteration(level, IcpParams{});

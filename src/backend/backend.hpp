@@ -113,8 +113,9 @@ class Backend {
   virtual void preprocess(const BilateralParams& params) = 0;
   /// Builds every pyramid level's depth, vertex and normal maps.
   virtual void build_pyramid(const PyramidParams& params) = 0;
-  /// Marks the start of a tracked frame (pose saved for a revert).
-  virtual void begin_tracking() = 0;
+  /// Marks the start of a tracked frame (pose saved for a revert) and sets the ICP's first
+  /// guess (the last pose, or with a motion model its prediction).
+  virtual void begin_tracking(const IcpGuessParams& params) = 0;
   /// One ICP iteration at `level`: track, reduce, solve, update; a no-op once converged.
   virtual void icp_iteration(int level, const IcpParams& params) = 0;
   /// Up to `iterations` ICP iterations at `level`: the same as that many icp_iteration() calls

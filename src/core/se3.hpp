@@ -63,4 +63,32 @@ KFX_HD inline Mat4f se3_exp(const double x[6]) {
   return m;
 }
 
+/// `a` with its rotation made orthonormal again (Gram–Schmidt on the columns in double: the
+/// first keeps its direction, the third is the cross product of the first two), the translation
+/// kept. Rounding makes a float product of poses drift from a rotation; a product like A·B⁻¹·A
+/// with B⁻¹ taken as the transpose triples the drift each time it is repeated, so it is
+/// repaired before it is used as a pose.
+KFX_HD inline Mat4f orthonormalized(const Mat4f& a) {
+  double c0[3], c1[3];
+  for (int i = 0; i < 3; ++i) {
+    c0[i] = a.m[i][0];
+    c1[i] = a.m[i][1];
+  }
+  const double n0 = sqrt(c0[0] * c0[0] + c0[1] * c0[1] + c0[2] * c0[2]);
+  for (double& v : c0) v /= n0;
+  const double d = c0[0] * c1[0] + c0[1] * c1[1] + c0[2] * c1[2];
+  for (int i = 0; i < 3; ++i) c1[i] -= d * c0[i];
+  const double n1 = sqrt(c1[0] * c1[0] + c1[1] * c1[1] + c1[2] * c1[2]);
+  for (double& v : c1) v /= n1;
+  const double c2[3] = {c0[1] * c1[2] - c0[2] * c1[1], c0[2] * c1[0] - c0[0] * c1[2],
+                        c0[0] * c1[1] - c0[1] * c1[0]};
+  Mat4f r = a;
+  for (int i = 0; i < 3; ++i) {
+    r.m[i][0] = static_cast<float>(c0[i]);
+    r.m[i][1] = static_cast<float>(c1[i]);
+    r.m[i][2] = static_cast<float>(c2[i]);
+  }
+  return r;
+}
+
 }  // namespace kfx

@@ -13,12 +13,14 @@
 
 namespace kfx {
 
-/// The state after a reset: no frame yet (frame_index −1), every pose at `T_world_cam`.
+/// The state after a reset: no frame yet (frame_index −1), every pose at `T_world_cam`, no
+/// accepted frame (so no velocity).
 inline TrackingState initial_tracking_state(const Mat4f& T_world_cam) {
   TrackingState s{};
   s.frame_index = -1;
   s.T_world_cam = T_world_cam;
   s.T_world_cam_before = T_world_cam;
+  s.T_world_cam_prev = T_world_cam;
   s.T_world_raycast = T_world_cam;
   return s;
 }
@@ -26,9 +28,33 @@ inline TrackingState initial_tracking_state(const Mat4f& T_world_cam) {
 /// Start of every frame (run once, before any other stage reads the state): count it.
 KFX_HD inline void begin_frame_state(TrackingState& s) { s.frame_index += 1; }
 
-/// Start of a tracked frame: remember the pose for a revert, clear the frame's flags.
-KFX_HD inline void begin_tracking(TrackingState& s) {
+/// Where a tracked frame's ICP starts (setting icp_motion_model).
+enum class IcpMotionModel : int {
+  kOff = 0,               ///< the last pose (KFusion's)
+  kConstantVelocity = 1,  ///< the last pose moved once more by the last inter-frame motion
+};
+
+/// Settings of begin_tracking.
+struct IcpGuessParams {
+  IcpMotionModel motion_model = IcpMotionModel::kOff;
+};
+
+/// True when the last two tracked frames were both accepted, so T_world_cam_prev⁻¹ ·
+/// T_world_cam is the motion of one tracked-frame step. (The first tracked frame's start pose is
+/// the bootstrap pose, not a tracked one, and after a reject the pose stood still for a frame.)
+KFX_HD inline bool velocity_known(const TrackingState& s) { return s.accepted_run >= 2; }
+
+/// Start of a tracked frame: remember the pose for a revert, clear the frame's flags, and
+/// with the constant-velocity model move the ICP's start pose by the last inter-frame motion:
+/// T ← T · (T_prev⁻¹ · T), motion in the camera frame (docs/algorithm.md §5b), its rotation
+/// re-orthonormalised (repeated, the product would multiply float rounding into a scale error
+/// ICP's rigid updates cannot undo). The revert pose stays the last accepted pose, not the guess.
+KFX_HD inline void begin_tracking(TrackingState& s, const IcpGuessParams& p) {
   s.T_world_cam_before = s.T_world_cam;
+  if (p.motion_model == IcpMotionModel::kConstantVelocity && velocity_known(s)) {
+    s.T_world_cam =
+        orthonormalized(s.T_world_cam * (rigid_inverse(s.T_world_cam_prev) * s.T_world_cam));
+  }
   s.tracked = 0;
   s.iterations_run = 0;
   s.converged_level = -1;
@@ -61,7 +87,9 @@ struct AcceptParams {
   int compute_pixels = 0;             ///< compute width × height
 };
 
-/// Accept test on the last iteration's accumulator; on reject the pose goes back.
+/// Accept test on the last iteration's accumulator; on reject the pose goes back (to the pose
+/// before any motion-model guess). Keeps the start pose of an accepted frame and the count of
+/// accepted frames in a row for the next frame's guess.
 KFX_HD inline void accept_or_revert(TrackingState& s, const AcceptParams& p) {
   const double inliers = s.accumulator[kAccInliers];
   const double rms = sqrt(s.accumulator[kAccErrorSq] / inliers);  // NaN when no inliers
@@ -69,8 +97,11 @@ KFX_HD inline void accept_or_revert(TrackingState& s, const AcceptParams& p) {
   if (reject) {
     s.T_world_cam = s.T_world_cam_before;
     s.tracked = 0;
+    s.accepted_run = 0;
   } else {
     s.tracked = 1;
+    s.T_world_cam_prev = s.T_world_cam_before;
+    s.accepted_run = s.accepted_run < 2 ? s.accepted_run + 1 : 2;
   }
 }
 

@@ -23,7 +23,8 @@ enum AccumulatorIndex : int {
 /// Pose and per-frame decisions shared by all kernels of one pipeline.
 struct TrackingState {
   Mat4f T_world_cam;         ///< current camera pose estimate (camera → volume frame)
-  Mat4f T_world_cam_before;  ///< pose before this frame's ICP, restored on reject
+  Mat4f T_world_cam_before;  ///< pose before this frame's ICP and its guess, restored on reject
+  Mat4f T_world_cam_prev;    ///< T_world_cam_before of the last accepted frame (for the velocity)
   Mat4f T_cam_world;         ///< inverse of T_world_cam, set before integration
   Mat4f T_world_raycast;     ///< pose of the last raycast (the ICP reference view)
   Mat4f raycast_view;        ///< T_world_raycast · K⁻¹ at compute size (ray directions)
@@ -36,6 +37,7 @@ struct TrackingState {
   int integrate_now;    ///< 1 when this frame is integrated
   int iterations_run;   ///< ICP iterations actually run this frame (all levels)
   int frame_index;      ///< frame number f, counted on the device (−1 before frame 0)
+  int accepted_run;     ///< tracked frames accepted in a row, counted up to 2 (0 after a reject)
 };
 
 }  // namespace kfx

@@ -390,6 +390,13 @@ std::vector<ConfigField> build_fields() {
   num("integration_weight_ref_m", "quality", "", "",
       "integrate: depth in metres up to which a weighted measurement has full weight (> 0)",
       [](C& c) -> float& { return c.quality.integration_weight_ref_m; });
+  quality_choice("icp_motion_model",
+                 "track: first guess of each tracked frame's ICP: off (the last pose, KFusion's) | "
+                 "constant_velocity (the last pose moved once more by the last accepted "
+                 "inter-frame motion; the last pose when the frame before was not accepted)",
+                 Choices<IcpMotionModel>{{"off", IcpMotionModel::kOff},
+                                         {"constant_velocity", IcpMotionModel::kConstantVelocity}},
+                 [](C& c) -> IcpMotionModel& { return c.quality.icp_motion_model; });
   // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
   {
     ConfigField f;
@@ -558,6 +565,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   for (int l = 0; l < static_cast<int>(config.tracking.iterations_per_level.size()); ++l) {
     p.pyramid.level_intrinsics[l] = compute_k.scaled_down(static_cast<float>(1 << l));
   }
+  p.icp_guess.motion_model = config.quality.icp_motion_model;
   p.icp.dist_threshold_m = config.tracking.dist_threshold_m;
   p.icp.normal_threshold = config.tracking.normal_threshold;
   p.icp.icp_threshold = config.tracking.icp_threshold;

@@ -85,6 +85,7 @@ struct PipelineConfig {
     IntegrationWeight integration_weight = IntegrationWeight::kConstant;  ///< constant | depth |
                                                                           ///< depth_angle
     float integration_weight_ref_m = 1.0f;  ///< full weight up to this depth, (ref/d)² beyond
+    IcpMotionModel icp_motion_model = IcpMotionModel::kOff;  ///< off | constant_velocity
   } quality;
 
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
@@ -101,6 +102,7 @@ struct PipelineConfig {
 struct StageParams {
   BilateralParams bilateral;
   PyramidParams pyramid;
+  IcpGuessParams icp_guess;
   IcpParams icp;
   AcceptParams accept;
   IntegrateParams integrate;

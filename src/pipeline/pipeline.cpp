@@ -75,7 +75,7 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   b.begin_stage(Stage::kTrack);
   if (track) {
     b.build_pyramid(params_.pyramid);
-    b.begin_tracking();
+    b.begin_tracking(params_.icp_guess);
     const auto& iterations = config_.tracking.iterations_per_level;
     for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
       b.icp_level(level, iterations[level], params_.icp);

@@ -136,7 +136,7 @@ class CpuBackend final : public Backend {
     }
   }
 
-  void begin_tracking() override { kfx::begin_tracking(state_); }
+  void begin_tracking(const IcpGuessParams& p) override { kfx::begin_tracking(state_, p); }
 
   void icp_iteration(int level, const IcpParams& p) override {
     if (level_converged(state_, level)) return;

@@ -266,9 +266,9 @@ class CudaBackend final : public Backend {
            grid);
   }
 
-  void begin_tracking() override {
+  void begin_tracking(const IcpGuessParams& p) override {
     if (replaying_) return;
-    launch(begin_tracking_kernel, dim3(1), dim3(1), state_.data());
+    launch(begin_tracking_kernel, dim3(1), dim3(1), state_.data(), p);
   }
 
   void icp_iteration(int level, const IcpParams& p) override {

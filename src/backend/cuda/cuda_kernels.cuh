@@ -206,9 +206,9 @@ __global__ void init_volume_kernel(Voxel* voxels, long long count) {
   if (i < count) voxels[i] = Voxel{static_cast<int16_t>(kTsdfScale), 0};
 }
 
-__global__ void begin_tracking_kernel(TrackingState* state) {
+__global__ void begin_tracking_kernel(TrackingState* state, IcpGuessParams params) {
   wait_for_previous_kernel();
-  begin_tracking(*state);
+  begin_tracking(*state, params);
 }
 __global__ void accept_kernel(TrackingState* state, AcceptParams params) {
   wait_for_previous_kernel();
