@@ -84,7 +84,7 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
 /// few ulps (< 3e-4 voxel at res 1024), so widening the range by 0.01 voxel on both sides keeps
 /// every voxel the exact sample reads.
 constexpr float kSkipSlackVox = 0.01f;
-/// How far inside its super-brick a fast-forward stops, in voxels: far above the float error
+/// How far inside its untouched box a fast-forward stops, in voxels: far above the float error
 /// of the exit parameter and of the sample positions (a few ulps of ≤ 1024 voxels, < 1e-3).
 constexpr float kFastForwardMarginVox = 0.05f;
 
@@ -164,6 +164,8 @@ KFX_HD inline float untouched_box_exit_t(const VolumeView& vol, const UntouchedS
                     ? -kOpen_m
                     : (u.box_begin_vox[i] + 0.5f + kFastForwardMarginVox) * voxel_m;
     }
+    // A ray parallel to the axis gives ±inf (or NaN when it lies on the bound, still inside the
+    // box); min_f keeps t_exit then.
     t_exit = min_f(t_exit, (bound_m - o[i]) * inv[i]);
   }
   return t_exit;
