@@ -265,16 +265,18 @@ std::vector<ConfigField> build_fields() {
     };
     t.push_back(f);
   };
-  auto flag = [&](std::string key, std::string help, bool C::Approximations::*member) {
+  // An on|off setting of `section`; get(c) is the member it sets.
+  auto on_off = [&](std::string key, std::string section, std::string help, auto get) {
     ConfigField f;
     f.key = key;
-    f.section = "approximations";
+    f.section = section;
     f.help = help;
-    f.parse = [key, member](C& c, const std::string& text) {
-      c.approx.*member = parse_bool(key, text);
-    };
-    f.format = [member](const C& c) { return std::string(c.approx.*member ? "on" : "off"); };
+    f.parse = [key, get](C& c, const std::string& text) { get(c) = parse_bool(key, text); };
+    f.format = [get](const C& c) { return std::string(get(const_cast<C&>(c)) ? "on" : "off"); };
     t.push_back(f);
+  };
+  auto flag = [&](std::string key, std::string help, bool C::Approximations::*member) {
+    on_off(key, "approximations", help, [member](C& c) -> bool& { return c.approx.*member; });
   };
   choice("bilateral_mode",
          "preprocess: exact = 5x5 Gaussian with range term; spatial3x3 = 3x3 spatial weights only",
@@ -398,47 +400,22 @@ std::vector<ConfigField> build_fields() {
                                          {"constant_velocity", IcpMotionModel::kConstantVelocity}},
                  [](C& c) -> IcpMotionModel& { return c.quality.icp_motion_model; });
   // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
-  {
-    ConfigField f;
-    f.key = "cuda_pdl";
-    f.section = "cuda";
-    f.help = "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)";
-    f.parse = [](C& c, const std::string& text) { c.cuda.pdl = parse_bool("cuda_pdl", text); };
-    f.format = [](const C& c) { return std::string(c.cuda.pdl ? "on" : "off"); };
-    t.push_back(f);
-  }
+  on_off("cuda_pdl", "cuda", "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)",
+         [](C& c) -> bool& { return c.cuda.pdl; });
   integer("cuda_reduce_blocks", "cuda", "", "",
           "cuda: cap on the ICP reduction grid, 0 = one block per SM (0..65535; speed only)",
           [](C& c) -> int& { return c.cuda.reduce_blocks; });
   integer("cuda_z_chunks", "cuda", "", "",
           "cuda: z-ranges each integration column is split into (1..1024; speed only)",
           [](C& c) -> int& { return c.cuda.z_chunks; });
-  {
-    ConfigField f;
-    f.key = "cuda_icp_persistent";
-    f.section = "cuda";
-    f.help =
-        "cuda: each pyramid level's ICP iterations in one cooperative launch with a grid barrier "
-        "per iteration (on|off; speed only, the same bits)";
-    f.parse = [](C& c, const std::string& text) {
-      c.cuda.icp_persistent = parse_bool("cuda_icp_persistent", text);
-    };
-    f.format = [](const C& c) { return std::string(c.cuda.icp_persistent ? "on" : "off"); };
-    t.push_back(f);
-  }
-  {
-    ConfigField f;
-    f.key = "cuda_fused_preprocess";
-    f.section = "cuda";
-    f.help =
-        "cuda: mm to m with the bilateral filter in one launch, and every pyramid level's depth, "
-        "vertices and normals in one more (on|off; speed only, the same bits)";
-    f.parse = [](C& c, const std::string& text) {
-      c.cuda.fused_preprocess = parse_bool("cuda_fused_preprocess", text);
-    };
-    f.format = [](const C& c) { return std::string(c.cuda.fused_preprocess ? "on" : "off"); };
-    t.push_back(f);
-  }
+  on_off("cuda_icp_persistent", "cuda",
+         "cuda: each pyramid level's ICP iterations in one cooperative launch with a grid barrier "
+         "per iteration (on|off; speed only, the same bits)",
+         [](C& c) -> bool& { return c.cuda.icp_persistent; });
+  on_off("cuda_fused_preprocess", "cuda",
+         "cuda: mm to m with the bilateral filter in one launch, and every pyramid level's depth, "
+         "vertices and normals in one more (on|off; speed only, the same bits)",
+         [](C& c) -> bool& { return c.cuda.fused_preprocess; });
   return t;
 }
 
