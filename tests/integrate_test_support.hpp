@@ -1,6 +1,7 @@
 #pragma once
-/// A small volume and the integration arguments over it, shared by the kernel-level tests of
-/// the integration knobs (tests/test_knobs.cpp, tests/test_quality_knobs.cpp).
+/// A small volume, the integration arguments over it, and a whole-volume integration pass,
+/// shared by the kernel-level tests (test_kernels, test_knobs, test_quality_knobs,
+/// test_raycast_skip).
 
 #include <vector>
 
@@ -30,6 +31,20 @@ inline IntegrateArgs integrate_args(SmallVolume& vol, const HostImage<float>& de
   s.max_depth_m = 3.0f;
   prepare_integration(s, true);
   return a;
+}
+
+/// Integrates every voxel column of `a.volume`, each over its bounded z-range
+/// (integrate_column_bounds, as both backends do) or, with `bounded` false, over the whole
+/// column.
+inline void integrate_every_column(const IntegrateArgs& a, bool bounded = true) {
+  const int res = a.volume.res;
+  for (int y = 0; y < res; ++y) {
+    for (int x = 0; x < res; ++x) {
+      int z_begin = 0, z_end = res;
+      if (bounded) integrate_column_bounds(x, y, a, z_begin, z_end);
+      integrate_column(x, y, z_begin, z_end, a);
+    }
+  }
 }
 
 }  // namespace kfx::test

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "core/se3.hpp"
+#include "integrate_test_support.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
@@ -323,11 +324,7 @@ void integrate_all(VolumeFixture& vol, const HostImage<float>& depth, TrackingSt
   state.max_depth_m = 0;
   for_each(depth.width(), depth.height(),
            [&](int x, int y) { state.max_depth_m = std::max(state.max_depth_m, depth(x, y)); });
-  for_each(vol.res, vol.res, [&](int x, int y) {
-    int z0 = 0, z1 = vol.res;
-    if (bounded) integrate_column_bounds(x, y, a, z0, z1);
-    integrate_column(x, y, z0, z1, a);
-  });
+  test::integrate_every_column(a, bounded);
 }
 
 TEST(Integrate, PlaneZeroCrossingLiesOnTheSurface) {

@@ -168,9 +168,7 @@ TEST(Knobs, IntegrationZStrideUpdatesRotatingSlices) {
   s.frame_index = 5;
   IntegrateArgs a = integrate_args(vol, depth, s);
   a.z_stride = 4;
-  for (int y = 0; y < 32; ++y) {
-    for (int x = 0; x < 32; ++x) integrate_column(x, y, 0, 32, a);
-  }
+  test::integrate_every_column(a, false);
   for (int z = 0; z < 32; ++z) {
     int updated = 0;
     for (int i = 0; i < 32 * 32; ++i) updated += vol.voxels[i + z * 32 * 32].weight > 0;
@@ -205,9 +203,7 @@ TEST(Knobs, CheckerPerforationUpdatesOneVoxelInSInEveryDirection) {
   IntegrateArgs r = integrate_args(rows, depth, s);
   r.z_stride = 4;
   r.pattern = IntegrationPattern::kChecker;
-  for (int y = 0; y < 32; ++y) {
-    for (int x = 0; x < 32; ++x) integrate_column(x, y, 0, 32, c);
-  }
+  test::integrate_every_column(c, false);
   for (int z = 0; z < 32; ++z) {
     for (int y = 0; y < 32; ++y) integrate_row(y, z, r);
   }
@@ -299,9 +295,7 @@ TEST(Knobs, RaycastBlocksCopyTheBlockRay) {
   TrackingState s{};
   s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
   IntegrateArgs ia = integrate_args(vol, depth, s);
-  for (int y = 0; y < 32; ++y) {
-    for (int x = 0; x < 32; ++x) integrate_column(x, y, 0, 32, ia);
-  }
+  test::integrate_every_column(ia, false);
   set_reference_view(s, ia.k);
   HostImage<Vec3f> v(40, 30), n(40, 30), v1(40, 30), n1(40, 30);
   RaycastArgs a;

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/se3.hpp"
+#include "integrate_test_support.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/raycast.hpp"
@@ -91,13 +92,7 @@ void integrate_scene(FlaggedVolume& vol) {
     a.state = &state;
     a.mu_m = 0.1f;
     state.max_depth_m = 3.6f;
-    for (int y = 0; y < vol.res; ++y) {
-      for (int x = 0; x < vol.res; ++x) {
-        int z0 = 0, z1 = vol.res;
-        integrate_column_bounds(x, y, a, z0, z1);
-        integrate_column(x, y, z0, z1, a);
-      }
-    }
+    test::integrate_every_column(a);
   }
 }
 
