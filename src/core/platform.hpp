@@ -9,9 +9,17 @@
 #if defined(__CUDACC__)
 #define KFX_HD __host__ __device__
 #define KFX_INLINE __forceinline__
+/// Unroll the next loop completely on the GPU: small fixed-size arrays then stay in registers
+/// instead of the (slow) per-thread stack. Host compilers decide for themselves.
+#define KFX_UNROLL _Pragma("unroll")
+/// Keep a rarely taken function out of line on the GPU, so its stack arrays and registers do
+/// not weigh on the hot caller.
+#define KFX_NOINLINE __noinline__
 #else
 #define KFX_HD
 #define KFX_INLINE inline
+#define KFX_UNROLL
+#define KFX_NOINLINE
 #endif
 
 namespace kfx {

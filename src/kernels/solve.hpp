@@ -16,7 +16,9 @@ constexpr double kSolveCondition = 1e6;
 /// Unpacks the symmetric JᵀJ from the accumulator's upper triangle.
 KFX_HD inline void unpack_jtj(const double* acc, double a[6][6]) {
   int k = kAccJtJ;
+  KFX_UNROLL
   for (int r = 0; r < 6; ++r) {
+    KFX_UNROLL
     for (int c = r; c < 6; ++c) {
       a[r][c] = acc[k];
       a[c][r] = acc[k];
@@ -32,29 +34,38 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
   double a[6][6], l[6][6] = {}, inv_diag[6];
   unpack_jtj(acc, a);
   double norm_a_sq = 0.0;
+  KFX_UNROLL
   for (int r = 0; r < 6; ++r) {
+    KFX_UNROLL
     for (int c = 0; c < 6; ++c) norm_a_sq += a[r][c] * a[r][c];
   }
   // NOTE: one reciprocal per pivot instead of a division per element: the GPU runs this in a
   // single thread between ICP iterations, where double divisions are the latency.
+  KFX_UNROLL
   for (int j = 0; j < 6; ++j) {
     double d = a[j][j];
+    KFX_UNROLL
     for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
     if (!(d > 0.0)) return false;
     l[j][j] = sqrt(d);
     inv_diag[j] = 1.0 / l[j][j];
+    KFX_UNROLL
     for (int i = j + 1; i < 6; ++i) {
       double s = a[i][j];
+      KFX_UNROLL
       for (int k = 0; k < j; ++k) s -= l[i][k] * l[j][k];
       l[i][j] = s * inv_diag[j];
     }
   }
   // ‖L⁻¹‖_F² by forward substitution on the identity's columns.
   double norm_inv_sq = 0.0;
+  KFX_UNROLL
   for (int c = 0; c < 6; ++c) {
     double col[6];
+    KFX_UNROLL
     for (int i = 0; i < 6; ++i) {
       double s = (i == c) ? 1.0 : 0.0;
+      KFX_UNROLL
       for (int k = 0; k < i; ++k) s -= l[i][k] * col[k];
       col[i] = s * inv_diag[i];
       norm_inv_sq += col[i] * col[i];
@@ -62,13 +73,17 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
   }
   if (!(sqrt(norm_a_sq) * norm_inv_sq < kSolveCondition)) return false;
   double y[6];
+  KFX_UNROLL
   for (int i = 0; i < 6; ++i) {
     double s = acc[kAccJtE + i];
+    KFX_UNROLL
     for (int k = 0; k < i; ++k) s -= l[i][k] * y[k];
     y[i] = s * inv_diag[i];
   }
+  KFX_UNROLL
   for (int i = 5; i >= 0; --i) {
     double s = y[i];
+    KFX_UNROLL
     for (int k = i + 1; k < 6; ++k) s -= l[k][i] * x[k];
     x[i] = s * inv_diag[i];
   }
@@ -76,7 +91,7 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
 }
 
 /// Pseudo-inverse solve by a cyclic Jacobi eigen-decomposition (any conditioning).
-KFX_HD inline void solve_6x6_jacobi(const double* acc, double x[6]) {
+KFX_HD KFX_NOINLINE inline void solve_6x6_jacobi(const double* acc, double x[6]) {
   double a[6][6], v[6][6];
   unpack_jtj(acc, a);
   for (int r = 0; r < 6; ++r) {
