@@ -227,21 +227,37 @@ __global__ void set_reference_kernel(TrackingState* state, Intrinsics k) {
   set_reference_view(*state, k);
 }
 
-/// Sums kAccumulatorSize doubles over the block in a fixed order (warp shuffles, then warps in
-/// order). Thread t < kAccumulatorSize returns element t of the block's total.
+/// Sums kAccumulatorSize doubles over the block in a fixed order. Thread t < kAccumulatorSize
+/// returns element t of the block's total. One shuffle step folds lane l + 16 onto lane l; the 16
+/// half-sums of each warp then go through shared memory, where thread (warp w, value v) adds
+/// warp w's 16 in lane order; finally the 8 warps in order. A full shuffle tree needs 5 steps of
+/// 32 double shuffles per warp, and shuffles are what limited this sum (ICP runs it every
+/// iteration, between the track and the grid barrier).
 __device__ inline double block_sum_accumulator(const double (&acc)[kAccumulatorSize]) {
-  __shared__ double warp_sums[kReduceBlock / 32][kAccumulatorSize];
+  constexpr int kWarps = kReduceBlock / 32;
+  constexpr int kHalfLanes = 16;
+  static_assert(kAccumulatorSize == 32, "one thread per (warp, value) in the second stage");
+  // Row stride 17: threads (w, 0..31) reading lane k of their rows hit different banks.
+  __shared__ double half_sums[kWarps][kAccumulatorSize][kHalfLanes + 1];
+  __shared__ double warp_sums[kWarps][kAccumulatorSize];
   const int lane = threadIdx.x % 32, warp = threadIdx.x / 32;
 #pragma unroll
   for (int i = 0; i < kAccumulatorSize; ++i) {
-    double v = acc[i];
-    for (int offset = 16; offset > 0; offset /= 2) v += __shfl_down_sync(0xffffffffu, v, offset);
-    if (lane == 0) warp_sums[warp][i] = v;
+    const double folded = acc[i] + __shfl_down_sync(0xffffffffu, acc[i], kHalfLanes);
+    if (lane < kHalfLanes) half_sums[warp][i][lane] = folded;
+  }
+  __syncthreads();
+  {
+    const int w = threadIdx.x / kAccumulatorSize, v = threadIdx.x % kAccumulatorSize;
+    double sum = 0.0;
+#pragma unroll
+    for (int k = 0; k < kHalfLanes; ++k) sum += half_sums[w][v][k];
+    warp_sums[w][v] = sum;
   }
   __syncthreads();
   double total = 0.0;
   if (threadIdx.x < kAccumulatorSize) {
-    for (int w = 0; w < kReduceBlock / 32; ++w) total += warp_sums[w][threadIdx.x];
+    for (int w = 0; w < kWarps; ++w) total += warp_sums[w][threadIdx.x];
   }
   return total;
 }
