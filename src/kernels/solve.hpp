@@ -27,6 +27,17 @@ KFX_HD inline void unpack_jtj(const double* acc, double a[6][6]) {
   }
 }
 
+/// 1/√d for a Cholesky pivot: a correctly rounded square root and a division on the host, the
+/// GPU's reciprocal square root (within an ulp or so) on the device, where the six pivots are a
+/// serial chain in the one thread that solves between ICP iterations.
+KFX_HD inline double inverse_sqrt(double d) {
+#if defined(__CUDA_ARCH__)
+  return rsqrt(d);
+#else
+  return 1.0 / sqrt(d);
+#endif
+}
+
 /// Fast path: Cholesky solve, taken only when a rigorous bound proves cond(JᵀJ) < 10⁶, i.e.
 /// when the pseudo-inverse would drop nothing and equals the plain inverse.
 /// cond₂(A) ≤ ‖A‖_F · ‖A⁻¹‖_F ≤ ‖A‖_F · ‖L⁻¹‖_F². Returns false when the bound is not met.
@@ -47,8 +58,7 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
     KFX_UNROLL
     for (int k = 0; k < j; ++k) d -= l[j][k] * l[j][k];
     if (!(d > 0.0)) return false;
-    l[j][j] = sqrt(d);
-    inv_diag[j] = 1.0 / l[j][j];
+    inv_diag[j] = inverse_sqrt(d);
     KFX_UNROLL
     for (int i = j + 1; i < 6; ++i) {
       double s = a[i][j];
