@@ -12,6 +12,7 @@
 #include "io/reader.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/pipeline.hpp"
+#include "sequence_runner.hpp"
 
 namespace kfx {
 namespace {
@@ -89,6 +90,29 @@ TEST(BootstrapFrames, OneFrameDoesNotSmearAModelOfAMovingCamera) {
   const BootstrapRun& kfusion = room_run(4);
   const BootstrapRun& one = room_run(1);
   EXPECT_LT(one.ate_m, 0.75 * kfusion.ate_m) << one.ate_m << " vs " << kfusion.ate_m;
+}
+
+TEST(BootstrapFrames, CpuAndGpuAgreeWithOneBootstrapFrame) {
+  std::string why_not;
+  if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
+  // Frame 0 then integrates, raycasts and is followed by tracking: a frame shape the GPU records
+  // as a graph like any other (the same shapes as KFusion's, met at other frames).
+  const std::string input = "synthetic:frames=40,width=320,height=240,speed=3";
+  PipelineConfig config;
+  auto reader = io::open_reader(input);
+  for (const auto& [key, value] : reader->recommended_settings())
+    set_config_value(config, key, value);
+  set_config_value(config, "compute_size_ratio", "1");
+  set_config_value(config, "integration_rate", "1");
+  set_config_value(config, "bootstrap_frames", "1");
+  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
+  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_EQ(cpu.tracked, 39);
+  EXPECT_EQ(gpu.tracked, cpu.tracked);
+  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
+  EXPECT_EQ(diff.pairs, 40);
+  EXPECT_LE(diff.median_m, 1e-3);  // the parity bounds of test_backend_parity
+  EXPECT_LE(diff.p95_m, 1e-2);
 }
 
 }  // namespace
