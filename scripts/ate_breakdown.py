@@ -246,8 +246,9 @@ def analyse(run, gt, flip_y, csv_rows, fixed_arm=None):
     frames = [i for i, _ in pairs]
     errors, _ = aligned_errors(est_p, gt_p)
     ok = [tracked[f] if f < len(tracked) else 1 for f in frames]
-    # frames 0-3 are bootstrap (not tracked by design): count them as tracked here
-    ok = [1 if f <= 4 else o for f, o in zip(frames, ok)]
+    # the bootstrap frames before the first tracked one are untracked by design, not lost
+    first = next((f for f, o in zip(frames, ok) if o), 0)
+    ok = [1 if f < first else o for f, o in zip(frames, ok)]
     after = set()
     for k in range(1, len(frames)):
         if ok[k] and not ok[k - 1]:
@@ -257,7 +258,8 @@ def analyse(run, gt, flip_y, csv_rows, fixed_arm=None):
     after_sq = sum(errors[k] ** 2 for k in after)
     name = run.rstrip("/").split("/")[-1]
     print(f"\n== {name}: {len(frames)} paired frames, {len(frames) - sum(ok)} lost")
-    print(f"ATE {100 * rms(errors):.2f} cm; tracked-only {100 * rms([e for e, o in zip(errors, ok) if o]):.2f} cm;"
+    tracked_rms = rms([e for e, o in zip(errors, ok) if o])
+    print(f"ATE {100 * rms(errors):.2f} cm; tracked-only {100 * tracked_rms:.2f} cm;"
           f" share of sum e^2: lost frames {100 * lost_sq / total_sq:.1f} %, 5 frames after each"
           f" recovery {100 * after_sq / total_sq:.1f} %")
     # re-aligned over tracked frames only (the lost frames' held poses out of the fit too)
@@ -295,8 +297,9 @@ def analyse(run, gt, flip_y, csv_rows, fixed_arm=None):
     e_s, scale = similarity_errors(est_p, gt_p)
     print(f"diagnostic: with a scale {scale:.4f} -> ATE {100 * rms(e_s):.2f} cm")
     speeds = [angular_speed(gt, stamps_gt, est[i][0]) for i in frames]
+    known = [w for w in speeds if not math.isnan(w)]
     print(f"correlation of error with angular speed: {correlation(speeds, errors):.2f};"
-          f" mean speed {sum(s for s in speeds if not math.isnan(s)) / len(speeds):.0f} deg/s")
+          f" mean speed {sum(known) / len(known):.0f} deg/s")
     for f, e, o, w in zip(frames, errors, ok, speeds):
         csv_rows.append({"run": name, "frame": f, "error_m": f"{e:.5f}", "tracked": o,
                          "angular_speed_deg_s": f"{w:.1f}"})
