@@ -399,6 +399,11 @@ std::vector<ConfigField> build_fields() {
                  Choices<IcpMotionModel>{{"off", IcpMotionModel::kOff},
                                          {"constant_velocity", IcpMotionModel::kConstantVelocity}},
                  [](C& c) -> IcpMotionModel& { return c.quality.icp_motion_model; });
+  integer("bootstrap_frames", "quality", "", "",
+          "frames 0..n-1 are integrated untracked at the first pose and tracking starts at frame "
+          "n (4 = KFusion's; 1: only the first frame builds the model, so a camera already "
+          "moving does not smear it; 1..4)",
+          [](C& c) -> int& { return c.quality.bootstrap_frames; });
   // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
   on_off("cuda_pdl", "cuda", "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)",
          [](C& c) -> bool& { return c.cuda.pdl; });
@@ -509,6 +514,8 @@ void PipelineConfig::validate() const {
                                           << " with a weighted integration_weight (weights are "
                                              "stored in 1/"
                                           << kWeightUnits << " steps), got " << volume.max_weight);
+  KFX_CHECK(quality.bootstrap_frames >= 1 && quality.bootstrap_frames <= 4,
+            "bootstrap_frames must be in 1..4, got " << quality.bootstrap_frames);
   KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
             "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
   KFX_CHECK(cuda.z_chunks >= 1 && cuda.z_chunks <= 1024,

@@ -86,6 +86,9 @@ struct PipelineConfig {
                                                                           ///< depth_angle
     float integration_weight_ref_m = 1.0f;  ///< full weight up to this depth, (ref/d)² beyond
     IcpMotionModel icp_motion_model = IcpMotionModel::kOff;  ///< off | constant_velocity
+    /// Frames 0..n−1 are integrated untracked at the first pose, the first raycast follows frame
+    /// n−1 and tracking starts at frame n (KFusion: 4).
+    int bootstrap_frames = 4;
   } quality;
 
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).

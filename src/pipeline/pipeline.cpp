@@ -56,11 +56,13 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   report.index = f;
   Backend& b = *backend_;
   b.upload_depth(depth_mm);
-  // The reference view exists only after the first raycast (end of frame 3 when exact).
+  // The reference view exists only after the first raycast (end of frame 3 when exact: the
+  // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).
+  const int bootstrap = config_.quality.bootstrap_frames;
   const bool track = have_reference_ && f % config_.tracking.rate == 0;
-  const bool always = f <= 3;
+  const bool always = f < bootstrap;
   const bool may_integrate = always || f % config_.integration.rate == 0;
-  report.raycast = f > 2 && f % config_.approx.raycast_rate == 0;
+  report.raycast = f >= bootstrap - 1 && f % config_.approx.raycast_rate == 0;
   if (report.raycast) have_reference_ = true;
   // Which stages run depends on the frame number only: the shape names the sequence.
   report.rendered = renders(f);
@@ -86,12 +88,12 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
   }
   b.end_stage(Stage::kTrack);
 
-  // Integrate tracked frames on the integration rate, and always the first four.
+  // Integrate tracked frames on the integration rate, and always the bootstrap frames.
   b.begin_stage(Stage::kIntegrate);
   if (may_integrate) {
-    // The bootstrap frames (0–3, integrated untracked) fill every z slice: with perforated
-    // slices the first raycast would see a half-empty volume, tracking would fail at frame 4
-    // and, as later frames integrate only when tracked, the map would never fill in.
+    // The bootstrap frames (0–3 when exact, integrated untracked) fill every z slice: with
+    // perforated slices the first raycast would see a half-empty volume, tracking would fail at
+    // frame 4 and, as later frames integrate only when tracked, the map would never fill in.
     IntegrateParams params = params_.integrate;
     if (always) params.z_stride = 1;
     // The angle weight reads this frame's level-0 normals, built only when the frame is tracked.
