@@ -15,6 +15,15 @@ bool shared_exists(const std::string& relative) {
   return std::filesystem::exists(shared_path(relative));
 }
 
+PipelineConfig input_config(const io::Reader& reader) {
+  PipelineConfig config;
+  for (const auto& [key, value] : reader.recommended_settings())
+    set_config_value(config, key, value);
+  set_config_value(config, "compute_size_ratio", "1");
+  set_config_value(config, "integration_rate", "1");
+  return config;
+}
+
 SequenceRun run_sequence(const std::string& input, const PipelineConfig& config,
                          BackendKind backend, int max_frames) {
   io::ReaderOptions options;

@@ -15,6 +15,11 @@ namespace kfx::test {
 std::string shared_path(const std::string& relative);
 bool shared_exists(const std::string& relative);
 
+/// The configuration a test run of `reader`'s input starts from: the exact preset with the
+/// reader's recommended settings, computed at the input's size (compute_size_ratio 1) and with
+/// every frame integrated (integration_rate 1).
+PipelineConfig input_config(const io::Reader& reader);
+
 /// A finished run.
 struct SequenceRun {
   std::vector<io::StampedPose> trajectory;  ///< pose after each frame

@@ -27,12 +27,8 @@ struct BootstrapRun {
 
 BootstrapRun run_room(int bootstrap_frames) {
   auto reader = io::open_reader(kFastRoom);
-  PipelineConfig config;
-  for (const auto& [key, value] : reader->recommended_settings())
-    set_config_value(config, key, value);
-  set_config_value(config, "compute_size_ratio", "1");
+  PipelineConfig config = test::input_config(*reader);
   set_config_value(config, "volume_resolution", "128");
-  set_config_value(config, "integration_rate", "1");
   set_config_value(config, "bootstrap_frames", std::to_string(bootstrap_frames));
   Pipeline pipeline(config, reader->default_intrinsics().value(), reader->width_px(),
                     reader->height_px(), BackendKind::kCpu);
@@ -98,12 +94,8 @@ TEST(BootstrapFrames, CpuAndGpuAgreeWithOneBootstrapFrame) {
   // Frame 0 then integrates, raycasts and is followed by tracking: a frame shape the GPU records
   // as a graph like any other (the same shapes as KFusion's, met at other frames).
   const std::string input = "synthetic:frames=40,width=320,height=240,speed=3";
-  PipelineConfig config;
   auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings())
-    set_config_value(config, key, value);
-  set_config_value(config, "compute_size_ratio", "1");
-  set_config_value(config, "integration_rate", "1");
+  PipelineConfig config = test::input_config(*reader);
   set_config_value(config, "bootstrap_frames", "1");
   const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
   const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);

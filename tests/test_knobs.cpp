@@ -22,13 +22,9 @@ namespace {
 const std::string kInput = "synthetic:frames=10,width=160,height=120";
 
 PipelineConfig base_config() {
-  PipelineConfig config;
   auto reader = io::open_reader(kInput);
-  for (const auto& [key, value] : reader->recommended_settings())
-    set_config_value(config, key, value);
-  set_config_value(config, "compute_size_ratio", "1");
+  PipelineConfig config = test::input_config(*reader);
   set_config_value(config, "volume_resolution", "128");
-  set_config_value(config, "integration_rate", "1");
   return config;
 }
 

@@ -169,12 +169,8 @@ struct RoomRun {
 
 RoomRun run_room(IcpMotionModel model) {
   auto reader = io::open_reader(kFastRoom);
-  PipelineConfig config;
-  for (const auto& [key, value] : reader->recommended_settings())
-    set_config_value(config, key, value);
-  set_config_value(config, "compute_size_ratio", "1");
+  PipelineConfig config = test::input_config(*reader);
   set_config_value(config, "volume_resolution", "128");
-  set_config_value(config, "integration_rate", "1");
   config.quality.icp_motion_model = model;
   Pipeline pipeline(config, reader->default_intrinsics().value(), reader->width_px(),
                     reader->height_px(), BackendKind::kCpu);
@@ -211,12 +207,8 @@ TEST(MotionModel, CpuAndGpuAgreeWithTheModelOn) {
   std::string why_not;
   if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
   const std::string input = "synthetic:frames=60,width=320,height=240,speed=3";
-  PipelineConfig config;
   auto reader = io::open_reader(input);
-  for (const auto& [key, value] : reader->recommended_settings())
-    set_config_value(config, key, value);
-  set_config_value(config, "compute_size_ratio", "1");
-  set_config_value(config, "integration_rate", "1");
+  PipelineConfig config = test::input_config(*reader);
   set_config_value(config, "icp_motion_model", "constant_velocity");
   for (const char* persistent : {"on", "off"}) {
     set_config_value(config, "cuda_icp_persistent", persistent);
