@@ -18,19 +18,27 @@ struct SmallVolume {
   VolumeView view() { return VolumeView{voxels.data(), res, 3.2f}; }
 };
 
-/// Integration of `depth` (40×30, fx = fy = 40) into `vol` from the pose in `s`, mu 0.3 m, with
-/// the frame prepared as the pipeline prepares it.
-inline IntegrateArgs integrate_args(SmallVolume& vol, const HostImage<float>& depth,
-                                    TrackingState& s) {
+/// Integration of `depth`, seen with `k`, into `volume` from the pose in `s` with truncation
+/// `mu_m` and the frame's farthest depth `max_depth_m`, the frame prepared as the pipeline
+/// prepares it.
+inline IntegrateArgs frame_integrate_args(const VolumeView& volume, const HostImage<float>& depth,
+                                          const Intrinsics& k, TrackingState& s, float mu_m,
+                                          float max_depth_m) {
   IntegrateArgs a;
-  a.volume = vol.view();
+  a.volume = volume;
   a.depth_m = depth.view();
-  a.k = Intrinsics{40, 40, 20, 15};
+  a.k = k;
   a.state = &s;
-  a.mu_m = 0.3f;
-  s.max_depth_m = 3.0f;
+  a.mu_m = mu_m;
+  s.max_depth_m = max_depth_m;
   prepare_integration(s, true);
   return a;
+}
+
+/// Integration of `depth` (40×30, fx = fy = 40) into `vol` from the pose in `s`, mu 0.3 m.
+inline IntegrateArgs integrate_args(SmallVolume& vol, const HostImage<float>& depth,
+                                    TrackingState& s) {
+  return frame_integrate_args(vol.view(), depth, Intrinsics{40, 40, 20, 15}, s, 0.3f, 3.0f);
 }
 
 /// Integrates every voxel column of `a.volume`, each over its bounded z-range

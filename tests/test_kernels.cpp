@@ -314,17 +314,11 @@ struct VolumeFixture {
 
 void integrate_all(VolumeFixture& vol, const HostImage<float>& depth, TrackingState& state,
                    bool bounded) {
-  prepare_integration(state, true);
-  IntegrateArgs a;
-  a.volume = vol.view();
-  a.depth_m = depth.view();
-  a.k = kK;
-  a.state = &state;
-  a.mu_m = 0.1f;
-  state.max_depth_m = 0;
+  float max_depth_m = 0;
   for_each(depth.width(), depth.height(),
-           [&](int x, int y) { state.max_depth_m = std::max(state.max_depth_m, depth(x, y)); });
-  test::integrate_every_column(a, bounded);
+           [&](int x, int y) { max_depth_m = std::max(max_depth_m, depth(x, y)); });
+  test::integrate_every_column(
+      test::frame_integrate_args(vol.view(), depth, kK, state, 0.1f, max_depth_m), bounded);
 }
 
 TEST(Integrate, PlaneZeroCrossingLiesOnTheSurface) {

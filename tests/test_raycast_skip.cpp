@@ -84,15 +84,8 @@ void integrate_scene(FlaggedVolume& vol) {
   for (const auto& twist : poses) {
     TrackingState state{};
     state.T_world_cam = se3_exp(twist);
-    prepare_integration(state, true);
-    IntegrateArgs a;
-    a.volume = vol.view();
-    a.depth_m = depth.view();
-    a.k = kK;
-    a.state = &state;
-    a.mu_m = 0.1f;
-    state.max_depth_m = 3.6f;
-    test::integrate_every_column(a);
+    test::integrate_every_column(
+        test::frame_integrate_args(vol.view(), depth, kK, state, 0.1f, 3.6f));
   }
 }
 
