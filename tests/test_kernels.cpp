@@ -403,6 +403,43 @@ TEST(Integrate, FarBehindSurfaceSkipsOnlyVoxelsNoRayFactorUpdates) {
   EXPECT_GT(skipped, 100000);  // the early-out does take many of these voxels
 }
 
+TEST(Integrate, FarInFrontOfSurfaceGivesTheSdfTheFullFormulaGives) {
+  // Voxels right at the +mu boundary (depth − z within a few ulps of mu) and anywhere in a wide
+  // frustum: where the shortcut sets sdf = 1, the full formula min(1, diff / mu) is exactly 1
+  // too (and diff > −mu), for every ray factor it is used with; kThesis never takes it.
+  std::mt19937 rng(7);
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  IntegrateArgs a;
+  int shortcut = 0;
+  for (int i = 0; i < 200000; ++i) {
+    a.mu_m = i % 2 == 0 ? 0.1f : 0.02f + 0.2f * (unit(rng) + 1.0f);
+    const float z = 0.3f + 2.0f * (unit(rng) + 1.0f);
+    const Vec3f p{1.5f * z * unit(rng), 1.2f * z * unit(rng), z};
+    float depth = z + a.mu_m + 0.002f * unit(rng);
+    for (int k = static_cast<int>(8 * unit(rng)); k != 0; k += k > 0 ? -1 : 1) {
+      depth = std::nextafter(depth, k > 0 ? 10.0f : 0.0f);
+    }
+    if (i % 4 == 0) depth = z + 3.0f * unit(rng);  // and depths anywhere around the voxel
+    const float depth_minus_z_m = depth - p.z;
+    for (RayFactor mode : {RayFactor::kExact, RayFactor::kApprox, RayFactor::kNone}) {
+      a.ray_factor = mode;
+      if (!far_in_front_of_surface(depth_minus_z_m, a)) continue;
+      ++shortcut;
+      const float diff = depth_minus_z_m * ray_factor_of(p, mode);
+      ASSERT_TRUE(diff > -a.mu_m);
+      ASSERT_EQ(std::min(1.0f, diff / a.mu_m), 1.0f)
+          << "mode " << static_cast<int>(mode) << " p " << p.x << " " << p.y << " " << p.z
+          << " depth " << depth << " mu " << a.mu_m;
+      float sdf = 0.0f;
+      ASSERT_TRUE(truncated_sdf(p, depth_minus_z_m, a, sdf));
+      ASSERT_EQ(sdf, 1.0f);
+    }
+    a.ray_factor = RayFactor::kThesis;
+    ASSERT_FALSE(far_in_front_of_surface(depth_minus_z_m, a));
+  }
+  EXPECT_GT(shortcut, 100000);  // the shortcut does take many of these voxels
+}
+
 /// Raycast arguments over a test volume: settings plus buffers, as the backends build them.
 RaycastArgs raycast_args(VolumeFixture& vol, HostImage<Vec3f>& vertex, HostImage<Vec3f>& normal,
                          const TrackingState& state, float step_m, float large_step_m) {

@@ -172,6 +172,30 @@ KFX_HD inline bool far_behind_surface(float depth_minus_z_m, const IntegrateArgs
   return a.ray_factor != RayFactor::kThesis && depth_minus_z_m <= -a.mu_m;
 }
 
+/// True when the voxel at camera depth p_z lies so far in front of the measured depth that its
+/// sdf is 1 for every ray factor of at least 1 (every setting but kThesis): depth − p_z ≥ mu > 0
+/// gives diff ≥ depth − p_z ≥ mu and diff / mu ≥ mu / mu = 1 (monotone rounding), so
+/// min(1, diff / mu) = 1. Most voxels a frame updates are such free space; the shortcut spares
+/// them the ray factor (a square root and two divisions) and the division by mu, bit for bit.
+KFX_HD inline bool far_in_front_of_surface(float depth_minus_z_m, const IntegrateArgs& a) {
+  return a.ray_factor != RayFactor::kThesis && depth_minus_z_m >= a.mu_m;
+}
+
+/// The truncated sdf min(1, diff / mu) of the voxel at camera-frame point p, diff the ray
+/// distance (depth − p.z)·factor; false when diff ≤ −mu (the voxel is not updated).
+KFX_HD inline bool truncated_sdf(Vec3f p, float depth_minus_z_m, const IntegrateArgs& a,
+                                 float& sdf) {
+  if (far_in_front_of_surface(depth_minus_z_m, a)) {
+    sdf = 1.0f;
+    return true;
+  }
+  if (far_behind_surface(depth_minus_z_m, a)) return false;
+  const float diff = depth_minus_z_m * ray_factor_of(p, a.ray_factor);
+  if (!(diff > -a.mu_m)) return false;
+  sdf = min_f(1.0f, diff / a.mu_m);
+  return true;
+}
+
 /// integrate_voxel with a weighted measurement (IntegrationWeight other than kConstant): the same
 /// tests and sdf, then a running average with weight measurement_weight() in kWeightUnits.
 KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
@@ -181,11 +205,8 @@ KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const 
   if (u < 0.0f || u > a.depth_m.width - 1 || v < 0.0f || v > a.depth_m.height - 1) return;
   const float depth = a.depth_m(static_cast<int>(u), static_cast<int>(v));
   if (a.zero_depth_test && depth == 0.0f) return;
-  const float depth_minus_z_m = depth - p.z;
-  if (far_behind_surface(depth_minus_z_m, a)) return;
-  const float diff = depth_minus_z_m * ray_factor_of(p, a.ray_factor);
-  if (diff > -a.mu_m) {
-    const float sdf = min_f(1.0f, diff / a.mu_m);
+  float sdf;
+  if (truncated_sdf(p, depth - p.z, a, sdf)) {
     Voxel& voxel = a.volume.at(x, y, z);
     const float weight = voxel.weight;
     const float w = measurement_weight(p, depth, static_cast<int>(u), static_cast<int>(v), a);
@@ -213,11 +234,8 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
   if (u < 0.0f || u > a.depth_m.width - 1 || v < 0.0f || v > a.depth_m.height - 1) return;
   const float depth = a.depth_m(static_cast<int>(u), static_cast<int>(v));
   if (a.zero_depth_test && depth == 0.0f) return;
-  const float depth_minus_z_m = depth - p.z;
-  if (far_behind_surface(depth_minus_z_m, a)) return;
-  const float diff = depth_minus_z_m * ray_factor_of(p, a.ray_factor);
-  if (diff > -a.mu_m) {
-    const float sdf = min_f(1.0f, diff / a.mu_m);
+  float sdf;
+  if (truncated_sdf(p, depth - p.z, a, sdf)) {
     Voxel& voxel = a.volume.at(x, y, z);
     const float weight = voxel.weight;
     const float tsdf =
