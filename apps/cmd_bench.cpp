@@ -65,7 +65,8 @@ void bench(const BenchOptions& options) {
   run_workers(plan, [&](int w) {
     try {
       Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
-                        prepared.reader->height_px(), prepared.backend, plan.device_of_worker[w]);
+                        prepared.reader->height_px(), prepared.backend, plan.device_of_worker[w],
+                        plan.workers_per_device);
       WorkerResult& result = results[w];
       result.backend = pipeline.backend().name();
       result.device = pipeline.backend().device_name();

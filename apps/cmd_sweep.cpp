@@ -175,12 +175,14 @@ std::string energy_budget(const json& record, double max_mj_per_frame) {
 }
 
 /// Warm-up, then `repeat` timed passes with one frame in flight; fills the measurement fields.
-/// `device_index`: the GPU (−1 = current); `idle`: null when runs share the device at once
-/// (--concurrent), which leaves no energy to attribute to one run.
+/// `device_index`: the GPU (−1 = current), shared by `runs_on_device` runs at once; `idle`: null
+/// when runs share the device at once (--concurrent), which leaves no energy to attribute to one
+/// run.
 void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, int repeat,
-             int warmup_frames, int device_index, IdleCache* idle, json& record) {
+             int warmup_frames, int device_index, int runs_on_device, IdleCache* idle,
+             json& record) {
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
-                    prepared.reader->height_px(), prepared.backend, device_index);
+                    prepared.reader->height_px(), prepared.backend, device_index, runs_on_device);
   record["backend"] = pipeline.backend().name();
   record["device"] = pipeline.backend().device_name();
   json config_json;
@@ -544,8 +546,8 @@ void run_sweep(const SweepOptions& o) {
           return loaded;
         });
         IdleCache* energy = workers.workers() == 1 ? &idle : nullptr;
-        measure(prepared, *frames, repeat, warmup_frames, workers.device_of_worker[worker], energy,
-                record);
+        measure(prepared, *frames, repeat, warmup_frames, workers.device_of_worker[worker],
+                workers.workers_per_device, energy, record);
         record["status"] = "ok";
       } catch (const std::exception& e) {
         record["status"] = "failed";

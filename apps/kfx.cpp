@@ -5,10 +5,13 @@
 #include <iostream>
 #include <string>
 
+#include "backend/backend.hpp"
 #include "commands.hpp"
 #include "core/platform.hpp"
 
 int main(int argc, char** argv) {
+  // Before anything touches CUDA: --concurrent pipelines each get a hardware queue.
+  kfx::allow_many_cuda_streams();
   CLI::App app{"kfx: KinectFusion (dense RGB-D SLAM) for CPUs and GPUs, exact and approximate"};
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("kfx ") + KFX_VERSION);

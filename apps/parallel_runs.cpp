@@ -88,6 +88,7 @@ WorkerPlan plan_workers(const ParallelOptions& options, const std::string& backe
   for (int k = 0; k < options.concurrent; ++k) {
     for (int g : gpus) plan.device_of_worker.push_back(g);
   }
+  plan.workers_per_device = options.concurrent;
   // Worker w on gpus[w mod G]: interleaved so that a sweep's first runs spread over every GPU.
   if (backend == "cpu" && plan.workers() > 1) {
     plan.cpu_threads_per_worker = std::max(1, cpu_threads_available() / plan.workers());

@@ -31,6 +31,7 @@ void add_parallel_options(CLI::App& command, ParallelOptions& options);
 struct WorkerPlan {
   std::vector<int> device_of_worker;
   int cpu_threads_per_worker = 0;  ///< 0 = leave the OpenMP default (one worker)
+  int workers_per_device = 1;      ///< pipelines at once on each GPU (BackendSetup)
   int workers() const { return static_cast<int>(device_of_worker.size()); }
   /// "1 pipeline", "4 pipelines at once on GPUs 0,1 (2 per GPU)", "2 pipelines at once (CPU,
   /// 1 OpenMP thread each)".

@@ -25,14 +25,15 @@ PipelineConfig input_config(const io::Reader& reader) {
 }
 
 SequenceRun run_sequence(const std::string& input, const PipelineConfig& config,
-                         BackendKind backend, int max_frames) {
+                         BackendKind backend, int max_frames, int pipelines_on_device) {
   io::ReaderOptions options;
   options.depth_scale_per_m = config.input.depth_scale_per_m;
   auto reader = io::open_reader(input, options);
   const auto& k = config.input.camera_px;
   const Intrinsics intrinsics = (k[0] != 0 || k[1] != 0) ? Intrinsics{k[0], k[1], k[2], k[3]}
                                                          : reader->default_intrinsics().value();
-  Pipeline pipeline(config, intrinsics, reader->width_px(), reader->height_px(), backend);
+  Pipeline pipeline(config, intrinsics, reader->width_px(), reader->height_px(), backend, -1,
+                    pipelines_on_device);
   SequenceRun run;
   run.ground_truth = reader->ground_truth();
   io::Frame frame;

@@ -29,9 +29,11 @@ struct SequenceRun {
 };
 
 /// Runs `input` through a pipeline with `config` on `backend`; intrinsics from the config's
-/// camera when set, else the reader's default. `max_frames` 0 = all.
+/// camera when set, else the reader's default. `max_frames` 0 = all. `pipelines_on_device`: as
+/// if that many pipelines shared the GPU (BackendSetup; speed only).
 SequenceRun run_sequence(const std::string& input, const PipelineConfig& config,
-                         BackendKind backend = BackendKind::kCpu, int max_frames = 0);
+                         BackendKind backend = BackendKind::kCpu, int max_frames = 0,
+                         int pipelines_on_device = 1);
 
 /// Per-frame camera position differences (metres) of two trajectories paired by equal stamps.
 struct PositionDifference {

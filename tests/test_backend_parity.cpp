@@ -285,6 +285,25 @@ TEST(BackendParity, PersistentIcpWithMoreReductionBlocksThanResidentIsBitIdentic
   expect_setting_changes_no_bit("cuda_icp_persistent", input, config, BackendKind::kCuda, 2);
 }
 
+// With many pipelines on one GPU the persistent launch takes fewer blocks (22 of an H200's 132
+// for 32 pipelines), each running more reduction blocks in turn: still the same bits, at 320×240
+// and at 640×480 with 1,200 reduction blocks.
+TEST(BackendParity, PersistentIcpOnAShareOfTheGpuIsBitIdentical) {
+  KFX_REQUIRE_CUDA();
+  for (const char* input :
+       {"synthetic:frames=25,width=320,height=240", "synthetic:frames=8,width=640,height=480"}) {
+    PipelineConfig config = synthetic_config(input);
+    set_config_value(config, "cuda_icp_persistent", "on");
+    if (std::string(input).find("640") != std::string::npos) {
+      set_config_value(config, "cuda_reduce_blocks", "65535");
+    }
+    const auto alone = test::run_sequence(input, config, BackendKind::kCuda, 0, 1);
+    const auto shared = test::run_sequence(input, config, BackendKind::kCuda, 0, 32);
+    EXPECT_GT(alone.tracked, 2) << input;
+    expect_identical_runs(alone, shared);
+  }
+}
+
 TEST(BackendParity, PersistentIcpTrajectoryAgreesWithCpu) {
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=60,width=320,height=240";

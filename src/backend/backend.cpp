@@ -2,6 +2,7 @@
 
 #include "backend/backend.hpp"
 
+#include <cstdlib>
 #include <new>
 
 #include "backend/frame_buffers.hpp"
@@ -83,6 +84,10 @@ int cuda_device_count() {
 #else
   return 0;
 #endif
+}
+
+void allow_many_cuda_streams() {
+  setenv("CUDA_DEVICE_MAX_CONNECTIONS", "32", /*overwrite=*/0);  // 32: CUDA's maximum
 }
 
 std::unique_ptr<Backend> make_backend(BackendKind kind, const BackendSetup& setup) {

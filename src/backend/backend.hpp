@@ -49,6 +49,10 @@ struct BackendSetup {
   /// backend accepts only −1. Selecting a device makes it the calling thread's current one, so
   /// a pipeline is used from the thread that created it (one thread per pipeline).
   int device_index = -1;
+  /// Pipelines that run at once on this backend's GPU (`--concurrent K`): the CUDA backend's
+  /// persistent ICP launch then takes a share of the multiprocessors, not all of them. Speed
+  /// only: the sums, and so the results, do not depend on it.
+  int pipelines_on_device = 1;
   /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them).
   CudaTuning cuda;
   int compute_width_px() const { return input_width_px / compute_ratio; }
@@ -188,6 +192,12 @@ bool cuda_available(std::string* why_not = nullptr);
 
 /// CUDA devices visible to this process (0 in a CPU-only build or without a GPU).
 int cuda_device_count();
+
+/// Lets up to 32 CUDA streams of this process run without false dependencies: CUDA feeds every
+/// stream through CUDA_DEVICE_MAX_CONNECTIONS hardware queues (8 by default), so with more
+/// pipelines at once (`--concurrent`) than queues, pipelines wait on each other's kernels.
+/// Keeps a value the user set. Call at process start, before anything uses CUDA.
+void allow_many_cuda_streams();
 
 /// Caps the OpenMP threads of the CPU backend's loops started from the calling thread (the
 /// thread-local nthreads ICV), so that K pipelines run in K threads share the cores instead of

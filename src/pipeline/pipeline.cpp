@@ -6,7 +6,7 @@ namespace kfx {
 
 Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics,
                    int input_width_px, int input_height_px, BackendKind backend_kind,
-                   int device_index)
+                   int device_index, int pipelines_on_device)
     : config_(config) {
   config_.validate();
   const int ratio = config_.input.compute_size_ratio;
@@ -26,6 +26,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.volume_size_m = config_.volume.size_m;
   setup_.cuda = config_.cuda;
   setup_.device_index = device_index;
+  setup_.pipelines_on_device = pipelines_on_device;
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
   const auto& f = config_.volume.init_pose_factor;

@@ -34,9 +34,11 @@ class Pipeline {
  public:
   /// Validates `config`, derives every stage's parameters and allocates the backend.
   /// `input_intrinsics` are at input size (before the compute-size ratio). `device_index`: the
-  /// CUDA device to run on (−1: the thread's current one; BackendSetup::device_index).
+  /// CUDA device to run on (−1: the thread's current one; BackendSetup::device_index);
+  /// `pipelines_on_device`: how many pipelines run on it at once (BackendSetup, speed only).
   Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics, int input_width_px,
-           int input_height_px, BackendKind backend_kind, int device_index = -1);
+           int input_height_px, BackendKind backend_kind, int device_index = -1,
+           int pipelines_on_device = 1);
 
   /// Processes the next depth frame (input size, millimetres) and waits for its report.
   FrameReport process(const HostImage<uint16_t>& depth_mm);

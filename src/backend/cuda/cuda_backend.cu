@@ -91,7 +91,9 @@ class CudaBackend final : public Backend {
       // Setting cuda_icp_persistent: one cooperative launch per pyramid level. Results are the
       // same either way, so where the device cannot launch it, ICP falls back (and says so).
       std::string why_not;
-      persistent_icp_blocks_ = persistent_icp_max_blocks(device_, &why_not);
+      persistent_icp_blocks_ =
+          std::min(persistent_icp_max_blocks(device_, &why_not),
+                   persistent_icp_grid(properties_.multiProcessorCount, setup.pipelines_on_device));
       if (persistent_icp_blocks_ > 0) {
         level_partials_ =
             DeviceBuffer<double>(2 * static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);

@@ -88,6 +88,18 @@ inline int persistent_icp_max_blocks(int device, std::string* why_not) {
   return per_sm * sms;
 }
 
+/// Blocks the persistent ICP launch uses on a GPU of `sms` multiprocessors shared by `pipelines`
+/// pipelines at once: all of them for one or two pipelines, about 2·sms / pipelines for more,
+/// at least sms / 6. Alone, a block per multiprocessor is fastest; with many pipelines, each
+/// level's launch on every multiprocessor makes the others' kernels wait for its blocks (one
+/// H200, icl_office_kt0 320×240, 16 pipelines: 9,400 frames/s with 132 blocks, 11,835 with 22;
+/// bench/RESULTS.md). The sums do not depend on it: each block runs its share of the same
+/// reduction blocks.
+inline int persistent_icp_grid(int sms, int pipelines) {
+  const int share = (2 * sms + pipelines - 1) / std::max(1, pipelines);
+  return std::max(1, std::max(sms / 6, std::min(sms, share)));
+}
+
 /// Launches icp_level_kernel cooperatively on `stream` with min(blocks, max_blocks) blocks
 /// (max_blocks from persistent_icp_max_blocks). Capturable in a CUDA graph (a cooperative
 /// kernel node). No programmatic dependent launch: the kernel starts after its predecessor.
