@@ -371,23 +371,35 @@ TEST(Integrate, ColumnBoundsNeverChangeTheResult) {
   EXPECT_GT(touched_total, 10000);  // the poses do see the volume
 }
 
+/// A voxel's camera-frame point anywhere in a wide frustum, and a measured depth within a few
+/// ulps of p.z + offset_m (the hard cases at a test's boundary) or, for every fourth `i`,
+/// anywhere around the voxel.
+struct VoxelAndDepth {
+  Vec3f p;
+  float depth_m;
+};
+VoxelAndDepth voxel_near_depth_boundary(std::mt19937& rng, int i, float offset_m) {
+  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
+  const float z = 0.3f + 2.0f * (unit(rng) + 1.0f);
+  const Vec3f p{1.5f * z * unit(rng), 1.2f * z * unit(rng), z};
+  float depth = z + offset_m + 0.002f * unit(rng);
+  for (int k = static_cast<int>(8 * unit(rng)); k != 0; k += k > 0 ? -1 : 1) {
+    depth = std::nextafter(depth, k > 0 ? 10.0f : 0.0f);
+  }
+  if (i % 4 == 0) depth = z + 3.0f * unit(rng);
+  return {p, depth};
+}
+
 TEST(Integrate, FarBehindSurfaceSkipsOnlyVoxelsNoRayFactorUpdates) {
   // Voxels right at the −mu boundary (depth − z within a few ulps of −mu, the hard cases) and
   // anywhere in a wide frustum: where the early-out skips a voxel, the full test diff > −mu
   // fails too, for every ray factor it is used with; kThesis (factor < 1 off-axis) never skips.
   std::mt19937 rng(5);
-  std::uniform_real_distribution<float> unit(-1.0f, 1.0f);
   IntegrateArgs a;
   a.mu_m = 0.1f;
   int skipped = 0;
   for (int i = 0; i < 200000; ++i) {
-    const float z = 0.3f + 2.0f * (unit(rng) + 1.0f);
-    const Vec3f p{1.5f * z * unit(rng), 1.2f * z * unit(rng), z};
-    float depth = z - a.mu_m + 0.002f * unit(rng);
-    for (int k = static_cast<int>(8 * unit(rng)); k != 0; k += k > 0 ? -1 : 1) {
-      depth = std::nextafter(depth, k > 0 ? 10.0f : 0.0f);
-    }
-    if (i % 4 == 0) depth = z + 3.0f * unit(rng);  // and depths anywhere around the voxel
+    const auto [p, depth] = voxel_near_depth_boundary(rng, i, -a.mu_m);
     const float depth_minus_z_m = depth - p.z;
     for (RayFactor mode : {RayFactor::kExact, RayFactor::kApprox, RayFactor::kNone}) {
       a.ray_factor = mode;
@@ -413,13 +425,7 @@ TEST(Integrate, FarInFrontOfSurfaceGivesTheSdfTheFullFormulaGives) {
   int shortcut = 0;
   for (int i = 0; i < 200000; ++i) {
     a.mu_m = i % 2 == 0 ? 0.1f : 0.02f + 0.2f * (unit(rng) + 1.0f);
-    const float z = 0.3f + 2.0f * (unit(rng) + 1.0f);
-    const Vec3f p{1.5f * z * unit(rng), 1.2f * z * unit(rng), z};
-    float depth = z + a.mu_m + 0.002f * unit(rng);
-    for (int k = static_cast<int>(8 * unit(rng)); k != 0; k += k > 0 ? -1 : 1) {
-      depth = std::nextafter(depth, k > 0 ? 10.0f : 0.0f);
-    }
-    if (i % 4 == 0) depth = z + 3.0f * unit(rng);  // and depths anywhere around the voxel
+    const auto [p, depth] = voxel_near_depth_boundary(rng, i, a.mu_m);
     const float depth_minus_z_m = depth - p.z;
     for (RayFactor mode : {RayFactor::kExact, RayFactor::kApprox, RayFactor::kNone}) {
       a.ray_factor = mode;
