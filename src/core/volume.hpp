@@ -16,6 +16,11 @@ struct alignas(4) Voxel {
 
 /// Fixed-point scale of the stored tsdf (value = stored / kTsdfScale).
 constexpr float kTsdfScale = 32766.0f;
+/// Stored tsdf below which a voxel marks its brick (VolumeView::brick_touched): ⌈0.81 ·
+/// kTsdfScale⌉. A raycast sample among voxels at or above it reads ≥ 0.81 less rounding, above
+/// the march's 0.8, so the march only steps over such space (raycast.hpp); free space that
+/// noisy depth left just under +1 then stays skippable.
+constexpr int16_t kMarkBelowTsdfStored = 26541;
 /// Reciprocal used when reading back, written as SLAMBench writes it.
 constexpr float kTsdfInvScale = 0.00003051944088f;
 
@@ -52,9 +57,9 @@ struct VolumeView {
   Voxel* data = nullptr;
   int res = 0;          ///< voxels per side
   float size_m = 0.0f;  ///< side length in metres
-  /// One byte per 8³ brick: 0 while every voxel of the brick still stores tsdf +1 (kTsdfScale),
-  /// 1 once any may differ. Lets the raycast step over space it knows is empty without changing
-  /// its result. May be null (no skipping).
+  /// One byte per 8³ brick: 0 while every voxel of the brick still stores a tsdf of at least
+  /// kMarkBelowTsdfStored (about 0.81), 1 once any may be lower. Lets the raycast step over space
+  /// it knows is empty without changing its result. May be null (no skipping).
   uint8_t* brick_touched = nullptr;
   /// One byte per 16³ super-brick (kSuperBrickShift): 1 once any of its bricks is touched. Set
   /// together with brick_touched; may be null (the raycast then skips brick by brick only).

@@ -76,9 +76,10 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
 }
 
 /// Empty-space skipping (docs/algorithm.md §2.4). A march sample whose voxels all lie in
-/// untouched bricks reads (1 ± rounding) ≥ 0.8: it can neither stop nor refine the march, so the
-/// march only has to advance t over it. The test need not reproduce the sample's arithmetic; it
-/// only has to include every voxel the sample could read.
+/// untouched bricks (every voxel ≥ kMarkBelowTsdfStored) reads ≥ 0.81 less rounding, so ≥ 0.8:
+/// it can neither stop nor refine the march, so the march only has to advance t over it. The test
+/// need not reproduce the sample's arithmetic; it only has to include every voxel the sample could
+/// read.
 ///
 /// Slack of the test's voxel range: s = p·(res/size) differs from the sample's p·res/size by a
 /// few ulps (< 3e-4 voxel at res 1024), so widening the range by 0.01 voxel on both sides keeps
