@@ -304,6 +304,20 @@ TEST(BackendParity, PersistentIcpOnAShareOfTheGpuIsBitIdentical) {
   }
 }
 
+// cuda_z_chunks splits each integration column into z-ranges, one thread each; every voxel is
+// still updated once, by the same arithmetic: the same bits for any split (0 = the default).
+TEST(BackendParity, IntegrationZChunksChangeNoBit) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=20,width=320,height=240";
+  PipelineConfig config = synthetic_config(input);
+  const auto by_default = test::run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_GT(by_default.tracked, 10);
+  for (const char* chunks : {"1", "7", "64"}) {
+    set_config_value(config, "cuda_z_chunks", chunks);
+    expect_identical_runs(by_default, test::run_sequence(input, config, BackendKind::kCuda));
+  }
+}
+
 TEST(BackendParity, PersistentIcpTrajectoryAgreesWithCpu) {
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=60,width=320,height=240";

@@ -32,7 +32,7 @@ namespace kfx {
 struct CudaTuning {
   bool pdl = true;               ///< programmatic dependent launch (on sm_90 and newer)
   int reduce_blocks = 0;         ///< cap on the ICP reduction grid; 0 = one block per SM
-  int z_chunks = 16;             ///< z-ranges each integration column is split into
+  int z_chunks = 0;              ///< z-ranges per integration column; 0 = 4096 / resolution
   bool icp_persistent = true;    ///< one cooperative launch per pyramid level, not per iteration
   bool fused_preprocess = true;  ///< preprocess, then the pyramid, in one launch each
 };

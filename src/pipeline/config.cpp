@@ -411,7 +411,8 @@ std::vector<ConfigField> build_fields() {
           "cuda: cap on the ICP reduction grid, 0 = one block per SM (0..65535; speed only)",
           [](C& c) -> int& { return c.cuda.reduce_blocks; });
   integer("cuda_z_chunks", "cuda", "", "",
-          "cuda: z-ranges each integration column is split into (1..1024; speed only)",
+          "cuda: z-ranges each integration column is split into, 0 = 4096 / volume resolution "
+          "(16 at 256^3, 8 at 512^3) (0..1024; speed only)",
           [](C& c) -> int& { return c.cuda.z_chunks; });
   on_off("cuda_icp_persistent", "cuda",
          "cuda: each pyramid level's ICP iterations in one cooperative launch with a grid barrier "
@@ -518,8 +519,8 @@ void PipelineConfig::validate() const {
             "bootstrap_frames must be in 1..4, got " << quality.bootstrap_frames);
   KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
             "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
-  KFX_CHECK(cuda.z_chunks >= 1 && cuda.z_chunks <= 1024,
-            "cuda_z_chunks must be in 1..1024, got " << cuda.z_chunks);
+  KFX_CHECK(cuda.z_chunks >= 0 && cuda.z_chunks <= 1024,
+            "cuda_z_chunks must be in 0..1024, got " << cuda.z_chunks);
 }
 
 std::string PipelineConfig::dump() const {

@@ -81,11 +81,13 @@ class CudaBackend final : public Backend {
       state_readback_[p] = PinnedBuffer<TrackingState>(1);
     }
     // Tuning (settings cuda_reduce_blocks, cuda_z_chunks): the cap on the ICP reduction grid
-    // (0: one block per SM) and the z-ranges per integration column.
+    // (0: one block per SM) and the z-ranges per integration column (0: 4096 / resolution, the
+    // fastest of 2..64 on an H200 at 256³ and at 512³, bench/RESULTS.md).
     const int max_blocks =
         setup.cuda.reduce_blocks > 0 ? setup.cuda.reduce_blocks : properties_.multiProcessorCount;
     reduce_blocks_ = std::max(1, std::min((w * h + kReduceBlock - 1) / kReduceBlock, max_blocks));
-    z_chunks_ = std::max(1, setup.cuda.z_chunks);
+    z_chunks_ = std::max(1, setup.cuda.z_chunks > 0 ? setup.cuda.z_chunks
+                                                    : 4096 / std::max(1, setup.volume_res_vox));
     partials_ = DeviceBuffer<double>(static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
     if (setup.cuda.icp_persistent) {
       // Setting cuda_icp_persistent: one cooperative launch per pyramid level. Results are the
