@@ -408,7 +408,8 @@ std::vector<ConfigField> build_fields() {
   on_off("cuda_pdl", "cuda", "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)",
          [](C& c) -> bool& { return c.cuda.pdl; });
   integer("cuda_reduce_blocks", "cuda", "", "",
-          "cuda: cap on the ICP reduction grid, 0 = one block per SM (0..65535; speed only)",
+          "cuda: cap on the ICP reduction grid, 0 = one block per SM (0..65535; it sets the "
+          "order of the ICP's sums, so the trajectory's last bits)",
           [](C& c) -> int& { return c.cuda.reduce_blocks; });
   integer("cuda_z_chunks", "cuda", "", "",
           "cuda: z-ranges each integration column is split into, 0 = 4096 / volume resolution "
