@@ -75,6 +75,14 @@ KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
   return g;
 }
 
+/// The march switches from the large step to the one-voxel step at the first sample below this
+/// tsdf (SLAMBench's 0.8).
+constexpr float kFineStepBelowTsdf = 0.8f;
+// Empty-space skipping relies on it: voxels that leave their brick unmarked are ≥ 0.81, whose
+// samples stay above the switch with a margin far wider than any rounding.
+static_assert(kMarkBelowTsdfStored / kTsdfScale >= kFineStepBelowTsdf + 0.005f,
+              "bricks left unmarked must only hold voxels whose samples stay above the switch");
+
 /// Empty-space skipping (docs/algorithm.md §2.4). A march sample whose voxels all lie in
 /// untouched bricks (every voxel ≥ kMarkBelowTsdfStored) reads ≥ 0.81 less rounding, so ≥ 0.8:
 /// it can neither stop nor refine the march, so the march only has to advance t over it. The test
@@ -263,7 +271,7 @@ KFX_HD inline float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direct
     }
     f_tt = raycast_sample(a, p);
     if (f_tt < 0.0f) break;
-    if (f_tt < 0.8f && !constant_step) step = a.step_m;
+    if (f_tt < kFineStepBelowTsdf && !constant_step) step = a.step_m;
     f_t = f_tt;
     f_t_skipped = false;
     t += step;
