@@ -1,5 +1,6 @@
 #include "run_options.hpp"
 
+#include <array>
 #include <set>
 #include <sstream>
 
@@ -84,11 +85,34 @@ PreparedRun prepare_run(const RunOptions& o) {
     source = run.reader->intrinsics_source();
     if (source.empty()) source = "the input's default";
   }
+  // A lens distortion belongs to one calibration: the format's applies only with the format's
+  // own intrinsics (given or defaulted), never to a camera the user described otherwise.
+  auto& distortion = run.config.input.distortion;
+  const bool distortion_given = distortion != std::array<float, 5>{};
+  const LensDistortion format_lens = run.reader->default_distortion();
+  const bool format_camera = defaults.has_value() && defaults->fx == run.input_intrinsics.fx &&
+                             defaults->fy == run.input_intrinsics.fy &&
+                             defaults->cx == run.input_intrinsics.cx &&
+                             defaults->cy == run.input_intrinsics.cy;
+  if (!distortion_given && format_camera && !format_lens.none()) {
+    distortion = {format_lens.k1, format_lens.k2, format_lens.p1, format_lens.p2, format_lens.k3};
+  }
   {
     const Intrinsics& c = run.input_intrinsics;
     std::ostringstream note;
     note << "intrinsics fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy
          << " px at " << run.reader->width_px() << "x" << run.reader->height_px() << ": " << source;
+    if (run.config.quality.depth_undistortion) {
+      const auto& k = distortion;
+      if (k == std::array<float, 5>{}) {
+        note << "; depth_undistortion is on but the lens distortion is unknown (set "
+                "camera_distortion=k1,k2,p1,p2,k3): the depth is used as it is";
+      } else {
+        note << "; depth undistorted with k1,k2,p1,p2,k3 = " << k[0] << "," << k[1] << "," << k[2]
+             << "," << k[3] << "," << k[4]
+             << (distortion_given ? " (given by the user)" : " (the format's camera)");
+      }
+    }
     run.intrinsics_note = note.str();
   }
   // SLAMBench runs ICL-NUIM with +fy where the true camera has −fy: that mirrors the world in

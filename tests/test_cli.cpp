@@ -103,6 +103,42 @@ TEST_F(CliTest, NonsenseSettingsAreErrors) {
   }
 }
 
+TEST_F(CliTest, UndistortionUsesTheFormatsLensOnlyWithTheFormatsCamera) {
+  // A folder named for TUM's freiburg 1 camera: its intrinsics and lens are the defaults.
+  const fs::path folder = dir_ / "rgbd_dataset_freiburg1_tiny";
+  fs::rename(make_tum_folder(3), folder);
+  const auto config_line = [](const fs::path& out) {
+    std::ifstream file(out / "config.txt");
+    std::string line;
+    while (std::getline(file, line)) {
+      if (line.rfind("camera_distortion = ", 0) == 0) return line;
+    }
+    return std::string("(no camera_distortion line)");
+  };
+  const std::string base = "run " + folder.string() + " -c 1 -y 2,2 -q --no-mesh --no-report ";
+  auto r = run_kfx(base + "--set depth_undistortion=on --out " + (dir_ / "a").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(config_line(dir_ / "a"), "camera_distortion = 0.2624,-0.9531,-0.0054,0.0026,1.1633");
+  EXPECT_NE(r.output.find("depth undistorted"), std::string::npos) << r.output;
+  // Another camera (-k): fr1's lens does not belong to it, so the depth is used as it is.
+  r = run_kfx(base + "--set depth_undistortion=on -k 60,60,32,24 --out " + (dir_ / "b").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(config_line(dir_ / "b"), "camera_distortion = 0,0,0,0,0");
+  EXPECT_NE(r.output.find("lens distortion is unknown"), std::string::npos) << r.output;
+  // A lens the user gives is used with any camera.
+  r = run_kfx(
+      base +
+      "--set depth_undistortion=on -k 60,60,32,24 --set camera_distortion=0.1,0,0,0,0 --out " +
+      (dir_ / "c").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(config_line(dir_ / "c"), "camera_distortion = 0.1,0,0,0,0");
+  EXPECT_NE(r.output.find("(given by the user)"), std::string::npos) << r.output;
+  // exact (KFusion) never undistorts, whatever the lens.
+  r = run_kfx(base + "--out " + (dir_ / "d").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output.find("undistort"), std::string::npos) << r.output;
+}
+
 TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
   const fs::path folder = make_tum_folder(8);
   const fs::path bad = folder / "depth" / "105.000000.png";

@@ -167,10 +167,11 @@ TEST(IoReaders, TumIntrinsicsFollowTheFreiburgCameraInTheName) {
   const struct {
     std::string name;
     float fx, fy, cx, cy;
-  } cases[] = {{"rgbd_dataset_freiburg1_xyz", 517.3f, 516.5f, 318.6f, 255.3f},
-               {"tum_fr2_desk", 520.9f, 521.0f, 325.1f, 249.7f},
-               {"rgbd_dataset_freiburg3_office", 535.4f, 539.2f, 320.1f, 247.6f},
-               {"kitchen", 525.0f, 525.0f, 319.5f, 239.5f}};
+    float k1;  ///< the lens's first radial coefficient (TUM's calibration; fr3 is undistorted)
+  } cases[] = {{"rgbd_dataset_freiburg1_xyz", 517.3f, 516.5f, 318.6f, 255.3f, 0.2624f},
+               {"tum_fr2_desk", 520.9f, 521.0f, 325.1f, 249.7f, 0.2312f},
+               {"rgbd_dataset_freiburg3_office", 535.4f, 539.2f, 320.1f, 247.6f, 0.0f},
+               {"kitchen", 525.0f, 525.0f, 319.5f, 239.5f, 0.0f}};
   for (const auto& c : cases) {
     const auto reader = open_reader(make_tum_folder(dir, c.name, false));
     const auto k = reader->default_intrinsics();
@@ -179,6 +180,8 @@ TEST(IoReaders, TumIntrinsicsFollowTheFreiburgCameraInTheName) {
     EXPECT_EQ(k->fy, c.fy) << c.name;
     EXPECT_EQ(k->cx, c.cx) << c.name;
     EXPECT_EQ(k->cy, c.cy) << c.name;
+    EXPECT_EQ(reader->default_distortion().k1, c.k1) << c.name;
+    EXPECT_EQ(reader->default_distortion().none(), c.k1 == 0.0f) << c.name;
   }
 }
 

@@ -55,6 +55,9 @@ struct BackendSetup {
   int pipelines_on_device = 1;
   /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them).
   CudaTuning cuda;
+  /// The undistortion table (pipeline/depth_undistortion.hpp), compute size: the input pixel
+  /// each compute pixel reads. Empty: input (x·ratio, y·ratio), as KFusion.
+  HostImage<SourcePixel> depth_source_px;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
 };

@@ -1,5 +1,6 @@
 #pragma once
-/// Pinhole intrinsics and the camera matrices derived from them, as SLAMBench builds them.
+/// Pinhole intrinsics and the camera matrices derived from them, as SLAMBench builds them, and
+/// the lens distortion KFusion ignores (setting depth_undistortion corrects it).
 
 #include "core/math.hpp"
 
@@ -34,6 +35,22 @@ struct Intrinsics {
   /// +1 when the image is not mirrored (fx·fy > 0), else −1. Normals computed from pixel
   /// neighbours are multiplied by this so they always face the camera.
   KFX_HD float handedness() const { return (fx * fy) > 0 ? 1.0f : -1.0f; }
+};
+
+/// Brown–Conrady lens distortion, OpenCV's (k1, k2, p1, p2, k3), of normalised image
+/// coordinates (x/z, y/z): the same at every image size. All 0 = none.
+struct LensDistortion {
+  float k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;
+
+  bool none() const { return k1 == 0 && k2 == 0 && p1 == 0 && p2 == 0 && k3 == 0; }
+  /// Where the lens images the ray through normalised point (x, y): the distorted point
+  /// (*xd, *yd). Double precision: it builds a table once per run, never per pixel.
+  void distort(double x, double y, double* xd, double* yd) const {
+    const double r2 = x * x + y * y;
+    const double radial = 1.0 + r2 * (k1 + r2 * (k2 + r2 * k3));
+    *xd = x * radial + 2.0 * p1 * x * y + p2 * (r2 + 2.0 * x * x);
+    *yd = y * radial + p1 * (r2 + 2.0 * y * y) + 2.0 * p2 * x * y;
+  }
 };
 
 }  // namespace kfx

@@ -34,6 +34,7 @@ struct PngSequenceSpec {
   double depth_scale_per_m = 5000.0;  ///< raw PNG units per metre
   std::optional<Intrinsics> intrinsics;
   std::string intrinsics_source;  ///< where `intrinsics` come from and why (for the user)
+  LensDistortion distortion;      ///< the lens distortion of that camera (none when unknown)
   std::vector<StampedPose> ground_truth;
   std::string ground_truth_path;  ///< "" when there is none
 };
@@ -52,6 +53,7 @@ class PngSequenceReader : public Reader {
   int frame_count() const override { return static_cast<int>(spec_.entries.size()); }
   std::optional<Intrinsics> default_intrinsics() const override { return spec_.intrinsics; }
   std::string intrinsics_source() const override { return spec_.intrinsics_source; }
+  LensDistortion default_distortion() const override { return spec_.distortion; }
   std::vector<StampedPose> ground_truth() const override { return spec_.ground_truth; }
   std::string description() const override;
 

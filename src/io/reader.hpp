@@ -52,6 +52,9 @@ class Reader {
   /// Where default_intrinsics() come from and why, for the user ("TUM freiburg 1 camera, named
   /// by the folder 'x'"); "" when there are none.
   virtual std::string intrinsics_source() const { return ""; }
+  /// The lens distortion of the camera default_intrinsics() describe (TUM fr1 and fr2: their
+  /// published calibration); none when the format's images have none or it is unknown.
+  virtual LensDistortion default_distortion() const { return {}; }
   /// Ground-truth poses (camera to world), empty when there are none.
   virtual std::vector<StampedPose> ground_truth() const = 0;
   /// One line describing the source, e.g. "TUM RGB-D folder X (798 frames)".

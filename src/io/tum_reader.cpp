@@ -38,8 +38,10 @@ int freiburg_camera_in(const std::string& text) {
 }
 
 /// TUM's published intrinsics at 640×480 for the camera named by the folder (then the path),
-/// else the generic Kinect defaults (525, 525, 319.5, 239.5); `source` says which and why.
-Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source) {
+/// else the generic Kinect defaults (525, 525, 319.5, 239.5); `source` says which and why,
+/// `distortion` gets the camera's published lens distortion (fr3's images are undistorted).
+Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source,
+                              LensDistortion* distortion) {
   int camera = freiburg_camera_in(folder.filename().string());
   const bool by_name = camera != 0;
   if (camera == 0) camera = freiburg_camera_in(folder.string());
@@ -52,10 +54,13 @@ Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source) {
               "' names no TUM camera (fr1, fr2, fr3 or freiburg1..3); give -k fx,fy,cx,cy "
               "if these are wrong";
   }
+  *distortion = {};
   switch (camera) {
     case 1:
+      *distortion = {0.2624f, -0.9531f, -0.0054f, 0.0026f, 1.1633f};
       return {517.3f, 516.5f, 318.6f, 255.3f};
     case 2:
+      *distortion = {0.2312f, -0.7849f, -0.0033f, -0.0001f, 0.9172f};
       return {520.9f, 521.0f, 325.1f, 249.7f};
     case 3:
       return {535.4f, 539.2f, 320.1f, 247.6f};
@@ -91,7 +96,7 @@ std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOpt
   spec.entries = read_depth_listing(spec.listing_path, spec.folder);
   spec.depth_scale_per_m = resolve_depth_scale(options.depth_scale_per_m, kPngDepthScalePerM);
   spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal(),
-                                       &spec.intrinsics_source);
+                                       &spec.intrinsics_source, &spec.distortion);
   const fs::path groundtruth = fs::path(spec.folder) / "groundtruth.txt";
   spec.ground_truth = load_ground_truth(
       options.ground_truth_path,

@@ -25,19 +25,36 @@ namespace kfx {
 /// Marker for an invalid normal (x component), as SLAMBench.
 constexpr float kInvalidNormal = -2.0f;
 
+/// The input pixel a compute pixel reads when the depth is undistorted (setting
+/// depth_undistortion); x < 0: none (the lens sees no such ray), the depth reads as 0.
+struct SourcePixel {
+  int16_t x, y;
+};
+
 /// Arguments of mm_to_m_pixel.
 struct MmToMArgs {
   ImageView<const uint16_t> in_mm;  ///< input-resolution depth, millimetres
   ImageView<float> out_m;           ///< compute-resolution depth, metres
   int ratio = 1;                    ///< compute-size ratio (nearest subsampling)
   float max_depth_m = 0.0f;         ///< depths beyond this read as 0 (no data); 0 = keep all
+  /// Compute size: the input pixel each compute pixel reads (the undistortion table,
+  /// pipeline/depth_undistortion.hpp); no data = input (x·ratio, y·ratio), as KFusion.
+  ImageView<const SourcePixel> source_px;
 };
 
 /// Depth of compute-size pixel (x, y) in metres: input (x·ratio, y·ratio) / 1000, nearest
-/// subsampling, no averaging; a depth beyond max_depth_m (when set) becomes 0, so no later stage
-/// uses it (the sensor's noise grows with the square of the depth).
+/// subsampling, no averaging, or the input pixel the undistortion table names (the same z: a lens
+/// moves where a point is imaged, not its depth); a depth beyond max_depth_m (when set) becomes
+/// 0, so no later stage uses it (the sensor's noise grows with the square of the depth).
 KFX_HD inline float mm_to_m_value(int x, int y, const MmToMArgs& a) {
-  float d = a.in_mm(x * a.ratio, y * a.ratio) / 1000.0f;
+  uint16_t mm;
+  if (a.source_px.data) {
+    const SourcePixel s = a.source_px(x, y);
+    mm = s.x < 0 ? 0 : a.in_mm(s.x, s.y);
+  } else {
+    mm = a.in_mm(x * a.ratio, y * a.ratio);
+  }
+  float d = mm / 1000.0f;
   if (a.max_depth_m > 0.0f && d > a.max_depth_m) d = 0.0f;
   return d;
 }

@@ -137,6 +137,19 @@ std::vector<ConfigField> build_fields() {
   }
   num("depth_scale", "input", "", "", "PNG depth units per metre (0 = the format's: 5000)",
       [](C& c) -> double& { return c.input.depth_scale_per_m; });
+  {
+    ConfigField f;
+    f.key = "camera_distortion";
+    f.section = "input";
+    f.help =
+        "lens distortion k1,k2,p1,p2,k3 (OpenCV's order), used by depth_undistortion (all 0 = "
+        "the format's when camera is the format's: TUM fr1, fr2; else none)";
+    f.parse = [](C& c, const std::string& text) {
+      c.input.distortion = parse_floats<5>("camera_distortion", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.input.distortion); };
+    t.push_back(f);
+  }
   // Volume.
   {
     ConfigField f;
@@ -404,6 +417,10 @@ std::vector<ConfigField> build_fields() {
           "n (4 = KFusion's; 1: only the first frame builds the model, so a camera already "
           "moving does not smear it; 1..4)",
           [](C& c) -> int& { return c.quality.bootstrap_frames; });
+  on_off("depth_undistortion", "quality",
+         "undistort the depth image with camera_distortion before anything else (off = KFusion's "
+         "pinhole camera; on|off)",
+         [](C& c) -> bool& { return c.quality.depth_undistortion; });
   // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
   on_off("cuda_pdl", "cuda", "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)",
          [](C& c) -> bool& { return c.cuda.pdl; });
@@ -516,6 +533,11 @@ void PipelineConfig::validate() const {
                                           << " with a weighted integration_weight (weights are "
                                              "stored in 1/"
                                           << kWeightUnits << " steps), got " << volume.max_weight);
+  for (const float k : input.distortion) {
+    KFX_CHECK(
+        std::isfinite(k) && std::fabs(k) <= 100.0f,
+        "camera_distortion: each coefficient must be a finite number within +-100, got " << k);
+  }
   KFX_CHECK(quality.bootstrap_frames >= 1 && quality.bootstrap_frames <= 4,
             "bootstrap_frames must be in 1..4, got " << quality.bootstrap_frames);
   KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,

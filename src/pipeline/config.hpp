@@ -25,6 +25,9 @@ struct PipelineConfig {
     int compute_size_ratio = 2;        ///< compute size = input size / this (1, 2, 4, 8)
     std::array<float, 4> camera_px{};  ///< fx, fy, cx, cy at input size; all 0 = format default
     double depth_scale_per_m = 0.0;    ///< PNG units per metre; 0 = format default
+    /// The lens's k1, k2, p1, p2, k3 (OpenCV's order); all 0 = the format's when camera_px is
+    /// the format's too (TUM fr1, fr2), else none. Used only with quality.depth_undistortion.
+    std::array<float, 5> distortion{};
   } input;
   struct Volume {
     int resolution_vox = 256;                                 ///< voxels per side
@@ -89,6 +92,9 @@ struct PipelineConfig {
     /// Frames 0..n−1 are integrated untracked at the first pose, the first raycast follows frame
     /// n−1 and tracking starts at frame n (KFusion: 4).
     int bootstrap_frames = 4;
+    /// Undistort the depth image with input.distortion before anything else (KFusion: off,
+    /// a pinhole camera); pipeline/depth_undistortion.hpp.
+    bool depth_undistortion = false;
   } quality;
 
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).

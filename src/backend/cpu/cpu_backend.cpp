@@ -105,7 +105,7 @@ class CpuBackend final : public Backend {
   void preprocess(const BilateralParams& p) override {
     begin_frame_state(state_);
     const MmToMArgs mm{input_mm_.view(), buffers_.depth_m.view(), setup_.compute_ratio,
-                       p.max_depth_m};
+                       p.max_depth_m, source_view()};
     const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
     float max_depth_m = 0.0f;
 #pragma omp parallel for schedule(static) reduction(max : max_depth_m)
@@ -334,6 +334,12 @@ class CpuBackend final : public Backend {
   }
 
  private:
+  /// The undistortion table as mm → m reads it; no data when there is none.
+  ImageView<const SourcePixel> source_view() const {
+    return setup_.depth_source_px.empty() ? ImageView<const SourcePixel>{}
+                                          : setup_.depth_source_px.view();
+  }
+
   /// Throws kfx::Error when a mesh has more `what` than PLY's int indices address.
   static void check_mesh_total(uint64_t total, const char* what) {
     KFX_CHECK(total <= 0x7fffffffu,

@@ -111,6 +111,13 @@ class CudaBackend final : public Backend {
     max_depth_scratch_ = DeviceBuffer<unsigned int>(2);
     KFX_CUDA_CHECK(
         cudaMemsetAsync(max_depth_scratch_.data(), 0, max_depth_scratch_.bytes(), stream_.get()));
+    // Setting depth_undistortion: the table mm -> m reads, uploaded once (it never changes).
+    if (!setup.depth_source_px.empty()) {
+      const auto& table = setup.depth_source_px;
+      source_px_ = DeviceImage<SourcePixel>(table.width(), table.height());
+      KFX_CUDA_CHECK(cudaMemcpyAsync(source_px_.data(), table.data(), source_px_.bytes(),
+                                     cudaMemcpyHostToDevice, stream_.get()));
+    }
     // Pixels an ICP stride skips stay 0 ("not tracked" in the track render), as on the CPU.
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0, buffers_.track_outcome.bytes(),
                                    stream_.get()));
@@ -209,8 +216,8 @@ class CudaBackend final : public Backend {
     if (replaying_) return;
     const int w = setup_.compute_width_px(), h = setup_.compute_height_px();
     if (fused_preprocess_) {
-      const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio,
-                         p.max_depth_m};
+      const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio, p.max_depth_m,
+                         source_px_.view()};
       const PreprocessArgs a{p, mm, buffers_.level_depth[0].view()};
       const dim3 tile(kTileWidthPx, kTileHeightPx);
       launch(preprocess_kernel, grid_for(w, h, tile), tile, a, state_.data(),
@@ -218,7 +225,8 @@ class CudaBackend final : public Backend {
       return;
     }
     KFX_CUDA_CHECK(cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
-    const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio, p.max_depth_m};
+    const MmToMArgs mm{input_view(), buffers_.depth_m.view(), setup_.compute_ratio, p.max_depth_m,
+                       source_px_.view()};
     const dim3 block(32, 8);
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
     const BilateralArgs b{p, buffers_.depth_m.view(), buffers_.level_depth[0].view()};
@@ -474,6 +482,8 @@ class CudaBackend final : public Backend {
   std::array<Event, 2> upload_done_{Event(false), Event(false)};
   std::array<Event, 2> frame_done_{Event(false), Event(false)};
   FrameBuffers<DeviceImage, DeviceBuffer> buffers_;
+  /// The undistortion table (BackendSetup::depth_source_px); unallocated (no data) without one.
+  DeviceImage<SourcePixel> source_px_;
   int reduce_blocks_ = 1;
   int z_chunks_ = 16;
   DeviceBuffer<double> partials_;
