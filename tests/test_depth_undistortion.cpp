@@ -117,8 +117,7 @@ TEST(DepthUndistortion, OffOrWithoutALensChangesNoBitAndOnChangesTheTrajectory) 
   };
   EXPECT_TRUE(same(exact, with({"camera_distortion=0.2624,-0.9531,-0.0054,0.0026,1.1633"})));
   EXPECT_TRUE(same(exact, with({"depth_undistortion=on"})));  // no lens known: as it is
-  EXPECT_FALSE(
-      same(exact, with({"depth_undistortion=on", "camera_distortion=0.1,-0.2,0,0,0.1"})));
+  EXPECT_FALSE(same(exact, with({"depth_undistortion=on", "camera_distortion=0.1,-0.2,0,0,0.1"})));
 }
 
 TEST(DepthUndistortion, CpuAndGpuAgree) {

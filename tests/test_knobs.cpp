@@ -88,8 +88,10 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_FLOAT_EQ(fast.approx.raycast_constant_step_m, 0.05f);
   const PipelineConfig quality = make_preset("quality");
   EXPECT_EQ(quality.quality.icp_robust, IcpRobust::kHuber);
-  EXPECT_FLOAT_EQ(quality.quality.icp_robust_scale_m, 0.005f);
+  EXPECT_FLOAT_EQ(quality.quality.icp_robust_scale_m, 0.0035f);
   EXPECT_EQ(quality.quality.integration_weight, IntegrationWeight::kDepthAngle);
+  EXPECT_TRUE(quality.quality.depth_undistortion);  // the lens of TUM's fr1 camera
+  EXPECT_EQ(quality.tracking.iterations_per_level, (std::vector<int>{20, 10, 8}));
 }
 
 TEST(Knobs, SpatialBilateralIsAWeightedMeanWithoutRangeTerm) {
