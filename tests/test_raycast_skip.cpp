@@ -107,6 +107,39 @@ bool same_bits(const HostImage<Vec3f>& a, const HostImage<Vec3f>& b) {
   return std::memcmp(a.pixels().data(), b.pixels().data(), a.pixels().size() * sizeof(Vec3f)) == 0;
 }
 
+/// Poses: the integration views, outside the volume looking in, inside close to the surfaces
+/// (rays start in touched bricks), looking out through the volume's faces, and random ones.
+std::vector<std::vector<double>> march_poses() {
+  std::vector<std::vector<double>> poses = {
+      {2.0, 2.0, 0.0, 0.0, 0.0, 0.0},  {1.7, 2.1, 0.2, 0.05, -0.1, 0.02},
+      {2.0, 2.0, -0.6, 0.0, 0.0, 0.0}, {2.0, 2.0, 1.1, 0.0, 0.0, 0.0},
+      {2.0, 2.0, 2.6, 0.0, 0.0, 0.0},  {2.0, 2.0, 3.5, 0.0, 0.0, 0.0},
+      {0.5, 3.5, 2.0, 0.0, 1.5, 0.0},  {2.0, 2.0, 3.9, 0.0, 3.14, 0.0}};
+  std::mt19937 rng(17);
+  std::uniform_real_distribution<double> u(-1, 1);
+  for (int i = 0; i < 6; ++i) {
+    poses.push_back({2.0 + 1.5 * u(rng), 2.0 + 1.5 * u(rng), 1.5 + 1.5 * u(rng), 0.8 * u(rng),
+                     0.8 * u(rng), 3.0 * u(rng)});
+  }
+  return poses;
+}
+
+/// The march settings: exact (a voxel and 0.75 mu), an odd large step, the constant step, and
+/// the two-value sample.
+std::vector<RaycastParams> march_settings(const FlaggedVolume& vol) {
+  std::vector<RaycastParams> settings(4);
+  for (RaycastParams& p : settings) {
+    p.k = kK;
+    p.step_m = vol.size_m / vol.res;
+    p.large_step_m = 0.075f;
+  }
+  settings[1].large_step_m = 0.0731f;
+  settings[1].near_m = 0.05f;
+  settings[2].constant_step_m = 0.05f;
+  settings[3].interp = RaycastInterp::kTwoValue;
+  return settings;
+}
+
 TEST(RaycastSkip, MapsAreBitIdenticalWithAndWithoutSkipping) {
   FlaggedVolume vol(128, 4.0f);  // 3.1 cm voxels, 50 cm super-bricks
   integrate_scene(vol);
@@ -121,32 +154,8 @@ TEST(RaycastSkip, MapsAreBitIdenticalWithAndWithoutSkipping) {
   no_skip.brick_touched = nullptr;
   no_skip.super_brick_touched = nullptr;
 
-  // Poses: the integration views, outside the volume looking in, inside close to the surfaces
-  // (rays start in touched bricks), looking out through the volume's faces, and random ones.
-  std::vector<std::vector<double>> poses = {
-      {2.0, 2.0, 0.0, 0.0, 0.0, 0.0},  {1.7, 2.1, 0.2, 0.05, -0.1, 0.02},
-      {2.0, 2.0, -0.6, 0.0, 0.0, 0.0}, {2.0, 2.0, 1.1, 0.0, 0.0, 0.0},
-      {2.0, 2.0, 2.6, 0.0, 0.0, 0.0},  {2.0, 2.0, 3.5, 0.0, 0.0, 0.0},
-      {0.5, 3.5, 2.0, 0.0, 1.5, 0.0},  {2.0, 2.0, 3.9, 0.0, 3.14, 0.0}};
-  std::mt19937 rng(17);
-  std::uniform_real_distribution<double> u(-1, 1);
-  for (int i = 0; i < 6; ++i) {
-    poses.push_back({2.0 + 1.5 * u(rng), 2.0 + 1.5 * u(rng), 1.5 + 1.5 * u(rng), 0.8 * u(rng),
-                     0.8 * u(rng), 3.0 * u(rng)});
-  }
-
-  // The march settings: exact (a voxel and 0.75 mu), an odd large step, the constant step, and
-  // the two-value sample.
-  std::vector<RaycastParams> settings(4);
-  for (RaycastParams& p : settings) {
-    p.k = kK;
-    p.step_m = vol.size_m / vol.res;
-    p.large_step_m = 0.075f;
-  }
-  settings[1].large_step_m = 0.0731f;
-  settings[1].near_m = 0.05f;
-  settings[2].constant_step_m = 0.05f;
-  settings[3].interp = RaycastInterp::kTwoValue;
+  const auto poses = march_poses();
+  const auto settings = march_settings(vol);
 
   int hits = 0, misses = 0;
   for (size_t s = 0; s < settings.size(); ++s) {
@@ -166,6 +175,51 @@ TEST(RaycastSkip, MapsAreBitIdenticalWithAndWithoutSkipping) {
   }
   EXPECT_GT(hits, 20000);   // the poses see the surfaces ...
   EXPECT_GT(misses, 5000);  // ... and also empty space and the volume's faces
+}
+
+/// Hit parameter and point of every pixel's ray, marched reading `Batch` samples at a time.
+template <int Batch>
+std::vector<float> march_all(const RaycastParams& p, const VolumeView& view,
+                             const TrackingState& state) {
+  Maps m;
+  const RaycastArgs a{p, view, m.vertex.view(), m.normal.view(), &state};
+  std::vector<float> out;
+  for (int y = 0; y < kH; ++y) {
+    for (int x = 0; x < kW; ++x) {
+      const Mat4f& ray_view = state.raycast_view;
+      Vec3f hit{0.0f, 0.0f, 0.0f};
+      const float t = raycast_ray<Batch>(a, ray_view.translation_part(),
+                                         rotate(ray_view, Vec3f{float(x), float(y), 1.0f}), hit);
+      out.insert(out.end(), {t, hit.x, hit.y, hit.z});
+    }
+  }
+  return out;
+}
+
+TEST(RaycastSkip, ReadingSamplesInBatchesGivesTheSameHits) {
+  // The GPU reads kRaycastBatch samples of a touched stretch at once; any batch must give the
+  // hits of one sample at a time, bit for bit, with and without empty-space skipping.
+  FlaggedVolume vol(128, 4.0f);
+  integrate_scene(vol);
+  VolumeView no_skip = vol.view();
+  no_skip.brick_touched = nullptr;
+  no_skip.super_brick_touched = nullptr;
+  int hits = 0;
+  for (const RaycastParams& p : march_settings(vol)) {
+    for (const auto& pose : march_poses()) {
+      TrackingState state{};
+      state.T_world_cam = se3_exp(pose.data());
+      set_reference_view(state, kK);
+      for (const VolumeView& view : {vol.view(), no_skip}) {
+        const auto one = march_all<1>(p, view, state);
+        EXPECT_EQ(one, march_all<2>(p, view, state));
+        EXPECT_EQ(one, march_all<3>(p, view, state));
+        EXPECT_EQ(one, march_all<kRaycastBatch>(p, view, state));
+        for (size_t i = 0; i < one.size(); i += 4) hits += one[i] > 0.0f;
+      }
+    }
+  }
+  EXPECT_GT(hits, 20000);  // the rays reach the surfaces, so the batches are used
 }
 
 TEST(RaycastSkip, FastForwardKeepsEverySkippedSampleInUntouchedBricks) {
