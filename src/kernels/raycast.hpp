@@ -285,9 +285,11 @@ KFX_HD float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Ve
     // secant would have re-read at t_prev.
     float f_batch[Batch];
     {
+      // Only samples the march could reach (t < t_far): beyond it a point may lie outside the
+      // volume, where a sample's voxel indices would leave it.
       float t_i = t;
       for (int i = 0; i < Batch; ++i) {
-        f_batch[i] = raycast_sample(a, origin + direction * t_i);
+        f_batch[i] = i == 0 || t_i < t_far ? raycast_sample(a, origin + direction * t_i) : 1.0f;
         t_i += step;
       }
     }
