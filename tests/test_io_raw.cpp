@@ -8,6 +8,7 @@
 #include <cstring>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -325,6 +326,13 @@ TEST(IoConvert, ConvertedRawHoldsSubsampledFramesAndSidecar) {
   EXPECT_EQ(k->fy, 516.5f / 2);
   EXPECT_EQ(k->cx, 318.6f / 2);
   EXPECT_EQ(k->cy, 255.3f / 2);
+  // The freiburg 1 lens goes with them, unscaled (it acts on normalised coordinates).
+  const LensDistortion lens = reader->default_distortion();
+  EXPECT_EQ(lens.k1, 0.2624f);
+  EXPECT_EQ(lens.k2, -0.9531f);
+  EXPECT_EQ(lens.p1, -0.0054f);
+  EXPECT_EQ(lens.p2, 0.0026f);
+  EXPECT_EQ(lens.k3, 1.1633f);
   ASSERT_EQ(reader->ground_truth().size(), 2u);
   EXPECT_EQ(reader->ground_truth()[1].t[2], 3.5);
   for (int f = 0; f < 3; ++f) {
@@ -348,6 +356,16 @@ TEST(IoConvert, ConvertedRawHoldsSubsampledFramesAndSidecar) {
   EXPECT_EQ(limited->frame_count(), 2);
   EXPECT_EQ(limited->width_px(), 16);
   EXPECT_EQ(limited->default_intrinsics()->fx, 517.3f);
+  // A sidecar whose lens is not five numbers is named as malformed.
+  {
+    std::ifstream in(out + ".json");
+    std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const auto at = text.find("\"distortion\": [");
+    ASSERT_NE(at, std::string::npos);
+    text.insert(at + std::string("\"distortion\": [").size(), "1, ");
+    std::ofstream(out + ".json") << text;
+  }
+  expect_error([&] { open_reader(out); }, {".json", "'distortion' must be [k1, k2, p1, p2, k3]"});
 }
 
 TEST(IoConvert, BadFrameStopsTheConversionAndLeavesNoOutput) {

@@ -55,6 +55,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
             "conversion to '" << raw_path << "' stopped: the input has no frames");
   if (const auto intrinsics = reader.default_intrinsics()) {
     sidecar.intrinsics = intrinsics->scaled_down(static_cast<float>(ratio));
+    sidecar.distortion = reader.default_distortion();  // the same lens at any image size
   }
   sidecar.ground_truth = reader.ground_truth();
   sidecar.recommended_settings = reader.recommended_settings();

@@ -166,6 +166,9 @@ class RawReader : public Reader {
   std::optional<Intrinsics> default_intrinsics() const override {
     return sidecar_ ? sidecar_->intrinsics : std::nullopt;
   }
+  LensDistortion default_distortion() const override {
+    return sidecar_ ? sidecar_->distortion : LensDistortion{};
+  }
   std::vector<StampedPose> ground_truth() const override {
     return sidecar_ ? sidecar_->ground_truth : std::vector<StampedPose>{};
   }
@@ -242,6 +245,16 @@ std::optional<RawSidecar> read_raw_sidecar(const std::string& raw_path) {
               "malformed sidecar '" << path << "': focal lengths must be non-zero");
     sidecar.intrinsics = intrinsics;
   }
+  if (root.contains("distortion") && !root["distortion"].is_null()) {
+    const json& d = root["distortion"];
+    KFX_CHECK(d.is_array() && d.size() == 5,
+              "malformed sidecar '" << path << "': 'distortion' must be [k1, k2, p1, p2, k3]");
+    float* k[5] = {&sidecar.distortion.k1, &sidecar.distortion.k2, &sidecar.distortion.p1,
+                   &sidecar.distortion.p2, &sidecar.distortion.k3};
+    for (size_t i = 0; i < 5; ++i) {
+      *k[i] = static_cast<float>(number_at(d, i, path, "'distortion'"));
+    }
+  }
   if (root.contains("ground_truth")) {
     const json& poses = root["ground_truth"];
     KFX_CHECK(poses.is_array(),
@@ -295,6 +308,12 @@ void write_raw_sidecar(const std::string& raw_path, const RawSidecar& sidecar) {
     const json intrinsics = {float_for_json(k.fx), float_for_json(k.fy), float_for_json(k.cx),
                              float_for_json(k.cy)};
     out << " \"intrinsics\": " << intrinsics.dump() << ",\n";
+  }
+  if (!sidecar.distortion.none()) {
+    const LensDistortion& d = sidecar.distortion;
+    const json distortion = {float_for_json(d.k1), float_for_json(d.k2), float_for_json(d.p1),
+                             float_for_json(d.p2), float_for_json(d.k3)};
+    out << " \"distortion\": " << distortion.dump() << ",\n";
   }
   if (!sidecar.recommended_settings.empty()) {
     out << " \"recommended_settings\": " << json(sidecar.recommended_settings).dump() << ",\n";

@@ -24,8 +24,9 @@ constexpr uint32_t kMaxRawSidePx = 16384;
 
 /// What the JSON sidecar of a `.raw` holds.
 struct RawSidecar {
-  std::vector<double> stamps_s;           ///< one per frame (empty: frame index + 1)
-  std::optional<Intrinsics> intrinsics;   ///< at the raw's resolution
+  std::vector<double> stamps_s;          ///< one per frame (empty: frame index + 1)
+  std::optional<Intrinsics> intrinsics;  ///< at the raw's resolution
+  LensDistortion distortion;  ///< the lens of that camera (normalised coordinates: any size)
   std::vector<StampedPose> ground_truth;  ///< camera to world
   std::string source;                     ///< free text: where the frames came from
   /// The source reader's recommended pipeline settings (config key, value), passed on.
