@@ -1,6 +1,5 @@
 #include "run_options.hpp"
 
-#include <array>
 #include <set>
 #include <sstream>
 
@@ -88,14 +87,14 @@ PreparedRun prepare_run(const RunOptions& o) {
   // A lens distortion belongs to one calibration: the format's applies only with the format's
   // own intrinsics (given or defaulted), never to a camera the user described otherwise.
   auto& distortion = run.config.input.distortion;
-  const bool distortion_given = distortion != std::array<float, 5>{};
+  const bool distortion_given = !distortion.none();
   const LensDistortion format_lens = run.reader->default_distortion();
   const bool format_camera = defaults.has_value() && defaults->fx == run.input_intrinsics.fx &&
                              defaults->fy == run.input_intrinsics.fy &&
                              defaults->cx == run.input_intrinsics.cx &&
                              defaults->cy == run.input_intrinsics.cy;
   if (!distortion_given && format_camera && !format_lens.none()) {
-    distortion = {format_lens.k1, format_lens.k2, format_lens.p1, format_lens.p2, format_lens.k3};
+    distortion = format_lens;
   }
   {
     const Intrinsics& c = run.input_intrinsics;
@@ -103,13 +102,13 @@ PreparedRun prepare_run(const RunOptions& o) {
     note << "intrinsics fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy
          << " px at " << run.reader->width_px() << "x" << run.reader->height_px() << ": " << source;
     if (run.config.quality.depth_undistortion) {
-      const auto& k = distortion;
-      if (k == std::array<float, 5>{}) {
+      const LensDistortion& k = distortion;
+      if (k.none()) {
         note << "; depth_undistortion is on but the lens distortion is unknown (set "
                 "camera_distortion=k1,k2,p1,p2,k3): the depth is used as it is";
       } else {
-        note << "; depth undistorted with k1,k2,p1,p2,k3 = " << k[0] << "," << k[1] << "," << k[2]
-             << "," << k[3] << "," << k[4]
+        note << "; depth undistorted with k1,k2,p1,p2,k3 = " << k.k1 << "," << k.k2 << "," << k.p1
+             << "," << k.p2 << "," << k.k3
              << (distortion_given ? " (given by the user)" : " (the format's camera)");
       }
     }

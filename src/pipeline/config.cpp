@@ -145,9 +145,13 @@ std::vector<ConfigField> build_fields() {
         "lens distortion k1,k2,p1,p2,k3 (OpenCV's order), used by depth_undistortion (all 0 = "
         "the format's when camera is the format's: TUM fr1, fr2; else none)";
     f.parse = [](C& c, const std::string& text) {
-      c.input.distortion = parse_floats<5>("camera_distortion", text, false);
+      const auto k = parse_floats<5>("camera_distortion", text, false);
+      c.input.distortion = {k[0], k[1], k[2], k[3], k[4]};
     };
-    f.format = [](const C& c) { return format_list(c.input.distortion); };
+    f.format = [](const C& c) {
+      const LensDistortion& d = c.input.distortion;
+      return format_list(std::array<float, 5>{d.k1, d.k2, d.p1, d.p2, d.k3});
+    };
     t.push_back(f);
   }
   // Volume.
@@ -533,7 +537,8 @@ void PipelineConfig::validate() const {
                                           << " with a weighted integration_weight (weights are "
                                              "stored in 1/"
                                           << kWeightUnits << " steps), got " << volume.max_weight);
-  for (const float k : input.distortion) {
+  const LensDistortion& lens = input.distortion;
+  for (const float k : {lens.k1, lens.k2, lens.p1, lens.p2, lens.k3}) {
     KFX_CHECK(
         std::isfinite(k) && std::fabs(k) <= 100.0f,
         "camera_distortion: each coefficient must be a finite number within +-100, got " << k);

@@ -27,7 +27,7 @@ struct PipelineConfig {
     double depth_scale_per_m = 0.0;    ///< PNG units per metre; 0 = format default
     /// The lens's k1, k2, p1, p2, k3 (OpenCV's order); all 0 = the format's when camera_px is
     /// the format's too (TUM fr1, fr2), else none. Used only with quality.depth_undistortion.
-    std::array<float, 5> distortion{};
+    LensDistortion distortion;
   } input;
   struct Volume {
     int resolution_vox = 256;                                 ///< voxels per side

@@ -29,8 +29,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.cuda = config_.cuda;
   setup_.device_index = device_index;
   setup_.pipelines_on_device = pipelines_on_device;
-  const auto& k = config_.input.distortion;
-  const LensDistortion distortion{k[0], k[1], k[2], k[3], k[4]};
+  const LensDistortion& distortion = config_.input.distortion;
   if (config_.quality.depth_undistortion && !distortion.none()) {
     setup_.depth_source_px =
         depth_source_table(input_intrinsics, distortion, input_width_px, input_height_px, ratio);
