@@ -398,7 +398,7 @@ void run_sweep(const SweepOptions& o) {
         if (!task.done) {
           task.redo_reason = it->second.value("status", "") != "ok"
                                  ? "failed before"
-                                 : "settings or --frames changed since";
+                                 : "settings, the preset's definition or --frames changed since";
         }
       }
       tasks.push_back(std::move(task));
@@ -517,6 +517,7 @@ void run_sweep(const SweepOptions& o) {
       record["backend"] = backend;
       record["device"] = "";
       record["preset"] = run.preset;
+      record["preset_settings"] = preset_settings(run.preset);
       json settings = json::array();
       for (const auto& [k, v] : run.settings) settings.push_back(k + "=" + v);
       record["settings"] = settings;

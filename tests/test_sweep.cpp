@@ -364,9 +364,9 @@ TEST(SweepPlan, WarnsWhenASequenceOverridesAPresetChoice) {
 // Resume bookkeeping and CSV.
 
 json ok_record(const std::string& name, const std::vector<std::string>& assignments) {
-  return {{"name", name},    {"sequence", "s"},          {"backend", "cpu"},
-          {"status", "ok"},  {"preset", "exact"},        {"assignments", assignments},
-          {"max_frames", 0}, {"frames_per_second", 10.5}};
+  return {{"name", name},    {"sequence", "s"},           {"backend", "cpu"},
+          {"status", "ok"},  {"preset", "exact"},         {"assignments", assignments},
+          {"max_frames", 0}, {"frames_per_second", 10.5}, {"preset_settings", json::array()}};
 }
 
 TEST(SweepResults, ResumeSkipsOnlyCurrentSuccessfulRuns) {
@@ -392,6 +392,17 @@ TEST(SweepResults, ResumeSkipsOnlyCurrentSuccessfulRuns) {
   EXPECT_FALSE(result_is_current(latest[0], "thesis", {"integration_rate=1"}, 0));
   EXPECT_FALSE(result_is_current(latest[0], "exact", {"integration_rate=1"}, 100));
   EXPECT_FALSE(result_is_current(latest[1], "exact", {}, 0));  // failed: run again
+
+  // A preset defined differently when the record was written (same name) is run again, and so
+  // is a record from before presets' settings were recorded.
+  json fast = ok_record("c", {});
+  fast["preset"] = "fast";
+  fast["preset_settings"] = preset_settings("fast");
+  EXPECT_TRUE(result_is_current(fast, "fast", {}, 0));
+  fast["preset_settings"].push_back("icp_robust=huber");
+  EXPECT_FALSE(result_is_current(fast, "fast", {}, 0));
+  fast.erase("preset_settings");
+  EXPECT_FALSE(result_is_current(fast, "fast", {}, 0));
 
   // A later record of the same key wins.
   auto again = records;

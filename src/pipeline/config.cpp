@@ -619,6 +619,16 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   return p;
 }
 
+std::vector<std::string> preset_settings(const std::string& name) {
+  const PipelineConfig preset = make_preset(name), exact;
+  std::vector<std::string> settings;
+  for (const auto& field : config_fields()) {
+    const std::string value = field.format(preset);
+    if (value != field.format(exact)) settings.push_back(field.key + "=" + value);
+  }
+  return settings;
+}
+
 std::vector<std::string> preset_names() { return {"exact", "thesis", "fast", "quality"}; }
 
 PipelineConfig make_preset(const std::string& name) {

@@ -150,4 +150,8 @@ std::vector<std::string> preset_names();
 /// A preset's configuration; throws on an unknown name.
 PipelineConfig make_preset(const std::string& name);
 
+/// What preset `name` sets, as `key=value` in table order: every setting whose value differs
+/// from exact's (empty for exact). Throws kfx::Error on an unknown name.
+std::vector<std::string> preset_settings(const std::string& name);
+
 }  // namespace kfx

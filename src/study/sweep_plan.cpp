@@ -681,6 +681,9 @@ bool result_is_current(const nlohmann::json& record, const std::string& preset,
                        const std::vector<std::string>& assignments, int max_frames) {
   if (lookup(record, {"status"}) != "ok") return false;
   if (lookup(record, {"preset"}) != preset) return false;
+  // A preset chosen again between kfx versions keeps its name: compare what it sets. Records
+  // written before this field existed are run again once.
+  if (lookup(record, {"preset_settings"}) != nlohmann::json(preset_settings(preset))) return false;
   if (lookup(record, {"assignments"}) != nlohmann::json(assignments)) return false;
   return lookup(record, {"max_frames"}) == max_frames;
 }

@@ -148,9 +148,10 @@ std::vector<nlohmann::json> read_results_log(const std::string& path, int* dropp
 /// The latest record of each key, in the order keys first appear.
 std::vector<nlohmann::json> latest_results(const std::vector<nlohmann::json>& records);
 
-/// Whether `record` already answers a run with these settings: it succeeded, and its preset,
-/// assignments and frame limit equal the given ones. Changed settings or a failure mean the
-/// run must be done again.
+/// Whether `record` already answers a run with these settings: it succeeded, and its preset
+/// (name and what it sets today, preset_settings()), assignments and frame limit equal the
+/// given ones. Changed settings, a preset defined differently since, or a failure mean the run
+/// must be done again.
 bool result_is_current(const nlohmann::json& record, const std::string& preset,
                        const std::vector<std::string>& assignments, int max_frames);
 
