@@ -83,7 +83,8 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(thesis.approx.raycast_rate, 2);
   EXPECT_EQ(thesis.approx.ray_factor, RayFactor::kThesis);
   const PipelineConfig fast = make_preset("fast");
-  EXPECT_EQ(fast.quality.icp_robust, IcpRobust::kHuber);  // what keeps tum_fr1_rpy tracked
+  // No robust weight: Huber at 1 cm failed unseen synthetic cases (bench/RESULTS.md).
+  EXPECT_EQ(fast.quality.icp_robust, IcpRobust::kNone);
   EXPECT_EQ(fast.approx.integration_z_stride, 2);
   EXPECT_FLOAT_EQ(fast.approx.raycast_constant_step_m, 0.05f);
   const PipelineConfig quality = make_preset("quality");
