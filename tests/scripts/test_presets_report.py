@@ -81,6 +81,8 @@ def main():
                "fast's results row has both sequences")
         expect("`fast`: does NOT meet its constraint" in page,
                "the broken preset (1 ICP iteration, 16-pixel stride) is reported as failing")
+        expect("`quality`: its constraint covers the real sequences, none here" in page,
+               "quality's constraint is not judged on synthetic rooms")
         expect("Command: `kfx sweep plan.json`" in page, "the command is recorded")
         if not plots:
             for seq in ("room_a", "room_b"):
