@@ -1,5 +1,7 @@
 #include "sequence_runner.hpp"
 
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -70,6 +72,17 @@ PositionDifference compare_positions(const std::vector<io::StampedPose>& a,
   out.p95_m = d[static_cast<size_t>(std::ceil(0.95 * d.size())) - 1];
   out.max_m = d.back();
   return out;
+}
+
+void expect_backends_agree(const std::string& input, const PipelineConfig& config, int frames,
+                           const std::string& label) {
+  const SequenceRun cpu = run_sequence(input, config, BackendKind::kCpu);
+  const SequenceRun gpu = run_sequence(input, config, BackendKind::kCuda);
+  EXPECT_EQ(cpu.tracked, gpu.tracked) << label;
+  const PositionDifference diff = compare_positions(cpu.trajectory, gpu.trajectory);
+  EXPECT_EQ(diff.pairs, frames) << label;
+  EXPECT_LE(diff.median_m, kBackendMedianTol_m) << label;
+  EXPECT_LE(diff.p95_m, kBackendP95Tol_m) << label;
 }
 
 }  // namespace kfx::test

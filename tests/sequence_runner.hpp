@@ -1,6 +1,6 @@
 #pragma once
 /// Test helper: runs the pipeline over a whole input and returns its trajectory, plus the
-/// per-frame position comparison used by the parity tests.
+/// per-frame position comparison used by the parity tests, and the CPU-against-GPU check.
 
 #include <string>
 #include <vector>
@@ -42,5 +42,16 @@ struct PositionDifference {
 };
 PositionDifference compare_positions(const std::vector<io::StampedPose>& a,
                                      const std::vector<io::StampedPose>& b);
+
+/// The CPU and the GPU may differ in float summation order only: per-frame positions within a
+/// median of 1 mm and a 95th percentile of 1 cm (the issues' trajectory bounds).
+constexpr double kBackendMedianTol_m = 1e-3;
+constexpr double kBackendP95Tol_m = 1e-2;
+
+/// Runs `input` with `config` on the CPU and on the GPU and expects (gtest EXPECTs, `label` in
+/// every message) the same tracked frames, a pose for each of the input's `frames` frames, and
+/// positions within kBackendMedianTol_m / kBackendP95Tol_m. The caller skips without a GPU.
+void expect_backends_agree(const std::string& input, const PipelineConfig& config, int frames,
+                           const std::string& label = "");
 
 }  // namespace kfx::test

@@ -32,9 +32,8 @@ constexpr double kMaxPixelMismatchFraction = 2e-3;
 // - one tracked frame: both backends iterate to the same minimum up to float summation order;
 //   the issue's per-frame bound (median 1 mm) applies (measured on an H200: 0.10 mm).
 constexpr float kTrackedPoseTol_m = 1e-3f;
-// - trajectories (issue: median ≤ 1 mm, 95th percentile ≤ 1 cm).
-constexpr double kTrajectoryMedianTol_m = 1e-3;
-constexpr double kTrajectoryP95Tol_m = 1e-2;
+// - trajectories (issue: median ≤ 1 mm, 95th percentile ≤ 1 cm): test::kBackendMedianTol_m and
+//   kBackendP95Tol_m, checked by test::expect_backends_agree (sequence_runner.hpp).
 
 #define KFX_REQUIRE_CUDA()                                  \
   do {                                                      \
@@ -217,14 +216,7 @@ PipelineConfig synthetic_config(const std::string& input) {
 TEST(BackendParity, SyntheticTrajectoriesAgree) {
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=60,width=320,height=240";
-  const PipelineConfig config = synthetic_config(input);
-  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
-  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
-  EXPECT_EQ(cpu.tracked, gpu.tracked);
-  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
-  EXPECT_EQ(diff.pairs, 60);
-  EXPECT_LE(diff.median_m, kTrajectoryMedianTol_m);
-  EXPECT_LE(diff.p95_m, kTrajectoryP95Tol_m);
+  test::expect_backends_agree(input, synthetic_config(input), 60);
 }
 
 /// Two runs that must agree bit for bit: same frames tracked, identical poses.
@@ -323,13 +315,7 @@ TEST(BackendParity, PersistentIcpTrajectoryAgreesWithCpu) {
   const std::string input = "synthetic:frames=60,width=320,height=240";
   PipelineConfig config = synthetic_config(input);
   set_config_value(config, "cuda_icp_persistent", "on");
-  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
-  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
-  EXPECT_EQ(cpu.tracked, gpu.tracked);
-  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
-  EXPECT_EQ(diff.pairs, 60);
-  EXPECT_LE(diff.median_m, kTrajectoryMedianTol_m);
-  EXPECT_LE(diff.p95_m, kTrajectoryP95Tol_m);
+  test::expect_backends_agree(input, config, 60);
 }
 
 // The CPU backend ignores the CUDA settings: the same bits with cuda_icp_persistent on.

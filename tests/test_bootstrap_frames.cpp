@@ -97,14 +97,8 @@ TEST(BootstrapFrames, CpuAndGpuAgreeWithOneBootstrapFrame) {
   auto reader = io::open_reader(input);
   PipelineConfig config = test::input_config(*reader);
   set_config_value(config, "bootstrap_frames", "1");
-  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
-  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
-  EXPECT_EQ(cpu.tracked, 39);
-  EXPECT_EQ(gpu.tracked, cpu.tracked);
-  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
-  EXPECT_EQ(diff.pairs, 40);
-  EXPECT_LE(diff.median_m, 1e-3);  // the parity bounds of test_backend_parity
-  EXPECT_LE(diff.p95_m, 1e-2);
+  EXPECT_EQ(test::run_sequence(input, config, BackendKind::kCpu).tracked, 39);
+  test::expect_backends_agree(input, config, 40);
 }
 
 }  // namespace

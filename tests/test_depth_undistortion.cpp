@@ -131,13 +131,7 @@ TEST(DepthUndistortion, CpuAndGpuAgree) {
   set_config_assignment(config, "camera_distortion=0.1,-0.2,0.001,0,0.1");
   for (const char* fused : {"on", "off"}) {
     set_config_value(config, "cuda_fused_preprocess", fused);
-    const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
-    const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
-    EXPECT_EQ(cpu.tracked, gpu.tracked) << "fused preprocess " << fused;
-    const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
-    EXPECT_EQ(diff.pairs, 40);
-    EXPECT_LE(diff.median_m, 1e-3) << "fused preprocess " << fused;  // test_backend_parity.cpp
-    EXPECT_LE(diff.p95_m, 1e-2) << "fused preprocess " << fused;
+    test::expect_backends_agree(input, config, 40, std::string("fused preprocess ") + fused);
   }
 }
 

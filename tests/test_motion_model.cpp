@@ -212,13 +212,7 @@ TEST(MotionModel, CpuAndGpuAgreeWithTheModelOn) {
   set_config_value(config, "icp_motion_model", "constant_velocity");
   for (const char* persistent : {"on", "off"}) {
     set_config_value(config, "cuda_icp_persistent", persistent);
-    const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
-    const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
-    EXPECT_EQ(cpu.tracked, gpu.tracked) << persistent;
-    const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
-    EXPECT_EQ(diff.pairs, 60);
-    EXPECT_LE(diff.median_m, 1e-3) << persistent;  // the parity bounds of test_backend_parity
-    EXPECT_LE(diff.p95_m, 1e-2) << persistent;
+    test::expect_backends_agree(input, config, 60, std::string("persistent ICP ") + persistent);
   }
 }
 

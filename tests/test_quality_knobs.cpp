@@ -276,13 +276,7 @@ TEST(QualityKnobs, CpuAndGpuAgreeWithEveryQualityKnobOn) {
                         "icp_noise_weight=nguyen", "integration_weight=depth_angle"}) {
     set_config_assignment(config, a);
   }
-  const auto cpu = test::run_sequence(input, config, BackendKind::kCpu);
-  const auto gpu = test::run_sequence(input, config, BackendKind::kCuda);
-  EXPECT_EQ(cpu.tracked, gpu.tracked);
-  const auto diff = test::compare_positions(cpu.trajectory, gpu.trajectory);
-  EXPECT_EQ(diff.pairs, 60);
-  EXPECT_LE(diff.median_m, 1e-3);  // the parity bounds of test_backend_parity.cpp
-  EXPECT_LE(diff.p95_m, 1e-2);
+  test::expect_backends_agree(input, config, 60);
 }
 
 }  // namespace
