@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <set>
 #include <sstream>
 
@@ -564,22 +565,24 @@ std::vector<std::string> validate_sweep(const std::vector<const SweepRun*>& runs
                                         const Settings& overrides) {
   std::vector<std::string> warnings;
   std::set<std::string> warned;
-  const PipelineConfig exact = make_preset("exact");
   for (const SweepRun* run : runs) {
+    // What the preset sets, by key (empty for exact).
+    std::map<std::string, std::string> preset_values;
+    for (const std::string& assignment : preset_settings(run->preset)) {
+      const size_t eq = assignment.find('=');
+      preset_values[assignment.substr(0, eq)] = assignment.substr(eq + 1);
+    }
     for (const auto& sequence : sequences) {
       build_config(*run, sequence, overrides);
-      if (run->preset == "exact") continue;
       // A sequence setting silently undoing a preset's choice would mislabel the result.
-      const PipelineConfig preset = make_preset(run->preset);
       for (const auto& [key, value] : sequence.settings) {
-        for (const auto& field : config_fields()) {
-          if (field.key != key || field.format(preset) == field.format(exact)) continue;
-          const std::string id = run->preset + "|" + sequence.name + "|" + key;
-          if (!warned.insert(id).second) continue;
-          warnings.push_back("sequence '" + sequence.name + "' sets " + key + "=" + value +
-                             ", overriding preset '" + run->preset + "''s " + key + "=" +
-                             field.format(preset));
-        }
+        const auto chosen = preset_values.find(key);
+        if (chosen == preset_values.end()) continue;
+        const std::string id = run->preset + "|" + sequence.name + "|" + key;
+        if (!warned.insert(id).second) continue;
+        warnings.push_back("sequence '" + sequence.name + "' sets " + key + "=" + value +
+                           ", overriding preset '" + run->preset + "''s " + key + "=" +
+                           chosen->second);
       }
     }
   }
