@@ -30,8 +30,10 @@ KFX_HD inline Mat4f se3_exp(const double x[6]) {
       B = 0.5 - 0.25 * (1.0 / 6.0) * theta_sq;
     } else {
       const double inv_theta = 1.0 / theta;
-      A = sin(theta) * inv_theta;
-      B = (1.0 - cos(theta)) * (inv_theta * inv_theta);
+      double sin_theta, cos_theta;
+      sincos(theta, &sin_theta, &cos_theta);
+      A = sin_theta * inv_theta;
+      B = (1.0 - cos_theta) * (inv_theta * inv_theta);
       C = (1.0 - A) * (inv_theta * inv_theta);
     }
     const double wxwxv[3] = {w[1] * wxv[2] - w[2] * wxv[1], w[2] * wxv[0] - w[0] * wxv[2],
