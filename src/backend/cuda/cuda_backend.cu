@@ -99,6 +99,9 @@ class CudaBackend final : public Backend {
       if (persistent_icp_blocks_ > 0) {
         level_partials_ =
             DeviceBuffer<double>(2 * static_cast<size_t>(reduce_blocks_) * kAccumulatorSize);
+        level_barrier_ = DeviceBuffer<unsigned int>(2);
+        KFX_CUDA_CHECK(
+            cudaMemsetAsync(level_barrier_.data(), 0, level_barrier_.bytes(), stream_.get()));
       } else {
         std::cerr << "kfx: cuda_icp_persistent=on is not possible here (" << why_not
                   << "); ICP runs one launch per iteration instead\n";
@@ -295,7 +298,8 @@ class CudaBackend final : public Backend {
     if (replaying_ || iterations <= 0) return;
     const TrackArgs a = buffers_.track_args(level, p, state_.data());
     launch_icp_level(stream_.get(), persistent_icp_blocks_, a, state_.data(),
-                     level_partials_.data(), level, iterations, icp_reduce_blocks(a));
+                     level_partials_.data(), level_barrier_.data(), level, iterations,
+                     icp_reduce_blocks(a));
     launched();
   }
 
@@ -494,6 +498,8 @@ class CudaBackend final : public Backend {
   /// Co-resident blocks of the persistent ICP kernel; 0 = one launch per iteration.
   int persistent_icp_blocks_ = 0;
   DeviceBuffer<double> level_partials_;  ///< its two halves of reduce_blocks_ accumulators
+  /// Its grid barrier's two counters: arrivals, and arrivals before a launch.
+  DeviceBuffer<unsigned int> level_barrier_;
   DeviceBuffer<TrackingState> state_;
   MeshExtractor mesh_;  ///< its buffers are allocated on first use
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;

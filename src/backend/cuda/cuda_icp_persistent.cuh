@@ -2,14 +2,12 @@
 /// Persistent ICP (setting cuda_icp_persistent): all iterations of one pyramid level in ONE
 /// cooperative launch instead of one launch per iteration. Each iteration, every block tracks
 /// and sums exactly the pixels a block of icp_iteration_kernel would (track_block_partial with
-/// the same block index and grid width), the grid meets at one barrier, and then EVERY block
-/// adds the partials in the same fixed order (sum_partials_in_order) and runs the same
-/// single-thread solve on its own shared-memory copy of the state. Same inputs, same code, so
-/// every block reaches the same bits, the same pose and the same convergence decision without a
-/// second barrier (the design note in ../shared/DESIGN.md measured barriers as the cost), and
+/// the same block index and grid width), the grid meets at one barrier (grid_barrier), and then
+/// EVERY block adds the partials in the same fixed order (sum_partials_in_order) and runs the
+/// same single-thread solve on its own shared-memory copy of the state. Same inputs, same code,
+/// so every block reaches the same bits, the same pose and the same convergence decision without
+/// a second barrier (the design note in ../shared/DESIGN.md measured barriers as the cost), and
 /// the results are bit-identical to the launch-per-iteration path.
-
-#include <cooperative_groups.h>
 
 #include <algorithm>
 #include <string>
@@ -19,19 +17,40 @@
 
 namespace kfx::cuda {
 
+/// Grid-wide barrier on a counter of block arrivals that only grows: each block adds its arrival
+/// without waiting for the old value (cooperative_groups' grid.sync waits for it before it
+/// starts polling: a round trip to L2 more; measured 1.4 µs a frame slower at 320×240) and
+/// polls until the counter reaches `target`. Release/acquire at device scope: what a block wrote
+/// before the barrier is visible to every block after it. The signed difference keeps the test
+/// right when the counter wraps.
+__device__ inline void grid_barrier(unsigned int* arrivals, unsigned int target) {
+  __syncthreads();
+  if (threadIdx.x == 0) {
+    asm volatile("red.release.gpu.global.add.u32 [%0], 1;" ::"l"(arrivals) : "memory");
+    unsigned int seen;
+    do {
+      asm volatile("ld.acquire.gpu.global.u32 %0, [%1];" : "=r"(seen) : "l"(arrivals) : "memory");
+    } while (static_cast<int>(seen - target) < 0);
+  }
+  __syncthreads();
+}
+
 /// Runs up to `iterations` ICP iterations of `level` (stopping once converged) as the grid of
 /// `blocks` reduction blocks that icp_iteration_kernel would use. The launch may have fewer
-/// physical blocks than `blocks` (all must be co-resident); each then handles the reduction
-/// blocks blockIdx.x, blockIdx.x + gridDim.x, ... one after the other, so the sums are the same.
+/// physical blocks than `blocks` (all must be co-resident: a cooperative launch); each then
+/// handles the reduction blocks blockIdx.x, blockIdx.x + gridDim.x, ... one after the other, so
+/// the sums are the same.
 /// `partials` holds 2 × blocks accumulators: iterations alternate halves, so a block may write
 /// the next iteration's partials while a slower block still reads this one's.
+/// `barrier` holds two counters, zero before the first launch: [0] the grid barrier's arrivals,
+/// [1] the arrivals before this launch (block 0 moves it on at the end, when every block has
+/// read it: all have arrived at the last barrier by then).
 /// `args.state` is ignored: the kernel tracks against its shared-memory copy of `*state`, and
 /// block 0 writes that copy back at the end.
 __global__ void __launch_bounds__(kReduceBlock)
-    icp_level_kernel(TrackArgs args, TrackingState* state, double* partials, int level,
-                     int iterations, int blocks) {
+    icp_level_kernel(TrackArgs args, TrackingState* state, double* partials, unsigned int* barrier,
+                     int level, int iterations, int blocks) {
   wait_for_previous_kernel();
-  const cooperative_groups::grid_group grid = cooperative_groups::this_grid();
   // The state in shared memory: every block keeps its own copy and updates it identically.
   __shared__ TrackingState s;
   __shared__ double total[kAccumulatorSize];
@@ -41,6 +60,8 @@ __global__ void __launch_bounds__(kReduceBlock)
   for (int i = threadIdx.x; i < kWords; i += kReduceBlock) {
     reinterpret_cast<Word*>(&s)[i] = __ldcg(reinterpret_cast<const Word*>(state) + i);
   }
+  const unsigned int arrivals_before = __ldcg(&barrier[1]);
+  int executed = 0;
   __syncthreads();
   if (level_converged(s, level)) return;  // uniform: every block read the same state
   TrackArgs a = args;
@@ -52,9 +73,10 @@ __global__ void __launch_bounds__(kReduceBlock)
       if (threadIdx.x < kAccumulatorSize) part[b * kAccumulatorSize + threadIdx.x] = block_total;
       __syncthreads();  // block_sum_accumulator's shared sums are reused by the next block
     }
-    // The one grid-wide barrier of the iteration: every partial is written (release/acquire at
-    // device scope inside grid.sync; the reads below go through L2 besides).
-    grid.sync();
+    // The one grid-wide barrier of the iteration: every partial is written (the reads below go
+    // through L2 besides).
+    ++executed;
+    grid_barrier(&barrier[0], arrivals_before + static_cast<unsigned int>(executed) * gridDim.x);
     sum_partials_in_order(part, blocks, total);
     if (threadIdx.x == 0) icp_update(s, total, a.icp_threshold, level);
     __syncthreads();
@@ -64,6 +86,9 @@ __global__ void __launch_bounds__(kReduceBlock)
   if (blockIdx.x == 0) {
     for (int i = threadIdx.x; i < kWords; i += kReduceBlock) {
       reinterpret_cast<Word*>(state)[i] = reinterpret_cast<const Word*>(&s)[i];
+    }
+    if (threadIdx.x == 0) {
+      barrier[1] = arrivals_before + static_cast<unsigned int>(executed) * gridDim.x;
     }
   }
 }
@@ -104,8 +129,8 @@ inline int persistent_icp_grid(int sms, int pipelines) {
 /// (max_blocks from persistent_icp_max_blocks). Capturable in a CUDA graph (a cooperative
 /// kernel node). No programmatic dependent launch: the kernel starts after its predecessor.
 inline void launch_icp_level(cudaStream_t stream, int max_blocks, const TrackArgs& args,
-                             TrackingState* state, double* partials, int level, int iterations,
-                             int blocks) {
+                             TrackingState* state, double* partials, unsigned int* barrier,
+                             int level, int iterations, int blocks) {
   cudaLaunchConfig_t config{};
   config.gridDim = dim3(static_cast<unsigned>(std::min(blocks, max_blocks)));
   config.blockDim = dim3(kReduceBlock);
@@ -115,8 +140,8 @@ inline void launch_icp_level(cudaStream_t stream, int max_blocks, const TrackArg
   attribute.val.cooperative = 1;
   config.attrs = &attribute;
   config.numAttrs = 1;
-  KFX_CUDA_CHECK(cudaLaunchKernelEx(&config, icp_level_kernel, args, state, partials, level,
-                                    iterations, blocks));
+  KFX_CUDA_CHECK(cudaLaunchKernelEx(&config, icp_level_kernel, args, state, partials, barrier,
+                                    level, iterations, blocks));
 }
 
 }  // namespace kfx::cuda
