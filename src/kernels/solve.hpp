@@ -40,8 +40,7 @@ KFX_HD inline double inverse_sqrt(double d) {
 
 /// Fast path: Cholesky solve, taken only when a rigorous bound proves cond(JᵀJ) < 10⁶, i.e.
 /// when the pseudo-inverse would drop nothing and equals the plain inverse.
-/// cond₂(A) ≤ ‖A‖_F · ‖A⁻¹‖_F ≤ ‖A‖_F · ‖L⁻¹‖_F². Returns false when the bound is not met (x
-/// then holds no answer).
+/// cond₂(A) ≤ ‖A‖_F · ‖A⁻¹‖_F ≤ ‖A‖_F · ‖L⁻¹‖_F². Returns false when the bound is not met.
 KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
   double a[6][6], l[6][6] = {}, inv_diag[6];
   unpack_jtj(acc, a);
@@ -68,8 +67,21 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
       l[i][j] = s * inv_diag[j];
     }
   }
-  // The solution first, the bound after: two independent chains of dependent double
-  // operations, so the one GPU thread that solves can interleave them.
+  // ‖L⁻¹‖_F² by forward substitution on the identity's columns.
+  double norm_inv_sq = 0.0;
+  KFX_UNROLL
+  for (int c = 0; c < 6; ++c) {
+    double col[6];
+    KFX_UNROLL
+    for (int i = 0; i < 6; ++i) {
+      double s = (i == c) ? 1.0 : 0.0;
+      KFX_UNROLL
+      for (int k = 0; k < i; ++k) s -= l[i][k] * col[k];
+      col[i] = s * inv_diag[i];
+      norm_inv_sq += col[i] * col[i];
+    }
+  }
+  if (!(sqrt(norm_a_sq) * norm_inv_sq < kSolveCondition)) return false;
   double y[6];
   KFX_UNROLL
   for (int i = 0; i < 6; ++i) {
@@ -85,22 +97,7 @@ KFX_HD inline bool solve_6x6_cholesky(const double* acc, double x[6]) {
     for (int k = i + 1; k < 6; ++k) s -= l[k][i] * x[k];
     x[i] = s * inv_diag[i];
   }
-  // ‖L⁻¹‖_F² by forward substitution on the identity's columns (entries above row c of
-  // column c are zeros, left out of the sums: the same bits, a shorter chain).
-  double norm_inv_sq = 0.0;
-  KFX_UNROLL
-  for (int c = 0; c < 6; ++c) {
-    double col[6];
-    KFX_UNROLL
-    for (int i = c; i < 6; ++i) {
-      double s = (i == c) ? 1.0 : 0.0;
-      KFX_UNROLL
-      for (int k = c; k < i; ++k) s -= l[i][k] * col[k];
-      col[i] = s * inv_diag[i];
-      norm_inv_sq += col[i] * col[i];
-    }
-  }
-  return sqrt(norm_a_sq) * norm_inv_sq < kSolveCondition;
+  return true;
 }
 
 /// Pseudo-inverse solve by a cyclic Jacobi eigen-decomposition (any conditioning).
