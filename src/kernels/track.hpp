@@ -66,17 +66,13 @@ struct TrackArgs : IcpParams {
 /// Projective data association and point-to-plane residual of one pixel.
 KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
   TrackRow row{};
-  // Each vertex read starts with its normal's, before the test that may not need it (on the
-  // GPU: one memory round trip fewer in the chain every ICP iteration waits on; the host reads
-  // at the use, as before). The maps do not change while the ICP runs: read-only reads.
-  const Vec3f n = a.in_normal.read_only(x, y);
-  const PixelRead<Vec3f> vertex = a.in_vertex.read_early(x, y);
+  const Vec3f n = a.in_normal(x, y);
   if (n.x == kInvalidNormal) {
     row.outcome = kTrackNoInputNormal;
     return row;
   }
   const Mat4f& pose = a.state->T_world_cam;
-  const Vec3f p_world = pose * vertex.value();
+  const Vec3f p_world = pose * a.in_vertex(x, y);
   const Vec3f p_ref = a.state->project_reference * p_world;
   const float u = p_ref.x / p_ref.z + 0.5f;
   const float v = p_ref.y / p_ref.z + 0.5f;
@@ -87,13 +83,12 @@ KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
     return row;
   }
   const int ref_x = static_cast<int>(u), ref_y = static_cast<int>(v);
-  const Vec3f ref_n = a.ref_normal.read_only(ref_x, ref_y);
-  const PixelRead<Vec3f> ref_vertex = a.ref_vertex.read_early(ref_x, ref_y);
+  const Vec3f ref_n = a.ref_normal(ref_x, ref_y);
   if (ref_n.x == kInvalidNormal) {
     row.outcome = kTrackNoReferenceNormal;
     return row;
   }
-  const Vec3f diff = ref_vertex.value() - p_world;
+  const Vec3f diff = a.ref_vertex(ref_x, ref_y) - p_world;
   const Vec3f n_world = rotate(pose, n);
   if (length(diff) > a.dist_threshold_m) {
     row.outcome = kTrackTooFar;
