@@ -74,8 +74,8 @@ PositionDifference compare_positions(const std::vector<io::StampedPose>& a,
   return out;
 }
 
-void expect_backends_agree(const std::string& input, const PipelineConfig& config, int frames,
-                           const std::string& label) {
+SequenceRun expect_backends_agree(const std::string& input, const PipelineConfig& config,
+                                  int frames, const std::string& label) {
   const SequenceRun cpu = run_sequence(input, config, BackendKind::kCpu);
   const SequenceRun gpu = run_sequence(input, config, BackendKind::kCuda);
   EXPECT_EQ(cpu.tracked, gpu.tracked) << label;
@@ -83,6 +83,7 @@ void expect_backends_agree(const std::string& input, const PipelineConfig& confi
   EXPECT_EQ(diff.pairs, frames) << label;
   EXPECT_LE(diff.median_m, kBackendMedianTol_m) << label;
   EXPECT_LE(diff.p95_m, kBackendP95Tol_m) << label;
+  return cpu;
 }
 
 }  // namespace kfx::test

@@ -51,7 +51,8 @@ constexpr double kBackendP95Tol_m = 1e-2;
 /// Runs `input` with `config` on the CPU and on the GPU and expects (gtest EXPECTs, `label` in
 /// every message) the same tracked frames, a pose for each of the input's `frames` frames, and
 /// positions within kBackendMedianTol_m / kBackendP95Tol_m. The caller skips without a GPU.
-void expect_backends_agree(const std::string& input, const PipelineConfig& config, int frames,
-                           const std::string& label = "");
+/// Returns the CPU run, for checks of its own.
+SequenceRun expect_backends_agree(const std::string& input, const PipelineConfig& config,
+                                  int frames, const std::string& label = "");
 
 }  // namespace kfx::test
