@@ -1,0 +1,110 @@
+#pragma once
+/// The sparse map (setting `volume=blocks`): 8³ voxel blocks, allocated where a frame's
+/// truncation band falls and found through the block hash (map/block_hash.hpp), over an
+/// unbounded grid of voxel coordinates (negative ones included). The dense cube (VolumeView,
+/// core/volume.hpp) is the other kind of map; the kernel bodies read either through the same
+/// questions (the voxel at (x, y, z), the block at (bx, by, bz)), so a per-voxel body does not
+/// know which it reads.
+///
+/// Voxel (x, y, z) has its centre at ((x + ½)·v, (y + ½)·v, (z + ½)·v), v = grid_size_m /
+/// grid_res, exactly as in the dense cube of that size and resolution: a block map set up with
+/// a dense run's size and resolution computes every voxel's position with the same float
+/// operations, so both integrate the same values where both hold the voxel.
+
+#include <cstdint>
+
+#include "core/math.hpp"
+#include "core/volume.hpp"
+#include "map/block_hash.hpp"
+
+namespace kfx {
+
+/// Voxels per block side (the dense cube's brick: both skip empty space in the same units).
+constexpr int kBlockSide = 1 << kBrickShift;
+/// Voxels per block.
+constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
+
+/// Block coordinate of voxel coordinate c (floor division by kBlockSide, negatives included).
+KFX_HD inline int block_of_voxel(int c) { return c >> kBrickShift; }  // arithmetic shift
+
+/// Index of voxel (x, y, z) inside its block: x fastest.
+KFX_HD inline int voxel_in_block(int x, int y, int z) {
+  constexpr int m = kBlockSide - 1;
+  return (x & m) + ((y & m) << kBrickShift) + ((z & m) << (2 * kBrickShift));
+}
+
+/// The empty voxel: tsdf +1, weight 0 (what an unallocated voxel reads as).
+KFX_HD inline Voxel empty_voxel() { return Voxel{static_cast<int16_t>(kTsdfScale), 0}; }
+
+/// A non-owning view of a block map (host or device memory).
+struct BlockMapView {
+  BlockHashView hash;              ///< packed block key → block index
+  Voxel* voxels = nullptr;         ///< block i's voxels at [i·kBlockVoxels, (i+1)·kBlockVoxels)
+  uint64_t* block_keys = nullptr;  ///< packed key of block i
+  /// One byte per block: 0 while every voxel of the block still stores a tsdf of at least
+  /// kMarkBelowTsdfStored (VolumeView::brick_touched's rule), so the raycast may step over it.
+  uint8_t* block_touched = nullptr;
+  int block_capacity = 0;  ///< blocks the arrays hold
+  int block_count = 0;     ///< blocks allocated (indices 0 .. block_count − 1)
+  /// Voxel size = grid_size_m / grid_res (kept as this ratio: see the file comment).
+  int grid_res = 1;
+  float grid_size_m = 0.01f;
+
+  KFX_HD float voxel_m() const { return grid_size_m / grid_res; }
+  /// Voxel centre in the map frame, metres (VolumeView::centre_m's arithmetic).
+  KFX_HD Vec3f centre_m(int x, int y, int z) const {
+    const float v = voxel_m();
+    return {(x + 0.5f) * v, (y + 0.5f) * v, (z + 0.5f) * v};
+  }
+  /// Index of block (bx, by, bz), or −1 when it is not allocated (or cannot be).
+  KFX_HD int32_t find_block(int bx, int by, int bz) const {
+    if (!block_coords_packable(bx, by, bz)) return -1;
+    return hash.find(pack_block_key(bx, by, bz));
+  }
+  /// Index of the block holding voxel (x, y, z), or −1.
+  KFX_HD int32_t block_of(int x, int y, int z) const {
+    return find_block(block_of_voxel(x), block_of_voxel(y), block_of_voxel(z));
+  }
+  /// Voxel (x, y, z); the empty voxel where no block holds it.
+  KFX_HD Voxel voxel(int x, int y, int z) const {
+    const int32_t b = block_of(x, y, z);
+    return b < 0 ? empty_voxel() : voxels[b * kBlockVoxels + voxel_in_block(x, y, z)];
+  }
+  /// Voxels of block index b.
+  KFX_HD Voxel* block_voxels(int32_t b) const { return voxels + b * kBlockVoxels; }
+  /// Block coordinates of block index b.
+  KFX_HD Vec3i block_coords(int32_t b) const { return unpack_block_key(block_keys[b]); }
+};
+
+/// The voxels of one allocated block, seen with global voxel coordinates (x, y, z) as a volume:
+/// what the per-voxel integration body writes through (IntegrateArgsT<OneBlockView>), so it
+/// reads the same for a block as for the dense cube.
+struct OneBlockView {
+  Voxel* data = nullptr;       ///< the block's kBlockVoxels voxels
+  uint8_t* touched = nullptr;  ///< the block's flag (BlockMapView::block_touched)
+  Vec3i origin_vox{0, 0, 0};   ///< voxel coordinates of the block's voxel 0
+  int grid_res = 1;
+  float grid_size_m = 0.01f;
+
+  KFX_HD float voxel_m() const { return grid_size_m / grid_res; }
+  KFX_HD Vec3f centre_m(int x, int y, int z) const {
+    const float v = voxel_m();
+    return {(x + 0.5f) * v, (y + 0.5f) * v, (z + 0.5f) * v};
+  }
+  /// Voxel (x, y, z), which must lie in this block.
+  KFX_HD Voxel& at(int x, int y, int z) const { return data[voxel_in_block(x, y, z)]; }
+  /// Marks the block touched (one writer per block: no race).
+  KFX_HD void mark_touched(int, int, int) const {
+    if (!*touched) *touched = 1;
+  }
+};
+
+/// The block view of block index b of `map`.
+KFX_HD inline OneBlockView one_block_view(const BlockMapView& map, int32_t b) {
+  const Vec3i c = map.block_coords(b);
+  return OneBlockView{map.block_voxels(b), map.block_touched + b,
+                      Vec3i{c.x * kBlockSide, c.y * kBlockSide, c.z * kBlockSide}, map.grid_res,
+                      map.grid_size_m};
+}
+
+}  // namespace kfx

@@ -1,0 +1,90 @@
+/// The host block map: storage, clearing and deterministic allocation.
+
+#include "map/host_block_map.hpp"
+
+#include <algorithm>
+
+namespace kfx {
+
+uint32_t block_capacity_for_budget(uint64_t budget_bytes) {
+  const uint64_t blocks = budget_bytes / kBytesPerBlock;
+  // The hash's slot count (a power of two ≥ 2 × capacity) must fit 32 bits.
+  constexpr uint64_t kMaxBlocks = uint64_t{1} << 30;
+  return static_cast<uint32_t>(std::max<uint64_t>(1, std::min(blocks, kMaxBlocks)));
+}
+
+HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m)
+    : hash_keys_(block_hash_slot_count(block_capacity), kEmptyBlockKey),
+      hash_values_(hash_keys_.size(), -1),
+      voxels_(static_cast<size_t>(block_capacity) * kBlockVoxels, empty_voxel()),
+      block_keys_(block_capacity, kEmptyBlockKey),
+      block_touched_(block_capacity, 0),
+      grid_res_(grid_res),
+      grid_size_m_(grid_size_m) {
+  KFX_CHECK(block_capacity >= 1, "a block map needs room for at least one block");
+}
+
+void HostBlockMap::clear() {
+  std::fill(hash_keys_.begin(), hash_keys_.end(), kEmptyBlockKey);
+  std::fill(hash_values_.begin(), hash_values_.end(), -1);
+  // Only the blocks in use hold anything but the empty voxel.
+  std::fill(voxels_.begin(), voxels_.begin() + static_cast<size_t>(block_count_) * kBlockVoxels,
+            empty_voxel());
+  std::fill(block_keys_.begin(), block_keys_.end(), kEmptyBlockKey);
+  std::fill(block_touched_.begin(), block_touched_.end(), 0);
+  block_count_ = 0;
+}
+
+BlockAllocation HostBlockMap::allocate(std::vector<uint64_t>& candidates) {
+  std::sort(candidates.begin(), candidates.end());
+  candidates.erase(std::unique(candidates.begin(), candidates.end()), candidates.end());
+  BlockAllocation result;
+  const BlockMapView map = view();
+  for (const uint64_t key : candidates) {
+    if (map.hash.find(key) >= 0) continue;
+    if (block_count_ >= static_cast<int>(block_capacity())) {
+      ++result.dropped;
+      continue;
+    }
+    const BlockInsert outcome = map.hash.insert(key, block_count_);
+    KFX_CHECK(outcome == BlockInsert::kInserted, "block hash refused a new key below capacity");
+    block_keys_[block_count_++] = key;
+    ++result.allocated;
+  }
+  return result;
+}
+
+void HostBlockMap::add_block(uint64_t key, const Voxel* voxels) {
+  KFX_CHECK(block_count_ < static_cast<int>(block_capacity()),
+            "the map holds " << block_capacity() << " blocks; one more does not fit");
+  const BlockInsert outcome = view().hash.insert(key, block_count_);
+  const Vec3i c = unpack_block_key(key);
+  KFX_CHECK(outcome == BlockInsert::kInserted,
+            "block (" << c.x << ", " << c.y << ", " << c.z << ") is in the map twice");
+  std::copy(voxels, voxels + kBlockVoxels,
+            voxels_.begin() + static_cast<size_t>(block_count_) * kBlockVoxels);
+  block_keys_[block_count_] = key;
+  block_touched_[block_count_] = 1;  // unknown contents: never skipped
+  ++block_count_;
+}
+
+BlockMapView HostBlockMap::view() {
+  BlockMapView v;
+  v.hash = BlockHashView{hash_keys_.data(), hash_values_.data(),
+                         static_cast<uint32_t>(hash_keys_.size() - 1)};
+  v.voxels = voxels_.data();
+  v.block_keys = block_keys_.data();
+  v.block_touched = block_touched_.data();
+  v.block_capacity = static_cast<int>(block_capacity());
+  v.block_count = block_count_;
+  v.grid_res = grid_res_;
+  v.grid_size_m = grid_size_m_;
+  return v;
+}
+
+uint64_t HostBlockMap::reserved_bytes() const {
+  return hash_keys_.size() * (sizeof(uint64_t) + sizeof(int32_t)) + voxels_.size() * sizeof(Voxel) +
+         block_keys_.size() * (sizeof(uint64_t) + 1);
+}
+
+}  // namespace kfx

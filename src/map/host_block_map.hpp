@@ -1,0 +1,67 @@
+#pragma once
+/// A block map in host memory (the CPU backend's map, and the form a map takes in a file):
+/// fixed capacities chosen at construction from a memory budget, blocks allocated in a
+/// deterministic order.
+
+#include <cstdint>
+#include <vector>
+
+#include "map/block_map.hpp"
+
+namespace kfx {
+
+/// Bytes one block costs in a map: its voxels, its key, its touched flag and two hash slots
+/// (the table is kept at most half full).
+constexpr uint64_t kBytesPerBlock =
+    sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 + 2 * (sizeof(uint64_t) + sizeof(int32_t));
+
+/// Blocks a memory budget of `budget_bytes` holds (at least 1).
+uint32_t block_capacity_for_budget(uint64_t budget_bytes);
+
+/// What one allocation pass did.
+struct BlockAllocation {
+  int allocated = 0;  ///< new blocks stored
+  int dropped = 0;    ///< new blocks not stored: the map was at its capacity
+};
+
+/// An owning block map in host memory.
+class HostBlockMap {
+ public:
+  HostBlockMap() = default;
+  /// An empty map of `block_capacity` blocks and voxel size grid_size_m / grid_res.
+  HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m);
+
+  /// Removes every block (the arrays are kept).
+  void clear();
+  /// Allocates the blocks of `candidates` (packed keys, any order, duplicates allowed; the
+  /// vector is sorted and deduplicated in place) that are not in the map yet: in increasing key
+  /// order, so the same candidates give the same block indices whatever order they came in.
+  /// Once the capacity is reached the rest are dropped and counted.
+  BlockAllocation allocate(std::vector<uint64_t>& candidates);
+  /// Adds block `key` with the given voxels (loading a saved map); throws kfx::Error when the
+  /// key is present already or the map is full.
+  void add_block(uint64_t key, const Voxel* voxels);
+
+  BlockMapView view();
+  /// Blocks allocated.
+  int block_count() const { return block_count_; }
+  uint32_t block_capacity() const { return static_cast<uint32_t>(block_keys_.size()); }
+  /// Bytes the allocated blocks take (kBytesPerBlock each).
+  uint64_t used_bytes() const { return kBytesPerBlock * static_cast<uint64_t>(block_count_); }
+  /// Bytes the map holds allocated for its capacity.
+  uint64_t reserved_bytes() const;
+  int grid_res() const { return grid_res_; }
+  float grid_size_m() const { return grid_size_m_; }
+
+ private:
+  std::vector<uint64_t> hash_keys_;
+  std::vector<int32_t> hash_values_;
+  std::vector<Voxel> voxels_;
+  std::vector<uint64_t> block_keys_;
+  std::vector<uint8_t> block_touched_;
+  int block_count_ = 0;
+  int grid_res_ = 1;
+  float grid_size_m_ = 0.01f;
+};
+
+}  // namespace kfx

@@ -1,0 +1,179 @@
+/// The block hash (map/block_hash.hpp) and the host block map's allocation
+/// (map/host_block_map.hpp): properties at high load, forced collisions, a full table, and
+/// deterministic block indices.
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <map>
+#include <random>
+#include <vector>
+
+#include "map/block_hash.hpp"
+#include "map/host_block_map.hpp"
+
+namespace kfx {
+namespace {
+
+/// A table of `slots` slots (a power of two) in vectors.
+struct Table {
+  explicit Table(uint32_t slots) : keys(slots, kEmptyBlockKey), values(slots, -1) {}
+  BlockHashView view() {
+    return BlockHashView{keys.data(), values.data(), static_cast<uint32_t>(keys.size() - 1)};
+  }
+  std::vector<uint64_t> keys;
+  std::vector<int32_t> values;
+};
+
+uint64_t random_key(std::mt19937_64& rng) {
+  std::uniform_int_distribution<int> coord(kBlockCoordMin, -kBlockCoordMin - 1);
+  return pack_block_key(coord(rng), coord(rng), coord(rng));
+}
+
+TEST(BlockHash, PackedKeysRoundTripAtTheRangeLimitsAndNeverEqualTheEmptyKey) {
+  const int lo = kBlockCoordMin, hi = -kBlockCoordMin - 1;
+  for (int x : {lo, lo + 1, -1, 0, 1, hi - 1, hi}) {
+    for (int y : {lo, -1, 0, hi}) {
+      for (int z : {lo, -7, 0, 5, hi}) {
+        ASSERT_TRUE(block_coords_packable(x, y, z));
+        const uint64_t key = pack_block_key(x, y, z);
+        EXPECT_NE(key, kEmptyBlockKey);
+        const Vec3i back = unpack_block_key(key);
+        EXPECT_EQ(back.x, x);
+        EXPECT_EQ(back.y, y);
+        EXPECT_EQ(back.z, z);
+      }
+    }
+  }
+  EXPECT_FALSE(block_coords_packable(hi + 1, 0, 0));
+  EXPECT_FALSE(block_coords_packable(0, lo - 1, 0));
+  // Keys sort by z, then y, then x (the map allocates in this order).
+  EXPECT_LT(pack_block_key(5, 0, 0), pack_block_key(-5, 1, 0));
+  EXPECT_LT(pack_block_key(5, 5, -1), pack_block_key(-5, -5, 0));
+}
+
+TEST(BlockHash, EveryKeyIsFoundAtLoadsUpToAFullTable) {
+  std::mt19937_64 rng(7);
+  for (const double load : {0.5, 0.9, 0.99, 1.0}) {
+    Table table(1024);
+    const BlockHashView hash = table.view();
+    const int n = static_cast<int>(load * 1024);
+    std::map<uint64_t, int32_t> model;
+    while (static_cast<int>(model.size()) < n) {
+      const uint64_t key = random_key(rng);
+      if (model.count(key)) continue;
+      const int32_t value = static_cast<int32_t>(model.size());
+      ASSERT_EQ(hash.insert(key, value), BlockInsert::kInserted) << "load " << load;
+      model[key] = value;
+    }
+    for (const auto& [key, value] : model) {
+      EXPECT_EQ(hash.find(key), value);
+      EXPECT_EQ(hash.insert(key, 12345), BlockInsert::kPresent);
+      EXPECT_EQ(hash.find(key), value) << "a present key's value must stay";
+    }
+    // Absent keys are reported absent, also when the table is full (the probe ends).
+    for (int i = 0; i < 200; ++i) {
+      const uint64_t key = random_key(rng);
+      if (!model.count(key)) EXPECT_EQ(hash.find(key), -1);
+    }
+    if (n == 1024) EXPECT_EQ(hash.insert(random_key(rng), 1), BlockInsert::kFull);
+  }
+}
+
+TEST(BlockHash, KeysSharingOneHomeSlotAreAllFoundAcrossTheWrapAround) {
+  // Keys whose home slot is the last one: their probe runs wrap to slot 0.
+  Table table(64);
+  const BlockHashView hash = table.view();
+  std::vector<uint64_t> colliding;
+  for (int x = 0; colliding.size() < 40; ++x) {
+    const uint64_t key = pack_block_key(x, -x, 3);
+    if ((block_key_hash(key) & 63) == 63) colliding.push_back(key);
+  }
+  for (size_t i = 0; i < colliding.size(); ++i) {
+    ASSERT_EQ(hash.insert(colliding[i], static_cast<int32_t>(i)), BlockInsert::kInserted);
+  }
+  for (size_t i = 0; i < colliding.size(); ++i) {
+    EXPECT_EQ(hash.find(colliding[i]), static_cast<int32_t>(i));
+  }
+  EXPECT_EQ(std::count(table.keys.begin(), table.keys.end(), kEmptyBlockKey), 64 - 40);
+  EXPECT_NE(table.keys[0], kEmptyBlockKey) << "the run should have wrapped to slot 0";
+}
+
+TEST(BlockHash, SlotCountKeepsTheLoadAtMostAHalf) {
+  EXPECT_EQ(block_hash_slot_count(0), 2u);
+  EXPECT_EQ(block_hash_slot_count(1), 2u);
+  EXPECT_EQ(block_hash_slot_count(3), 8u);
+  EXPECT_EQ(block_hash_slot_count(512), 1024u);
+  EXPECT_EQ(block_hash_slot_count(513), 2048u);
+}
+
+TEST(HostBlockMap, AllocationOrderDoesNotDependOnTheCandidatesOrder) {
+  std::mt19937_64 rng(11);
+  std::vector<uint64_t> candidates;
+  for (int i = 0; i < 3000; ++i) {
+    std::uniform_int_distribution<int> c(-20, 20);
+    candidates.push_back(pack_block_key(c(rng), c(rng), c(rng)));
+  }
+  std::vector<uint64_t> first_keys;
+  for (int run = 0; run < 3; ++run) {
+    std::vector<uint64_t> shuffled = candidates;
+    std::shuffle(shuffled.begin(), shuffled.end(), rng);
+    HostBlockMap map(4000, 256, 2.0f);
+    const BlockAllocation a = map.allocate(shuffled);
+    EXPECT_EQ(a.dropped, 0);
+    EXPECT_EQ(a.allocated, map.block_count());
+    const BlockMapView view = map.view();
+    std::vector<uint64_t> keys(view.block_keys, view.block_keys + map.block_count());
+    EXPECT_TRUE(std::is_sorted(keys.begin(), keys.end()));
+    for (int b = 0; b < map.block_count(); ++b) EXPECT_EQ(view.hash.find(keys[b]), b);
+    if (run == 0) first_keys = keys;
+    EXPECT_EQ(keys, first_keys);
+  }
+}
+
+TEST(HostBlockMap, AFullMapDropsAndCountsTheRestAndKeepsWhatItHas) {
+  HostBlockMap map(10, 256, 2.0f);
+  std::vector<uint64_t> first;
+  for (int x = 0; x < 6; ++x) first.push_back(pack_block_key(x, 0, 0));
+  EXPECT_EQ(map.allocate(first).allocated, 6);
+  std::vector<uint64_t> second;
+  for (int x = 0; x < 12; ++x) second.push_back(pack_block_key(x, 1, 0));
+  second.push_back(pack_block_key(2, 0, 0));  // present: neither new nor dropped
+  const BlockAllocation a = map.allocate(second);
+  EXPECT_EQ(a.allocated, 4);
+  EXPECT_EQ(a.dropped, 8);
+  EXPECT_EQ(map.block_count(), 10);
+  const BlockMapView view = map.view();
+  for (int x = 0; x < 6; ++x) EXPECT_EQ(view.find_block(x, 0, 0), x);
+  for (int x = 0; x < 4; ++x) EXPECT_EQ(view.find_block(x, 1, 0), 6 + x);
+  EXPECT_EQ(view.find_block(4, 1, 0), -1);
+  // Unallocated voxels read as empty; allocated ones as stored.
+  view.block_voxels(view.find_block(1, 0, 0))[voxel_in_block(9, 2, 3)] = Voxel{-5, 7};
+  EXPECT_EQ(view.voxel(9, 2, 3).tsdf, -5);
+  EXPECT_EQ(view.voxel(9, 2, 3).weight, 7);
+  EXPECT_EQ(view.voxel(-1, 2, 3).weight, 0);
+  EXPECT_EQ(view.voxel(-1, 2, 3).tsdf, static_cast<int16_t>(kTsdfScale));
+  map.clear();
+  EXPECT_EQ(map.block_count(), 0);
+  EXPECT_EQ(map.view().find_block(1, 0, 0), -1);
+  EXPECT_EQ(map.view().voxel(9, 2, 3).weight, 0);
+}
+
+TEST(HostBlockMap, VoxelCoordinatesMapToBlocksByFloorDivision) {
+  EXPECT_EQ(block_of_voxel(0), 0);
+  EXPECT_EQ(block_of_voxel(7), 0);
+  EXPECT_EQ(block_of_voxel(8), 1);
+  EXPECT_EQ(block_of_voxel(-1), -1);
+  EXPECT_EQ(block_of_voxel(-8), -1);
+  EXPECT_EQ(block_of_voxel(-9), -2);
+  EXPECT_EQ(voxel_in_block(-1, 0, 0), 7);
+  EXPECT_EQ(voxel_in_block(-8, -1, 9), 0 + 7 * 8 + 1 * 64);
+}
+
+TEST(HostBlockMap, BudgetGivesCapacity) {
+  EXPECT_EQ(block_capacity_for_budget(0), 1u);
+  EXPECT_EQ(block_capacity_for_budget(kBytesPerBlock * 100 + 5), 100u);
+}
+
+}  // namespace
+}  // namespace kfx
