@@ -16,6 +16,7 @@
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/trajectory.hpp"
+#include "map/host_block_map.hpp"
 #include "output/cloud_ply.hpp"
 #include "output/host_memory.hpp"
 #include "output/mesh_output.hpp"
@@ -75,13 +76,16 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   io::Reader& reader = *prepared.reader;
   // Everything that can fail for want of room or permission fails here, before the run.
   output::prepare_run_folder(out_dir, outputs.overwrite);
+  KFX_CHECK(!(outputs.save_volume && prepared.config.volume.kind == MapKind::kBlocks),
+            "--save-volume: saving a block map (volume=blocks) is not built yet");
   const size_t volume_bytes = output::volume_host_bytes(prepared.config.volume.resolution_vox);
   if (outputs.save_volume) output::check_host_memory(volume_bytes, "--save-volume's host copy");
 
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, reader.width_px(),
                     reader.height_px(), prepared.backend);
   if (outputs.mesh) {
-    if (pipeline.backend().name() == "cpu") {  // the GPU backend checks its own memory
+    // The GPU backend checks its own memory; a block map sizes its scratch by its blocks.
+    if (pipeline.backend().name() == "cpu" && prepared.config.volume.kind == MapKind::kDense) {
       output::check_host_memory(
           mesh_scratch_bytes(prepared.config.volume.resolution_vox),
           "mesh extraction's scratch buffers (use --no-mesh or a smaller -v)");
@@ -140,13 +144,27 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                 << report.index - 1 << ")\n";
       lost_since = -1;
     }
+    // The block map's budget: never a silent stop. Said at the first frame short of blocks and
+    // then every 100th (stats.json counts them all).
+    if (report.map_blocks_dropped > 0 && (summary.map_frames_short - 1) % 100 == 0) {
+      std::cerr << "kfx run: warning: frame " << report.index << ": the map is full ("
+                << report.map_blocks << " blocks, map_budget_mb "
+                << pipeline.config().volume.map_budget_mb << "): " << report.map_blocks_dropped
+                << " blocks of this frame's surface were not stored (" << summary.map_frames_short
+                << " frame(s) short so far)\n";
+    }
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
       // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
       std::cerr << "kfx run: frame " << report.index << " done (" << summary.frames;
       if (total_frames > 0) std::cerr << "/" << total_frames;
       std::cerr << " frames), tracked " << summary.tracked << ", " << summary.frames_per_second()
-                << " frames/s computation\n";
+                << " frames/s computation";
+      if (report.map_blocks > 0) {
+        std::cerr << ", map " << report.map_blocks << " blocks ("
+                  << static_cast<double>(report.map_blocks) * kBytesPerBlock / (1 << 20) << " MiB)";
+      }
+      std::cerr << "\n";
     }
   };
   while (options.max_frames == 0 || pipeline.frame_count() < options.max_frames) {

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <numeric>
 
+#include "map/host_block_map.hpp"
+
 namespace kfx::cli {
 
 double median_of(std::vector<double> values) {
@@ -30,6 +32,12 @@ void RunSummary::add(const FrameReport& report) {
     stage_ms[s].push_back(report.stage_ms[s]);
   }
   computation_ms.push_back(report.computation_ms);
+  map_blocks = report.map_blocks;
+  if (report.map_blocks_dropped > 0) {
+    map_blocks_dropped += report.map_blocks_dropped;
+    ++map_frames_short;
+    if (map_first_short_frame < 0) map_first_short_frame = report.index;
+  }
 }
 
 double RunSummary::frames_per_second() const {
@@ -52,6 +60,13 @@ nlohmann::json RunSummary::to_json() const {
                                                          {"median", median_of(stage_ms[s])}};
   }
   j["computation_ms"] = {{"mean", mean_of(computation_ms)}, {"median", median_of(computation_ms)}};
+  if (map_blocks > 0) {
+    j["map_blocks"] = map_blocks;
+    j["map_bytes"] = static_cast<unsigned long long>(map_blocks) * kBytesPerBlock;
+    j["map_blocks_dropped"] = map_blocks_dropped;
+    j["map_frames_short_of_blocks"] = map_frames_short;
+    j["map_first_frame_short_of_blocks"] = map_first_short_frame;
+  }
   return j;
 }
 

@@ -19,13 +19,20 @@ struct RunSummary {
   double ate_rmse_m = -1.0;  ///< set when ground truth was evaluated
   std::array<std::vector<double>, static_cast<int>(Stage::kCount)> stage_ms;
   std::vector<double> computation_ms;
+  // The block map (volume=blocks): its size after the last frame, and what did not fit.
+  int map_blocks = 0;
+  long long map_blocks_dropped = 0;  ///< blocks frames needed that the budget had no room for
+  int map_frames_short = 0;          ///< frames with blocks dropped
+  int map_first_short_frame = -1;    ///< the first of them, −1 if none
 
   /// Adds one frame.
   void add(const FrameReport& report);
   /// 1 / mean computation time (preprocess + track + integrate + raycast).
   double frames_per_second() const;
   /// {"frames", "tracked", "lost", "integrated", "frames_per_second", "stages_ms": {name: {mean,
-  /// median}}, "computation_ms": {mean, median}}.
+  /// median}}, "computation_ms": {mean, median}}; with a block map also "map_blocks",
+  /// "map_bytes" (blocks × kBytesPerBlock), "map_blocks_dropped", "map_frames_short_of_blocks",
+  /// "map_first_frame_short_of_blocks".
   nlohmann::json to_json() const;
   /// "500 frames, 496 tracked, 20.1 frames/s, ATE 0.84 cm".
   std::string one_line() const;

@@ -37,14 +37,24 @@ struct CudaTuning {
   bool fused_preprocess = true;  ///< preprocess, then the pyramid, in one launch each
 };
 
+/// Which kind of map a backend keeps (setting `volume`).
+enum class MapKind : int {
+  kDense = 0,   ///< one cube of res³ voxels (SLAMBench's)
+  kBlocks = 1,  ///< 8³ voxel blocks allocated where depth lands, found through a hash table
+};
+
 /// Sizes fixed for a backend's lifetime; every buffer is allocated once from these.
 struct BackendSetup {
   int input_width_px = 640;
   int input_height_px = 480;
   int compute_ratio = 2;  ///< compute size = input size / ratio
   int pyramid_levels = 3;
+  /// The dense cube: res³ voxels over size_m. With MapKind::kBlocks no cube is allocated and
+  /// the pair only gives the voxel size, size / res (map/block_map.hpp says why as a ratio).
   int volume_res_vox = 256;
   float volume_size_m = 2.0f;
+  MapKind map_kind = MapKind::kDense;
+  uint32_t block_capacity = 0;  ///< MapKind::kBlocks: blocks the map holds (from its budget)
   /// CUDA device to create the backend on (−1: the calling thread's current device). The CPU
   /// backend accepts only −1. Selecting a device makes it the calling thread's current one, so
   /// a pipeline is used from the thread that created it (one thread per pipeline).
@@ -134,6 +144,10 @@ class Backend {
   virtual void accept_or_revert(const AcceptParams& params) = 0;
   /// Marks this frame as not tracked (tracking skipped).
   virtual void skip_tracking() = 0;
+  /// Block map only (MapKind::kBlocks; a no-op for the dense cube): allocates the blocks this
+  /// frame's truncation band reaches when it will be integrated (`always` or tracked), and
+  /// counts in the state the blocks allocated and those dropped for lack of room.
+  virtual void allocate_blocks(const IntegrateParams& /*params*/, bool /*always*/) {}
   /// Integrates the unfiltered depth at the current pose when `always` or the frame tracked.
   virtual void integrate(const IntegrateParams& params, bool always) = 0;
   /// Raycasts the volume from the current pose; it becomes the ICP reference view.

@@ -44,15 +44,19 @@ struct FrameBuffers {
     }
   }
 
+  // A block map (MapKind::kBlocks) has no cube: no voxels or brick flags here.
   static size_t voxel_count(const BackendSetup& setup) {
+    if (setup.map_kind == MapKind::kBlocks) return 0;
     const size_t res = static_cast<size_t>(setup.volume_res_vox);
     return res * res * res;
   }
   static size_t brick_count(const BackendSetup& setup) {
+    if (setup.map_kind == MapKind::kBlocks) return 0;
     const size_t bricks = static_cast<size_t>(bricks_per_side(setup.volume_res_vox));
     return bricks * bricks * bricks;
   }
   static size_t super_brick_count(const BackendSetup& setup) {
+    if (setup.map_kind == MapKind::kBlocks) return 0;
     const size_t supers = static_cast<size_t>(super_bricks_per_side(setup.volume_res_vox));
     return supers * supers * supers;
   }

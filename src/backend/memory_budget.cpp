@@ -5,6 +5,7 @@
 #include <sstream>
 
 #include "core/volume.hpp"
+#include "map/host_block_map.hpp"
 
 namespace kfx {
 namespace {
@@ -25,6 +26,7 @@ std::string gib(uint64_t bytes) {
 }
 
 uint64_t volume_bytes(const BackendSetup& setup) {
+  if (setup.map_kind == MapKind::kBlocks) return setup.block_capacity * kBytesPerBlock;
   const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
   return res * res * res * sizeof(Voxel);
 }
@@ -53,6 +55,11 @@ uint64_t host_bytes_available() {
 void check_memory_fits(const BackendSetup& setup, uint64_t needed_bytes, uint64_t available_bytes,
                        const std::string& where) {
   if (available_bytes == 0 || needed_bytes <= available_bytes) return;
+  KFX_CHECK(setup.map_kind != MapKind::kBlocks,
+            "not enough memory: a block map of "
+                << setup.block_capacity << " blocks (" << gib(volume_bytes(setup))
+                << ") and the frame buffers need " << gib(needed_bytes) << ", but " << where
+                << " is " << gib(available_bytes) << "; choose a smaller map_budget_mb");
   KFX_FAIL("not enough memory: a " << setup.volume_res_vox << "^3 volume ("
                                    << gib(volume_bytes(setup)) << ") and the frame buffers need "
                                    << gib(needed_bytes) << ", but " << where << " is "

@@ -99,6 +99,34 @@ struct VolumeView {
   }
   /// Total number of voxels.
   KFX_HD long long voxel_count() const { return static_cast<long long>(res) * res * res; }
+
+  // The read interface the kernel bodies use on either kind of map (BlockMapView has the same):
+  /// Voxel index i clamped into the cube from below / from above (the block map's are the
+  /// identity: it has no faces).
+  KFX_HD int clamp_lo(int i) const { return maxi(i, 0); }
+  KFX_HD int clamp_hi(int i) const { return mini(i, res - 1); }
+  /// True when a box of voxels ending at `end_vox` (exclusive) / beginning at `begin_vox` meets
+  /// the cube's upper / lower face (the raycast's fast-forward is open there).
+  KFX_HD bool box_open_above(int end_vox) const { return end_vox >= res; }
+  KFX_HD bool box_open_below(int begin_vox) const { return begin_vox == 0; }
+  /// Stored tsdf of voxel (x, y, z) (inside the cube).
+  KFX_HD int16_t stored_tsdf(int x, int y, int z) const { return at(x, y, z).tsdf; }
+  /// True when voxel (x, y, z) lies in the cube / the cell with lower corner (x, y, z) does.
+  KFX_HD bool contains(int x, int y, int z) const {
+    return x >= 0 && y >= 0 && z >= 0 && x < res && y < res && z < res;
+  }
+  KFX_HD bool contains_cell(int x, int y, int z) const {
+    return !(x < 0 || y < 0 || z < 0 || x >= res - 1 || y >= res - 1 || z >= res - 1);
+  }
+  /// Voxel (x, y, z) by value (inside the cube).
+  KFX_HD Voxel voxel(int x, int y, int z) const { return at(x, y, z); }
 };
+
+/// Voxel size of a map as the ratio size / res, kept apart so both kinds of map compute voxel
+/// positions with the same float operations (map/block_map.hpp).
+KFX_HD inline int map_grid_res(const VolumeView& v) { return v.res; }
+KFX_HD inline float map_grid_size_m(const VolumeView& v) { return v.size_m; }
+/// A reader of the dense cube is the cube itself (no cache to keep).
+KFX_HD inline const VolumeView& map_reader(const VolumeView& v) { return v; }
 
 }  // namespace kfx

@@ -10,6 +10,7 @@
 #include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/tracking_state.hpp"
+#include "map/block_map.hpp"
 
 namespace kfx {
 
@@ -58,14 +59,20 @@ struct IntegrateParams {
 };
 
 /// Arguments of integrate_column and integrate_row: the settings and the buffers.
-struct IntegrateArgs : IntegrateParams {
-  VolumeView volume;
+/// `Map` is the volume the body writes through: VolumeView (the dense cube) or OneBlockView (one
+/// block of the block map); both answer at(x, y, z), mark_touched, centre_m and voxel_m.
+template <class Map>
+struct IntegrateArgsT : IntegrateParams {
+  Map volume;
   ImageView<const float> depth_m;  ///< unfiltered compute-size depth, metres
   const TrackingState* state;      ///< T_cam_world, integrate_now, max_depth_m
   /// Compute-size normals of this frame (camera frame) for IntegrationWeight::kDepthAngle; may
   /// be empty (the angle term is then left out).
   ImageView<const Vec3f> normal;
 };
+
+/// Integration arguments over the dense cube.
+using IntegrateArgs = IntegrateArgsT<VolumeView>;
 
 /// Smallest camera z at which a voxel is considered (SLAMBench's 0.0001 m).
 constexpr float kIntegrateMinZ_m = 0.0001f;
@@ -90,25 +97,28 @@ struct VoxelLine {
 };
 
 /// The z-line of column (x, y).
-KFX_HD inline VoxelLine z_line(int x, int y, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline VoxelLine z_line(int x, int y, const IntegrateArgsT<Map>& a) {
   const Mat4f& T = a.state->T_cam_world;
   return {T * a.volume.centre_m(x, y, 0), rotate(T, Vec3f{0.0f, 0.0f, a.volume.voxel_m()})};
 }
 
 /// The x-line of row (y, z).
-KFX_HD inline VoxelLine x_line(int y, int z, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline VoxelLine x_line(int y, int z, const IntegrateArgsT<Map>& a) {
   const Mat4f& T = a.state->T_cam_world;
   return {T * a.volume.centre_m(0, y, z), rotate(T, Vec3f{a.volume.voxel_m(), 0.0f, 0.0f})};
 }
 
-/// Index range [begin, end) of a line that can be updated, widened by a margin of one pixel,
-/// half the near limit and one voxel so float rounding never drops a voxel.
-KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateArgs& a, int& begin,
-                                         int& end) {
+/// Index range [begin, end) within [first, last) of a line that can be updated, widened by a
+/// margin of one pixel, half the near limit and one voxel so float rounding never drops a voxel.
+/// The dense cube asks for [0, res); a block for its own 8 voxels.
+template <class Map>
+KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateArgsT<Map>& a,
+                                         int first, int last, int& begin, int& end) {
   const Vec3f base = line.base, delta = line.delta;
-  const int res = a.volume.res;
   const float w = static_cast<float>(a.depth_m.width), h = static_cast<float>(a.depth_m.height);
-  float lo = 0.0f, hi = static_cast<float>(res);
+  float lo = static_cast<float>(first), hi = static_cast<float>(last);
   // p.z ≥ near/2 and p.z ≤ farthest depth + mu (+ a voxel).
   clip_half_line(base.z - 0.5f * kIntegrateMinZ_m, delta.z, lo, hi);
   const float z_max = a.state->max_depth_m + a.mu_m + a.volume.voxel_m();
@@ -126,20 +136,28 @@ KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateA
   clip_half_line(-(a.k.fy * base.y + (ay - h) * base.z), -(a.k.fy * delta.y + (ay - h) * delta.z),
                  lo, hi);
   if (!(lo <= hi)) {
-    begin = end = 0;
+    begin = end = first;
     return;
   }
-  begin = maxi(0, static_cast<int>(floorf(lo)) - 1);
-  end = mini(res, static_cast<int>(min_f(ceilf(hi), static_cast<float>(res))) + 2);
+  begin = maxi(first, static_cast<int>(floorf(lo)) - 1);
+  end = mini(last, static_cast<int>(min_f(ceilf(hi), static_cast<float>(last))) + 2);
   if (end < begin) end = begin;
+}
+
+/// The same over the dense cube's whole line, [0, res).
+template <class Map>
+KFX_HD inline void integrate_line_bounds(const VoxelLine& line, const IntegrateArgsT<Map>& a,
+                                         int& begin, int& end) {
+  integrate_line_bounds(line, a, 0, a.volume.res, begin, end);
 }
 
 /// Weight, in stored units (kWeightUnits = one full measurement), of a weighted measurement of
 /// depth `depth` at pixel (px, py) for the voxel at camera-frame point p: w = min(1, (ref/d)²),
 /// times cos θ = |n · p| / |p| with kDepthAngle where the pixel has a normal; rounded, at least
 /// one unit so every measurement still counts.
+template <class Map>
 KFX_HD inline float measurement_weight(Vec3f p, float depth, int px, int py,
-                                       const IntegrateArgs& a) {
+                                       const IntegrateArgsT<Map>& a) {
   float w = 1.0f;
   if (depth > a.weight_ref_m) w = (a.weight_ref_m / depth) * (a.weight_ref_m / depth);
   if (a.weight_mode == IntegrationWeight::kDepthAngle && a.normal.data) {
@@ -168,7 +186,8 @@ KFX_HD inline float ray_factor_of(Vec3f p, RayFactor mode) {
 /// −mu: the product of a non-positive number and a factor ≥ 1 is at most the number, and float
 /// rounding is monotone, so diff ≤ depth − p_z ≤ −mu. Skipping such voxels before the factor
 /// (a square root and two divisions) updates exactly the same voxels.
-KFX_HD inline bool far_behind_surface(float depth_minus_z_m, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline bool far_behind_surface(float depth_minus_z_m, const IntegrateArgsT<Map>& a) {
   return a.ray_factor != RayFactor::kThesis && depth_minus_z_m <= -a.mu_m;
 }
 
@@ -177,13 +196,15 @@ KFX_HD inline bool far_behind_surface(float depth_minus_z_m, const IntegrateArgs
 /// gives diff ≥ depth − p_z ≥ mu and diff / mu ≥ mu / mu = 1 (monotone rounding), so
 /// min(1, diff / mu) = 1. Most voxels a frame updates are such free space; the shortcut spares
 /// them the ray factor (a square root and two divisions) and the division by mu, bit for bit.
-KFX_HD inline bool far_in_front_of_surface(float depth_minus_z_m, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline bool far_in_front_of_surface(float depth_minus_z_m, const IntegrateArgsT<Map>& a) {
   return a.ray_factor != RayFactor::kThesis && depth_minus_z_m >= a.mu_m;
 }
 
 /// The truncated sdf min(1, diff / mu) of the voxel at camera-frame point p, diff the ray
 /// distance (depth − p.z)·factor; false when diff ≤ −mu (the voxel is not updated).
-KFX_HD inline bool truncated_sdf(Vec3f p, float depth_minus_z_m, const IntegrateArgs& a,
+template <class Map>
+KFX_HD inline bool truncated_sdf(Vec3f p, float depth_minus_z_m, const IntegrateArgsT<Map>& a,
                                  float& sdf) {
   if (far_in_front_of_surface(depth_minus_z_m, a)) {
     sdf = 1.0f;
@@ -198,7 +219,9 @@ KFX_HD inline bool truncated_sdf(Vec3f p, float depth_minus_z_m, const Integrate
 
 /// integrate_voxel with a weighted measurement (IntegrationWeight other than kConstant): the same
 /// tests and sdf, then a running average with weight measurement_weight() in kWeightUnits.
-KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z,
+                                            const IntegrateArgsT<Map>& a) {
   if (p.z < kIntegrateMinZ_m) return;
   const float u = (a.k.fx * p.x + a.k.cx * p.z) / p.z + 0.5f;
   const float v = (a.k.fy * p.y + a.k.cy * p.z) / p.z + 0.5f;
@@ -223,7 +246,8 @@ KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const 
 /// marks its brick when its tsdf falls below kMarkBelowTsdfStored.
 /// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
 /// the GPU pass 18 % faster but moved icl_office_kt0's ATE from 0.84 to 0.93 cm (measured).
-KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const IntegrateArgsT<Map>& a) {
   if (a.weight_mode != IntegrationWeight::kConstant) {
     integrate_voxel_weighted(p, x, y, z, a);
     return;
@@ -247,7 +271,8 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
 }
 
 /// Voxel range [z_begin, z_end) of column (x, y) that can be updated.
-KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgs& a, int& z_begin,
+template <class Map>
+KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgsT<Map>& a, int& z_begin,
                                            int& z_end) {
   integrate_line_bounds(z_line(x, y, a), a, z_begin, z_end);
 }
@@ -256,14 +281,17 @@ KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgs& a,
 /// the thesis's pattern) or x + y + z ≡ f (mod s) (a 3-D checkerboard that spreads the stale
 /// voxels evenly instead of in sheets across the viewing direction). Returns the residue that
 /// the line's own coordinate must have: `other` is the sum of the line's two fixed coordinates.
-KFX_HD inline int perforation_residue(const IntegrateArgs& a, int other) {
+template <class Map>
+KFX_HD inline int perforation_residue(const IntegrateArgsT<Map>& a, int other) {
   const int f = a.state->frame_index % a.z_stride;
   if (a.pattern == IntegrationPattern::kSlices) return f;
   return ((f - other) % a.z_stride + a.z_stride) % a.z_stride;
 }
 
 /// Integrates voxels z_begin ≤ z < z_end of column (x, y) (only this frame's slices).
-KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const IntegrateArgs& a) {
+template <class Map>
+KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end,
+                                    const IntegrateArgsT<Map>& a) {
   const VoxelLine line = z_line(x, y, a);
   if (a.z_stride > 1) {  // first z ≥ z_begin with the residue this frame updates
     const int residue = perforation_residue(a, x + y);
@@ -274,15 +302,22 @@ KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end, const 
   }
 }
 
-/// Integrates the whole updatable part of row (y, z) (voxels contiguous in memory).
-KFX_HD inline void integrate_row(int y, int z, const IntegrateArgs& a) {
+/// Integrates the updatable part of row (y, z) within x ∈ [x_first, x_last) (voxels contiguous
+/// in memory).
+template <class Map>
+KFX_HD inline void integrate_row_range(int y, int z, int x_first, int x_last,
+                                       const IntegrateArgsT<Map>& a) {
   const bool perforated = a.z_stride > 1;
   const bool checker = a.pattern == IntegrationPattern::kChecker;
-  if (perforated && !checker && z % a.z_stride != perforation_residue(a, 0)) return;
+  // Coordinates may be negative in a block map: residues taken in [0, s).
+  if (perforated && !checker &&
+      ((z % a.z_stride) + a.z_stride) % a.z_stride != perforation_residue(a, 0)) {
+    return;
+  }
   int step = 1;
   const VoxelLine line = x_line(y, z, a);
   int x_begin, x_end;
-  integrate_line_bounds(line, a, x_begin, x_end);
+  integrate_line_bounds(line, a, x_first, x_last, x_begin, x_end);
   if (perforated && checker) {  // x ≡ residue (mod s) along this row
     step = a.z_stride;
     const int residue = perforation_residue(a, y + z);
@@ -290,6 +325,22 @@ KFX_HD inline void integrate_row(int y, int z, const IntegrateArgs& a) {
   }
   for (int x = x_begin; x < x_end; x += step) {
     integrate_voxel(line.base + line.delta * static_cast<float>(x), x, y, z, a);
+  }
+}
+
+/// Integrates the whole updatable part of row (y, z) of the dense cube.
+template <class Map>
+KFX_HD inline void integrate_row(int y, int z, const IntegrateArgsT<Map>& a) {
+  integrate_row_range(y, z, 0, a.volume.res, a);
+}
+
+/// Integrates the 8 × 8 rows of one block of the block map (a.volume views that block): the
+/// same per-voxel body, bounded to the block's voxels.
+KFX_HD inline void integrate_block(const IntegrateArgsT<OneBlockView>& a) {
+  const Vec3i o = a.volume.origin_vox;
+  for (int z = o.z; z < o.z + kBlockSide; ++z) {
+    for (int y = o.y; y < o.y + kBlockSide; ++y)
+      integrate_row_range(y, z, o.x, o.x + kBlockSide, a);
   }
 }
 

@@ -148,27 +148,28 @@ KFX_HD inline uint32_t mc_voxel_vertex_offset(const MarchingCubesArgs& a, int x,
 /// 1/64 voxel, is far below the TSDF's own error.
 constexpr float kMcMinEdgeFraction = 1.0f / 64.0f;
 
-/// True when voxel (x, y, z) lies inside the volume.
-KFX_HD inline bool mc_in_volume(const VolumeView& v, int x, int y, int z) {
-  return x >= 0 && y >= 0 && z >= 0 && x < v.res && y < v.res && z < v.res;
-}
+// The per-voxel bodies below read a map through `Map& v`: the dense cube (const VolumeView) or
+// a block map's reader (BlockMapReader, which caches its last block); both answer voxel(),
+// contains(), contains_cell(), clamp_lo/hi() and voxel_m().
 
 /// True when the cell with lower corner (x, y, z) exists and all its 8 corners have weight > 0.
-KFX_HD inline bool mc_cell_valid(const VolumeView& v, int x, int y, int z) {
-  if (x < 0 || y < 0 || z < 0 || x >= v.res - 1 || y >= v.res - 1 || z >= v.res - 1) return false;
+template <class Map>
+KFX_HD inline bool mc_cell_valid(Map& v, int x, int y, int z) {
+  if (!v.contains_cell(x, y, z)) return false;
   for (int c = 0; c < 8; ++c) {
-    if (v.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)).weight <= 0) return false;
+    if (v.voxel(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1)).weight <= 0) return false;
   }
   return true;
 }
 
 /// Case index of cell (x, y, z): bit c set when corner c is inside (tsdf < 0); 0 for an
 /// invalid cell.
-KFX_HD inline int mc_cell_case(const VolumeView& v, int x, int y, int z) {
-  if (x < 0 || y < 0 || z < 0 || x >= v.res - 1 || y >= v.res - 1 || z >= v.res - 1) return 0;
+template <class Map>
+KFX_HD inline int mc_cell_case(Map& v, int x, int y, int z) {
+  if (!v.contains_cell(x, y, z)) return 0;
   int pattern = 0;
   for (int c = 0; c < 8; ++c) {
-    const Voxel corner = v.at(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1));
+    const Voxel corner = v.voxel(x + (c & 1), y + ((c >> 1) & 1), z + ((c >> 2) & 1));
     if (corner.weight <= 0) return 0;
     if (corner.tsdf < 0) pattern |= 1 << c;
   }
@@ -177,10 +178,11 @@ KFX_HD inline int mc_cell_case(const VolumeView& v, int x, int y, int z) {
 
 /// True when the edge from voxel (x, y, z) along `axis` carries a vertex: it crosses the zero
 /// level between two weighted voxels and belongs to at least one valid cell.
-KFX_HD inline bool mc_edge_has_vertex(const VolumeView& v, int x, int y, int z, int axis) {
+template <class Map>
+KFX_HD inline bool mc_edge_has_vertex(Map& v, int x, int y, int z, int axis) {
   const int nx = x + (axis == 0), ny = y + (axis == 1), nz = z + (axis == 2);
-  if (!mc_in_volume(v, nx, ny, nz)) return false;
-  const Voxel a = v.at(x, y, z), b = v.at(nx, ny, nz);
+  if (!v.contains(nx, ny, nz)) return false;
+  const Voxel a = v.voxel(x, y, z), b = v.voxel(nx, ny, nz);
   if (a.weight <= 0 || b.weight <= 0 || (a.tsdf < 0) == (b.tsdf < 0)) return false;
   // The four cells around the edge have lower corners offset by 0 or −1 on the other axes.
   for (int k = 0; k < 4; ++k) {
@@ -194,20 +196,23 @@ KFX_HD inline bool mc_edge_has_vertex(const VolumeView& v, int x, int y, int z, 
 }
 
 /// Vertices owned by voxel (x, y, z): one per axis whose edge carries one.
-KFX_HD inline uint32_t mc_owned_vertex_count(const VolumeView& v, int x, int y, int z) {
+template <class Map>
+KFX_HD inline uint32_t mc_owned_vertex_count(Map& v, int x, int y, int z) {
   return static_cast<uint32_t>(mc_edge_has_vertex(v, x, y, z, 0)) +
          mc_edge_has_vertex(v, x, y, z, 1) + mc_edge_has_vertex(v, x, y, z, 2);
 }
 
 /// Stored tsdf as a float, the voxel index clamped into the volume.
-KFX_HD inline float mc_tsdf_clamped(const VolumeView& v, int x, int y, int z) {
-  const int last = v.res - 1;
+template <class Map>
+KFX_HD inline float mc_tsdf_clamped(Map& v, int x, int y, int z) {
   return static_cast<float>(
-      v.at(mini(maxi(x, 0), last), mini(maxi(y, 0), last), mini(maxi(z, 0), last)).tsdf);
+      v.voxel(v.clamp_hi(v.clamp_lo(x)), v.clamp_hi(v.clamp_lo(y)), v.clamp_hi(v.clamp_lo(z)))
+          .tsdf);
 }
 
 /// Central-difference tsdf gradient at voxel (x, y, z) (stored units per voxel, unnormalised).
-KFX_HD inline Vec3f mc_voxel_gradient(const VolumeView& v, int x, int y, int z) {
+template <class Map>
+KFX_HD inline Vec3f mc_voxel_gradient(Map& v, int x, int y, int z) {
   return {mc_tsdf_clamped(v, x + 1, y, z) - mc_tsdf_clamped(v, x - 1, y, z),
           mc_tsdf_clamped(v, x, y + 1, z) - mc_tsdf_clamped(v, x, y - 1, z),
           mc_tsdf_clamped(v, x, y, z + 1) - mc_tsdf_clamped(v, x, y, z - 1)};
@@ -216,9 +221,10 @@ KFX_HD inline Vec3f mc_voxel_gradient(const VolumeView& v, int x, int y, int z) 
 /// The vertex on the edge from voxel (x, y, z) along `axis` (which must carry one): the zero
 /// of the tsdf interpolated linearly along the edge, and the unit normal from the tsdf
 /// gradient interpolated the same way (it points to free space, where the tsdf grows).
-KFX_HD inline MeshVertex mc_edge_vertex(const VolumeView& v, int x, int y, int z, int axis) {
+template <class Map>
+KFX_HD inline MeshVertex mc_edge_vertex(Map& v, int x, int y, int z, int axis) {
   const int nx = x + (axis == 0), ny = y + (axis == 1), nz = z + (axis == 2);
-  const float a = v.at(x, y, z).tsdf, b = v.at(nx, ny, nz).tsdf;
+  const float a = v.voxel(x, y, z).tsdf, b = v.voxel(nx, ny, nz).tsdf;
   const float t = min_f(max_f(a / (a - b), kMcMinEdgeFraction), 1.0f - kMcMinEdgeFraction);
   const float vox = v.voxel_m();
   MeshVertex out;

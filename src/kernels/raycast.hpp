@@ -7,20 +7,25 @@
 #include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/tracking_state.hpp"
+#include "map/block_map.hpp"
 
 namespace kfx {
 
-/// Trilinear tsdf at a volume-frame point (metres); voxel indices clamped to the volume.
-KFX_HD inline float volume_interp(const VolumeView& vol, Vec3f p_m) {
-  const Vec3f s{p_m.x * vol.res / vol.size_m - 0.5f, p_m.y * vol.res / vol.size_m - 0.5f,
-                p_m.z * vol.res / vol.size_m - 0.5f};
+/// Trilinear tsdf at a volume-frame point (metres); voxel indices clamped to the volume (the
+/// dense cube's; a block map has no faces). `Map`: VolumeView or BlockMapView.
+template <class Map>
+KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m) {
+  const int res = map_grid_res(vol);
+  const float size_m = map_grid_size_m(vol);
+  auto&& reader = map_reader(vol);
+  const Vec3f s{p_m.x * res / size_m - 0.5f, p_m.y * res / size_m - 0.5f,
+                p_m.z * res / size_m - 0.5f};
   const int bx = static_cast<int>(floorf(s.x)), by = static_cast<int>(floorf(s.y)),
             bz = static_cast<int>(floorf(s.z));
   const float fx = s.x - floorf(s.x), fy = s.y - floorf(s.y), fz = s.z - floorf(s.z);
-  const int last = vol.res - 1;
-  const int lx = maxi(bx, 0), ly = maxi(by, 0), lz = maxi(bz, 0);
-  const int ux = mini(bx + 1, last), uy = mini(by + 1, last), uz = mini(bz + 1, last);
-  auto t = [&](int x, int y, int z) { return static_cast<float>(vol.at(x, y, z).tsdf); };
+  const int lx = vol.clamp_lo(bx), ly = vol.clamp_lo(by), lz = vol.clamp_lo(bz);
+  const int ux = vol.clamp_hi(bx + 1), uy = vol.clamp_hi(by + 1), uz = vol.clamp_hi(bz + 1);
+  auto t = [&](int x, int y, int z) { return static_cast<float>(reader.stored_tsdf(x, y, z)); };
   return (((t(lx, ly, lz) * (1 - fx) + t(ux, ly, lz) * fx) * (1 - fy) +
            (t(lx, uy, lz) * (1 - fx) + t(ux, uy, lz) * fx) * fy) *
               (1 - fz) +
@@ -34,21 +39,24 @@ KFX_HD inline float lerp(float a, float b, float f) { return a * (1 - f) + b * f
 
 /// Unnormalised tsdf gradient at a point: trilinear central differences of ±1 voxel, summed in
 /// SLAMBench's order for each axis.
-KFX_HD inline Vec3f volume_gradient(const VolumeView& vol, Vec3f p_m) {
-  const float sx = p_m.x * vol.res / vol.size_m - 0.5f, sy = p_m.y * vol.res / vol.size_m - 0.5f,
-              sz = p_m.z * vol.res / vol.size_m - 0.5f;
+template <class Map>
+KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
+  const int res = map_grid_res(vol);
+  const float size_m = map_grid_size_m(vol);
+  auto&& reader = map_reader(vol);
+  const float sx = p_m.x * res / size_m - 0.5f, sy = p_m.y * res / size_m - 0.5f,
+              sz = p_m.z * res / size_m - 0.5f;
   const int bx = static_cast<int>(floorf(sx)), by = static_cast<int>(floorf(sy)),
             bz = static_cast<int>(floorf(sz));
   const float fx = sx - floorf(sx), fy = sy - floorf(sy), fz = sz - floorf(sz);
-  const int last = vol.res - 1;
   // Per axis: ll = base−1, lu = base (the trilinear "lower"), ul = base+1 ("upper"), uu = base+2.
-  const int llx = maxi(bx - 1, 0), lux = maxi(bx, 0), ulx = mini(bx + 1, last),
-            uux = mini(bx + 2, last);
-  const int lly = maxi(by - 1, 0), luy = maxi(by, 0), uly = mini(by + 1, last),
-            uuy = mini(by + 2, last);
-  const int llz = maxi(bz - 1, 0), luz = maxi(bz, 0), ulz = mini(bz + 1, last),
-            uuz = mini(bz + 2, last);
-  auto t = [&](int x, int y, int z) { return static_cast<float>(vol.at(x, y, z).tsdf); };
+  const int llx = vol.clamp_lo(bx - 1), lux = vol.clamp_lo(bx), ulx = vol.clamp_hi(bx + 1),
+            uux = vol.clamp_hi(bx + 2);
+  const int lly = vol.clamp_lo(by - 1), luy = vol.clamp_lo(by), uly = vol.clamp_hi(by + 1),
+            uuy = vol.clamp_hi(by + 2);
+  const int llz = vol.clamp_lo(bz - 1), luz = vol.clamp_lo(bz), ulz = vol.clamp_hi(bz + 1),
+            uuz = vol.clamp_hi(bz + 2);
+  auto t = [&](int x, int y, int z) { return static_cast<float>(reader.stored_tsdf(x, y, z)); };
   // Central differences at the lower (lo) and upper (hi) trilinear corner along each axis.
   auto dx_lo = [&](int y, int z) { return t(ulx, y, z) - t(llx, y, z); };
   auto dx_hi = [&](int y, int z) { return t(uux, y, z) - t(lux, y, z); };
@@ -149,14 +157,42 @@ KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m,
   return u;
 }
 
+/// The same test on a block map: every block the sample's voxels reach is unallocated (it
+/// reads as tsdf +1) or allocated but untouched; the box is their union.
+KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m,
+                                               float vox_per_m) {
+  UntouchedSample u;
+  const float s[3] = {p_m.x * vox_per_m - 0.5f, p_m.y * vox_per_m - 0.5f, p_m.z * vox_per_m - 0.5f};
+  int lo[3], hi[3];
+  for (int i = 0; i < 3; ++i) {
+    lo[i] = block_of_voxel(static_cast<int>(floorf(s[i] - kSkipSlackVox)));
+    hi[i] = block_of_voxel(static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1);
+  }
+  for (int z = lo[2]; z <= hi[2]; ++z) {
+    for (int y = lo[1]; y <= hi[1]; ++y) {
+      for (int x = lo[0]; x <= hi[0]; ++x) {
+        const int32_t b = map.find_block(x, y, z);
+        if (b >= 0 && map.block_is_touched(b)) return u;
+      }
+    }
+  }
+  u.untouched = true;
+  for (int i = 0; i < 3; ++i) {
+    u.box_begin_vox[i] = lo[i] * kBlockSide;
+    u.box_end_vox[i] = (hi[i] + 1) * kBlockSide;
+  }
+  return u;
+}
+
 /// Ray parameter (metres along `direction`, inv_dir = 1 / direction) before which every sample
 /// of the ray lies safely in u's untouched box, shrunk by kFastForwardMarginVox: a slab test
 /// against that box, open on the sides where the box meets the volume's faces (the sample
 /// clamps to the volume there, and the march stops at the volume's exit anyway). Only the exit
 /// matters: the sample at the current t was tested, and the float positions of later samples
 /// move monotonically along each axis. voxel_m = size_m / res.
-KFX_HD inline float untouched_box_exit_t(const VolumeView& vol, const UntouchedSample& u,
-                                         Vec3f origin, Vec3f inv_dir, float voxel_m) {
+template <class Map>
+KFX_HD inline float untouched_box_exit_t(const Map& vol, const UntouchedSample& u, Vec3f origin,
+                                         Vec3f inv_dir, float voxel_m) {
   constexpr float kOpen_m = 1e30f;  // a face of the volume: no exit there
   const float o[3] = {origin.x, origin.y, origin.z}, inv[3] = {inv_dir.x, inv_dir.y, inv_dir.z};
   float t_exit = kOpen_m;
@@ -165,11 +201,11 @@ KFX_HD inline float untouched_box_exit_t(const VolumeView& vol, const UntouchedS
     // s ∈ [begin + 0.5, end − 0.5).
     float bound_m;
     if (inv[i] >= 0.0f) {
-      bound_m = u.box_end_vox[i] >= vol.res
+      bound_m = vol.box_open_above(u.box_end_vox[i])
                     ? kOpen_m
                     : (u.box_end_vox[i] - 0.5f - kFastForwardMarginVox) * voxel_m;
     } else {
-      bound_m = u.box_begin_vox[i] == 0
+      bound_m = vol.box_open_below(u.box_begin_vox[i])
                     ? -kOpen_m
                     : (u.box_begin_vox[i] + 0.5f + kFastForwardMarginVox) * voxel_m;
     }
@@ -200,29 +236,39 @@ struct RaycastParams {
   int block_y_px = 1;
 };
 
-/// Arguments of raycast_pixel and raycast_block: the settings and the buffers.
-struct RaycastArgs : RaycastParams {
-  VolumeView volume;
+/// Arguments of raycast_pixel and raycast_block: the settings and the buffers. `Map`: VolumeView
+/// (the dense cube) or BlockMapView.
+template <class Map>
+struct RaycastArgsT : RaycastParams {
+  Map volume;
   ImageView<Vec3f> vertex;     ///< hit points (volume frame); 0 on a miss
   ImageView<Vec3f> normal;     ///< unit normals; x = kInvalidNormal on a miss
   const TrackingState* state;  ///< raycast_view = T_world_raycast · K⁻¹
 };
 
+/// Raycast arguments over the dense cube.
+using RaycastArgs = RaycastArgsT<VolumeView>;
+
 /// Two-value tsdf sample: nearest voxel in x and y, linear between the two z neighbours.
-KFX_HD inline float volume_interp_two_value(const VolumeView& vol, Vec3f p_m) {
-  const float sx = p_m.x * vol.res / vol.size_m, sy = p_m.y * vol.res / vol.size_m;
-  const float sz = p_m.z * vol.res / vol.size_m - 0.5f;
-  const int last = vol.res - 1;
-  const int x = clampi(static_cast<int>(floorf(sx)), 0, last);
-  const int y = clampi(static_cast<int>(floorf(sy)), 0, last);
+template <class Map>
+KFX_HD inline float volume_interp_two_value(const Map& vol, Vec3f p_m) {
+  const int res = map_grid_res(vol);
+  const float size_m = map_grid_size_m(vol);
+  auto&& reader = map_reader(vol);
+  const float sx = p_m.x * res / size_m, sy = p_m.y * res / size_m;
+  const float sz = p_m.z * res / size_m - 0.5f;
+  const int x = vol.clamp_hi(vol.clamp_lo(static_cast<int>(floorf(sx))));
+  const int y = vol.clamp_hi(vol.clamp_lo(static_cast<int>(floorf(sy))));
   const int bz = static_cast<int>(floorf(sz));
   const float fz = sz - floorf(sz);
-  const float lo = vol.at(x, y, maxi(bz, 0)).tsdf, hi = vol.at(x, y, mini(bz + 1, last)).tsdf;
+  const float lo = reader.stored_tsdf(x, y, vol.clamp_lo(bz)),
+              hi = reader.stored_tsdf(x, y, vol.clamp_hi(bz + 1));
   return (lo * (1 - fz) + hi * fz) * kTsdfInvScale;
 }
 
 /// The sample the march uses: trilinear (exact) or two-value.
-KFX_HD inline float raycast_sample(const RaycastArgs& a, Vec3f p_m) {
+template <class Map>
+KFX_HD inline float raycast_sample(const RaycastArgsT<Map>& a, Vec3f p_m) {
   return a.interp == RaycastInterp::kTwoValue ? volume_interp_two_value(a.volume, p_m)
                                               : volume_interp(a.volume, p_m);
 }
@@ -235,11 +281,11 @@ constexpr int kRaycastBatch = 2;
 
 /// Marches one ray; returns t of the hit (> 0) or 0 on a miss, and the hit point. `Batch`: the
 /// samples of a touched stretch read at once (the result does not depend on it).
-template <int Batch = kRaycastBatch>
-KFX_HD float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Vec3f& hit) {
-  const float size = a.volume.size_m;
-  // Slab intersection with the volume cube [0, size]³.
-  const Vec3f inv_dir{1.0f / direction.x, 1.0f / direction.y, 1.0f / direction.z};
+/// The ray's parameter range [t_near, t_far) inside the dense cube [0, size]³ (a slab test) and
+/// between the near and far planes.
+KFX_HD inline void ray_map_range(const VolumeView& vol, Vec3f origin, Vec3f inv_dir, float near_m,
+                                 float far_m, float& t_near, float& t_far) {
+  const float size = vol.size_m;
   const Vec3f t_bottom = (-1.0f * inv_dir) * origin;
   const Vec3f t_top = inv_dir * (Vec3f{size, size, size} - origin);
   const Vec3f t_min{min_f(t_top.x, t_bottom.x), min_f(t_top.y, t_bottom.y),
@@ -248,8 +294,22 @@ KFX_HD float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Ve
                     max_f(t_top.z, t_bottom.z)};
   const float largest_t_min = max_f(max_f(t_min.x, t_min.y), max_f(t_min.x, t_min.z));
   const float smallest_t_max = min_f(min_f(t_max.x, t_max.y), min_f(t_max.x, t_max.z));
-  const float t_near = max_f(largest_t_min, a.near_m);
-  const float t_far = min_f(smallest_t_max, a.far_m);
+  t_near = max_f(largest_t_min, near_m);
+  t_far = min_f(smallest_t_max, far_m);
+}
+
+/// A block map has no faces: the range is the near and far planes'.
+KFX_HD inline void ray_map_range(const BlockMapView&, Vec3f, Vec3f, float near_m, float far_m,
+                                 float& t_near, float& t_far) {
+  t_near = near_m;
+  t_far = far_m;
+}
+
+template <int Batch = kRaycastBatch, class Map>
+KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f direction, Vec3f& hit) {
+  const Vec3f inv_dir{1.0f / direction.x, 1.0f / direction.y, 1.0f / direction.z};
+  float t_near, t_far;
+  ray_map_range(a.volume, origin, inv_dir, a.near_m, a.far_m, t_near, t_far);
   if (!(t_near < t_far)) return 0.0f;
   float t = t_near;
   const bool constant_step = a.constant_step_m > 0.0f;
@@ -261,7 +321,9 @@ KFX_HD float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Ve
   // and set f_t. f_t is evaluated for real (at t_prev) only if the secant step needs it.
   bool f_t_skipped = false;
   float t_prev = t;
-  const float vox_per_m = a.volume.res / size, voxel_m = size / a.volume.res;
+  const int res = map_grid_res(a.volume);
+  const float size = map_grid_size_m(a.volume);
+  const float vox_per_m = res / size, voxel_m = size / res;
   while (t < t_far) {
     const Vec3f p = origin + direction * t;
     const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m);
@@ -318,7 +380,8 @@ KFX_HD float raycast_ray(const RaycastArgs& a, Vec3f origin, Vec3f direction, Ve
 }
 
 /// One raycast pixel: vertex and normal of the first zero crossing, or a miss.
-KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgs& a) {
+template <class Map>
+KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   const Mat4f& view = a.state->raycast_view;
   const Vec3f origin = view.translation_part();
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
@@ -340,7 +403,8 @@ namespace kfx {
 
 /// One ray per block_x × block_y pixel block (raycast perforation): the ray of the block's
 /// top-left pixel, copied into the whole block. With 1 × 1 blocks this is raycast_pixel.
-KFX_HD inline void raycast_block(int block_x, int block_y, const RaycastArgs& a) {
+template <class Map>
+KFX_HD inline void raycast_block(int block_x, int block_y, const RaycastArgsT<Map>& a) {
   const int x0 = block_x * a.block_x_px, y0 = block_y * a.block_y_px;
   raycast_pixel(x0, y0, a);
   if (a.block_x_px == 1 && a.block_y_px == 1) return;

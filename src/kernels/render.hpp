@@ -101,19 +101,24 @@ KFX_HD inline void render_track_pixel(int x, int y, const RenderTrackArgs& a) {
   a.out(x, y) = track_colour(a.tracked_this_frame ? a.outcome(x, y) : 0);
 }
 
-/// Arguments of render_volume_pixel.
-struct RenderVolumeArgs {
-  RaycastArgs ray;  ///< volume and march settings (vertex/normal views unused)
-  Intrinsics k;     ///< compute-size intrinsics
+/// Arguments of render_volume_pixel (`Map`: VolumeView or BlockMapView).
+template <class Map>
+struct RenderVolumeArgsT {
+  RaycastArgsT<Map> ray;  ///< volume and march settings (vertex/normal views unused)
+  Intrinsics k;           ///< compute-size intrinsics
   ImageView<Rgba8> out;
   Vec3f light_m{1.0f, 1.0f, -1.0f};  ///< point light in the volume frame (SLAMBench's)
   float ambient = 0.1f;              ///< added to every lit component
 };
 
+/// Render arguments over the dense cube.
+using RenderVolumeArgs = RenderVolumeArgsT<VolumeView>;
+
 /// renderVolume: a ray from the current camera (state->T_world_cam) through the pixel; a hit is
 /// shaded by max(0, n·l) + ambient (l towards the light, clamped to 1), a miss or a point
 /// without a gradient is black.
-KFX_HD inline void render_volume_pixel(int x, int y, const RenderVolumeArgs& a) {
+template <class Map>
+KFX_HD inline void render_volume_pixel(int x, int y, const RenderVolumeArgsT<Map>& a) {
   const Mat4f view = a.ray.state->T_world_cam * a.k.inverse_matrix();
   const Vec3f origin = view.translation_part();
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
@@ -157,10 +162,12 @@ inline RenderTrackArgs make_render_track_args(ImageView<const int8_t> outcome, I
 }
 
 /// renderVolume from the current pose into `out` (the march writes no vertex or normal map).
-inline RenderVolumeArgs make_render_volume_args(VolumeView volume, ImageView<Rgba8> out,
-                                                const TrackingState* state, const RenderParams& p) {
-  RenderVolumeArgs a;
-  a.ray = RaycastArgs{p.volume_ray, volume, ImageView<Vec3f>{}, ImageView<Vec3f>{}, state};
+template <class Map>
+inline RenderVolumeArgsT<Map> make_render_volume_args(Map volume, ImageView<Rgba8> out,
+                                                      const TrackingState* state,
+                                                      const RenderParams& p) {
+  RenderVolumeArgsT<Map> a;
+  a.ray = RaycastArgsT<Map>{p.volume_ray, volume, ImageView<Vec3f>{}, ImageView<Vec3f>{}, state};
   a.k = p.volume_ray.k;
   a.out = out;
   a.light_m = p.light_m;

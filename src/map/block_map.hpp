@@ -74,7 +74,53 @@ struct BlockMapView {
   KFX_HD Voxel* block_voxels(int32_t b) const { return voxels + b * kBlockVoxels; }
   /// Block coordinates of block index b.
   KFX_HD Vec3i block_coords(int32_t b) const { return unpack_block_key(block_keys[b]); }
+  /// True when block index b may hold a voxel below kMarkBelowTsdfStored (b ≥ 0).
+  KFX_HD bool block_is_touched(int32_t b) const { return block_touched[b] != 0; }
+
+  // The read interface shared with VolumeView (core/volume.hpp): no faces, nothing to clamp.
+  KFX_HD int clamp_lo(int i) const { return i; }
+  KFX_HD int clamp_hi(int i) const { return i; }
+  KFX_HD bool box_open_above(int) const { return false; }
+  KFX_HD bool box_open_below(int) const { return false; }
+  KFX_HD int16_t stored_tsdf(int x, int y, int z) const { return voxel(x, y, z).tsdf; }
 };
+
+KFX_HD inline int map_grid_res(const BlockMapView& v) { return v.grid_res; }
+KFX_HD inline float map_grid_size_m(const BlockMapView& v) { return v.grid_size_m; }
+
+/// Reads voxels of a block map, remembering the last block it found: neighbouring reads (the
+/// 8 voxels of a trilinear sample, the 32 of a gradient) mostly fall in one block, so they cost
+/// one hash lookup instead of one each.
+struct BlockMapReader {
+  const BlockMapView* map;
+  Vec3i block{kBlockCoordMin - 1, 0, 0};  ///< the remembered block (none yet)
+  const Voxel* voxels = nullptr;          ///< its voxels, null when unallocated
+
+  /// Voxels of the block holding voxel (x, y, z), or null.
+  KFX_HD const Voxel* block_voxels_of(int x, int y, int z) {
+    const int bx = block_of_voxel(x), by = block_of_voxel(y), bz = block_of_voxel(z);
+    if (bx != block.x || by != block.y || bz != block.z) {
+      block = {bx, by, bz};
+      const int32_t b = map->find_block(bx, by, bz);
+      voxels = b < 0 ? nullptr : map->block_voxels(b);
+    }
+    return voxels;
+  }
+  KFX_HD Voxel voxel(int x, int y, int z) {
+    const Voxel* v = block_voxels_of(x, y, z);
+    return v ? v[voxel_in_block(x, y, z)] : empty_voxel();
+  }
+  KFX_HD int16_t stored_tsdf(int x, int y, int z) { return voxel(x, y, z).tsdf; }
+  // The rest of the read interface (VolumeView's), for the marching-cubes bodies.
+  KFX_HD int clamp_lo(int i) const { return i; }
+  KFX_HD int clamp_hi(int i) const { return i; }
+  KFX_HD bool contains(int, int, int) const { return true; }
+  KFX_HD bool contains_cell(int, int, int) const { return true; }
+  KFX_HD float voxel_m() const { return map->voxel_m(); }
+};
+
+/// A reader of the block map (BlockMapReader).
+KFX_HD inline BlockMapReader map_reader(const BlockMapView& v) { return BlockMapReader{&v}; }
 
 /// The voxels of one allocated block, seen with global voxel coordinates (x, y, z) as a volume:
 /// what the per-voxel integration body writes through (IntegrateArgsT<OneBlockView>), so it

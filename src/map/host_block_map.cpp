@@ -16,7 +16,7 @@ uint32_t block_capacity_for_budget(uint64_t budget_bytes) {
 HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m)
     : hash_keys_(block_hash_slot_count(block_capacity), kEmptyBlockKey),
       hash_values_(hash_keys_.size(), -1),
-      voxels_(static_cast<size_t>(block_capacity) * kBlockVoxels, empty_voxel()),
+      voxels_(new Voxel[static_cast<size_t>(block_capacity) * kBlockVoxels]),
       block_keys_(block_capacity, kEmptyBlockKey),
       block_touched_(block_capacity, 0),
       grid_res_(grid_res),
@@ -27,9 +27,6 @@ HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_siz
 void HostBlockMap::clear() {
   std::fill(hash_keys_.begin(), hash_keys_.end(), kEmptyBlockKey);
   std::fill(hash_values_.begin(), hash_values_.end(), -1);
-  // Only the blocks in use hold anything but the empty voxel.
-  std::fill(voxels_.begin(), voxels_.begin() + static_cast<size_t>(block_count_) * kBlockVoxels,
-            empty_voxel());
   std::fill(block_keys_.begin(), block_keys_.end(), kEmptyBlockKey);
   std::fill(block_touched_.begin(), block_touched_.end(), 0);
   block_count_ = 0;
@@ -48,6 +45,8 @@ BlockAllocation HostBlockMap::allocate(std::vector<uint64_t>& candidates) {
     }
     const BlockInsert outcome = map.hash.insert(key, block_count_);
     KFX_CHECK(outcome == BlockInsert::kInserted, "block hash refused a new key below capacity");
+    Voxel* voxels = voxels_.get() + static_cast<size_t>(block_count_) * kBlockVoxels;
+    std::fill(voxels, voxels + kBlockVoxels, empty_voxel());
     block_keys_[block_count_++] = key;
     ++result.allocated;
   }
@@ -62,7 +61,7 @@ void HostBlockMap::add_block(uint64_t key, const Voxel* voxels) {
   KFX_CHECK(outcome == BlockInsert::kInserted,
             "block (" << c.x << ", " << c.y << ", " << c.z << ") is in the map twice");
   std::copy(voxels, voxels + kBlockVoxels,
-            voxels_.begin() + static_cast<size_t>(block_count_) * kBlockVoxels);
+            voxels_.get() + static_cast<size_t>(block_count_) * kBlockVoxels);
   block_keys_[block_count_] = key;
   block_touched_[block_count_] = 1;  // unknown contents: never skipped
   ++block_count_;
@@ -72,7 +71,7 @@ BlockMapView HostBlockMap::view() {
   BlockMapView v;
   v.hash = BlockHashView{hash_keys_.data(), hash_values_.data(),
                          static_cast<uint32_t>(hash_keys_.size() - 1)};
-  v.voxels = voxels_.data();
+  v.voxels = voxels_.get();
   v.block_keys = block_keys_.data();
   v.block_touched = block_touched_.data();
   v.block_capacity = static_cast<int>(block_capacity());
@@ -83,8 +82,8 @@ BlockMapView HostBlockMap::view() {
 }
 
 uint64_t HostBlockMap::reserved_bytes() const {
-  return hash_keys_.size() * (sizeof(uint64_t) + sizeof(int32_t)) + voxels_.size() * sizeof(Voxel) +
-         block_keys_.size() * (sizeof(uint64_t) + 1);
+  return hash_keys_.size() * (sizeof(uint64_t) + sizeof(int32_t)) +
+         block_keys_.size() * (sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1);
 }
 
 }  // namespace kfx

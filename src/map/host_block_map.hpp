@@ -4,6 +4,7 @@
 /// deterministic order.
 
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "map/block_map.hpp"
@@ -56,7 +57,9 @@ class HostBlockMap {
  private:
   std::vector<uint64_t> hash_keys_;
   std::vector<int32_t> hash_values_;
-  std::vector<Voxel> voxels_;
+  /// capacity × kBlockVoxels voxels, left uninitialised until a block is allocated (so a large
+  /// budget costs address space, not memory, until blocks are used).
+  std::unique_ptr<Voxel[]> voxels_;
   std::vector<uint64_t> block_keys_;
   std::vector<uint8_t> block_touched_;
   int block_count_ = 0;

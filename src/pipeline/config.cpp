@@ -200,6 +200,35 @@ std::vector<ConfigField> build_fields() {
     f.format = [](const C& c) { return format_list(c.volume.init_pose_factor); };
     t.push_back(f);
   }
+  {
+    ConfigField f;
+    f.key = "volume";
+    f.section = "volume";
+    f.help =
+        "the map: dense (one cube of volume_resolution^3 voxels over volume_size_m, "
+        "SLAMBench's) | blocks (8^3 voxel blocks allocated where depth lands, no cube; CPU "
+        "backend only so far)";
+    f.parse = [](C& c, const std::string& text) {
+      if (text == "dense") {
+        c.volume.kind = MapKind::kDense;
+      } else if (text == "blocks") {
+        c.volume.kind = MapKind::kBlocks;
+      } else {
+        KFX_FAIL("setting 'volume': '" << text << "' is not one of dense, blocks");
+      }
+    };
+    f.format = [](const C& c) {
+      return std::string(c.volume.kind == MapKind::kBlocks ? "blocks" : "dense");
+    };
+    t.push_back(f);
+  }
+  num("voxel_size_m", "volume", "", "",
+      "volume=blocks: voxel side in metres (0 = volume_size_m / volume_resolution; 0.001..1)",
+      [](C& c) -> float& { return c.volume.voxel_size_m; });
+  integer("map_budget_mb", "volume", "", "",
+          "volume=blocks: memory for voxel blocks in MiB; its blocks are all the map can hold "
+          "(1..1048576)",
+          [](C& c) -> int& { return c.volume.map_budget_mb; });
   num("mu_m", "volume", "m", "mu", "TSDF truncation distance in metres",
       [](C& c) -> float& { return c.volume.mu_m; });
   integer("max_weight", "volume", "", "", "voxel weight cap (1..32767)",
@@ -485,6 +514,12 @@ void PipelineConfig::validate() const {
   KFX_CHECK(volume.resolution_vox >= 8 && volume.resolution_vox <= 1024,
             "volume_resolution must be in 8..1024 voxels, got " << volume.resolution_vox);
   KFX_CHECK(volume.size_m > 0, "volume_size_m must be > 0, got " << volume.size_m);
+  KFX_CHECK(
+      volume.voxel_size_m == 0.0f || (volume.voxel_size_m >= 0.001f && volume.voxel_size_m <= 1.0f),
+      "voxel_size_m must be 0 (volume_size_m / volume_resolution) or in 0.001..1 m, got "
+          << volume.voxel_size_m);
+  KFX_CHECK(volume.map_budget_mb >= 1 && volume.map_budget_mb <= (1 << 20),
+            "map_budget_mb must be in 1..1048576 MiB, got " << volume.map_budget_mb);
   for (float f : volume.init_pose_factor) {
     KFX_CHECK(f >= 0 && f <= 1, "init_pose_factor components must be in [0, 1], got " << f);
   }
@@ -567,7 +602,6 @@ std::string PipelineConfig::dump() const {
 StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& compute_k,
                               int compute_width_px, int compute_height_px) {
   const auto& approx = config.approx;
-  const float size_m = config.volume.size_m;
   StageParams p;
   p.bilateral =
       make_bilateral_params(approx.bilateral_mode, config.preprocess.bilateral_radius_px,
@@ -601,7 +635,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.raycast.k = compute_k;
   p.raycast.near_m = config.raycast.near_m;
   p.raycast.far_m = config.raycast.far_m;
-  p.raycast.step_m = size_m / static_cast<float>(config.volume.resolution_vox);
+  p.raycast.step_m = config.volume.grid_size_m() / static_cast<float>(config.volume.grid_res());
   p.raycast.large_step_m = config.raycast.large_step_mu * config.volume.mu_m;
   p.raycast.constant_step_m = approx.raycast_constant_step_m;
   p.raycast.interp = approx.raycast_interp;

@@ -35,6 +35,19 @@ struct PipelineConfig {
     std::array<float, 3> init_pose_factor{0.5f, 0.5f, 0.0f};  ///< first camera at factor·size
     float mu_m = 0.1f;                                        ///< TSDF truncation distance
     int max_weight = 100;                                     ///< voxel weight cap
+    /// The map: the dense cube above (SLAMBench's) or 8³ voxel blocks allocated where depth
+    /// lands (no cube: size_m and resolution_vox then only give the voxel size and, with
+    /// init_pose_factor, the first camera's position).
+    MapKind kind = MapKind::kDense;
+    float voxel_size_m = 0.0f;  ///< blocks: voxel side; 0 = size_m / resolution_vox
+    int map_budget_mb = 2048;   ///< blocks: memory for blocks, MiB (fixes the block capacity)
+    /// The voxel size as the maps keep it, the ratio size / res (map/block_map.hpp).
+    int grid_res() const {
+      return kind == MapKind::kBlocks && voxel_size_m > 0 ? 1 : resolution_vox;
+    }
+    float grid_size_m() const {
+      return kind == MapKind::kBlocks && voxel_size_m > 0 ? voxel_size_m : size_m;
+    }
   } volume;
   struct Preprocess {
     int bilateral_radius_px = 2;              ///< window (2r+1)²

@@ -2,6 +2,7 @@
 
 #include "pipeline/pipeline.hpp"
 
+#include "map/host_block_map.hpp"
 #include "pipeline/depth_undistortion.hpp"
 
 namespace kfx {
@@ -24,8 +25,16 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.input_height_px = input_height_px;
   setup_.compute_ratio = ratio;
   setup_.pyramid_levels = levels;
-  setup_.volume_res_vox = config_.volume.resolution_vox;
-  setup_.volume_size_m = config_.volume.size_m;
+  setup_.map_kind = config_.volume.kind;
+  if (setup_.map_kind == MapKind::kBlocks) {
+    setup_.volume_res_vox = config_.volume.grid_res();
+    setup_.volume_size_m = config_.volume.grid_size_m();
+    setup_.block_capacity =
+        block_capacity_for_budget(static_cast<uint64_t>(config_.volume.map_budget_mb) << 20);
+  } else {
+    setup_.volume_res_vox = config_.volume.resolution_vox;
+    setup_.volume_size_m = config_.volume.size_m;
+  }
   setup_.cuda = config_.cuda;
   setup_.device_index = device_index;
   setup_.pipelines_on_device = pipelines_on_device;
@@ -108,6 +117,7 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
     if (!track && params.weight_mode == IntegrationWeight::kDepthAngle) {
       params.weight_mode = IntegrationWeight::kDepth;
     }
+    b.allocate_blocks(params, always);  // the block map's own stage; nothing for the cube
     b.integrate(params, always);
   }
   b.end_stage(Stage::kIntegrate);
@@ -146,6 +156,8 @@ FrameReport Pipeline::collect() {
   report.tracked = track && state.tracked;
   report.integrated = may_integrate && (always || state.tracked);
   report.T_world_cam = state.T_world_cam;
+  report.map_blocks = state.map_blocks;
+  report.map_blocks_dropped = report.integrated ? state.map_blocks_dropped : 0;
   report.icp_iterations = track ? state.iterations_run : 0;
   report.inlier_fraction =
       track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)

@@ -27,6 +27,11 @@ struct FrameReport {
   double computation_ms = 0;   ///< preprocess + track + integrate + raycast
   int icp_iterations = 0;      ///< ICP iterations run (all levels)
   double inlier_fraction = 0;  ///< inliers / compute pixels at the last iteration
+  /// The block map (volume=blocks; 0 with the dense cube): blocks allocated after the frame,
+  /// and blocks its truncation band reached that did not fit the map's budget (that part of
+  /// the frame's surface was not stored).
+  int map_blocks = 0;
+  int map_blocks_dropped = 0;
 };
 
 /// A KinectFusion pipeline over one backend.

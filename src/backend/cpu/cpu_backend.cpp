@@ -12,12 +12,15 @@
 
 #include "backend/backend.hpp"
 #include "backend/frame_buffers.hpp"
+#include "kernels/block_allocation.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/marching_cubes.hpp"
+#include "kernels/marching_cubes_blocks.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
 #include "kernels/track.hpp"
+#include "map/host_block_map.hpp"
 
 namespace kfx {
 namespace {
@@ -46,7 +49,8 @@ void for_each_pixel(int width, int height, Body body) {
 /// no longer inlines the march here on its own, and out of line it ran 5-10 % slower on the
 /// 2-core AMD EPYC CI VM (bench/RESULTS.md). `flatten` asks for that on the host only, so the
 /// kernel body and the CUDA build stay as they are.
-KFX_CPU_FLATTEN void raycast_row(int block_y, int blocks_x, const RaycastArgs& a) {
+template <class Map>
+KFX_CPU_FLATTEN void raycast_row(int block_y, int blocks_x, const RaycastArgsT<Map>& a) {
   for (int x = 0; x < blocks_x; ++x) raycast_block(x, block_y, a);
 }
 
@@ -69,6 +73,9 @@ class CpuBackend final : public Backend {
         input_mm_(setup.input_width_px, setup.input_height_px),
         buffers_(setup),
         row_partials_(static_cast<size_t>(setup.compute_height_px()) * kAccumulatorSize) {
+    if (blocks()) {
+      blocks_ = HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m);
+    }
     auto& normals = buffers_.ref_normal.pixels();
     std::fill(normals.begin(), normals.end(), Vec3f{kInvalidNormal, 0, 0});
   }
@@ -83,6 +90,7 @@ class CpuBackend final : public Backend {
     std::fill(buffers_.volume.begin(), buffers_.volume.end(), empty);
     std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 0);
     std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 0);
+    if (blocks()) blocks_.clear();
     auto& vertices = buffers_.ref_vertex.pixels();
     std::fill(vertices.begin(), vertices.end(), Vec3f{0, 0, 0});
     state_ = initial_tracking_state(T_world_cam);
@@ -160,9 +168,45 @@ class CpuBackend final : public Backend {
   void accept_or_revert(const AcceptParams& p) override { kfx::accept_or_revert(state_, p); }
   void skip_tracking() override { state_.tracked = 0; }
 
+  void allocate_blocks(const IntegrateParams& p, bool always) override {
+    if (!blocks()) return;
+    prepare_integration(state_, always);
+    state_.map_blocks_dropped = 0;
+    if (!state_.integrate_now) return;
+    const BlockAllocArgs a{p.k, p.mu_m, blocks_.view(), buffers_.depth_m.view(), &state_};
+    const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
+    // Each thread gathers the keys its rows reach that the map lacks; the map sorts them, so
+    // which thread found a key first does not matter.
+    std::vector<std::vector<uint64_t>> found(static_cast<size_t>(omp_get_max_threads()));
+#pragma omp parallel
+    {
+      std::vector<uint64_t>& mine = found[static_cast<size_t>(omp_get_thread_num())];
+      uint64_t last = kEmptyBlockKey;
+#pragma omp for schedule(static)
+      for (int y = 0; y < h; ++y) {
+        for (int x = 0; x < w; ++x) {
+          band_blocks_of_pixel(x, y, a, [&](uint64_t key) {
+            if (key == last) return;
+            last = key;
+            if (a.map.hash.find(key) < 0) mine.push_back(key);
+          });
+        }
+      }
+    }
+    std::vector<uint64_t> candidates;
+    for (const auto& keys : found) candidates.insert(candidates.end(), keys.begin(), keys.end());
+    const BlockAllocation allocation = blocks_.allocate(candidates);
+    state_.map_blocks = blocks_.block_count();
+    state_.map_blocks_dropped = allocation.dropped;
+  }
+
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
+    if (blocks()) {
+      integrate_blocks(p);
+      return;
+    }
     const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), &state_,
                           buffers_.level_normal[0].view()};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
@@ -180,6 +224,10 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
+    if (blocks()) {
+      raycast_map(p, blocks_.view());
+      return;
+    }
     const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(),
                         buffers_.ref_normal.view(), &state_};
     const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
@@ -196,11 +244,12 @@ class CpuBackend final : public Backend {
     const RenderTrackArgs t =
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     for_each_pixel(w, h, [&](int x, int y) { render_track_pixel(x, y, t); });
-    const RenderVolumeArgs v =
-        make_render_volume_args(buffers_.volume_view(), buffers_.render_volume.view(), &state_, p);
-#pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) render_volume_pixel(x, y, v);
+    if (blocks()) {
+      render_volume(
+          make_render_volume_args(blocks_.view(), buffers_.render_volume.view(), &state_, p));
+    } else {
+      render_volume(make_render_volume_args(buffers_.volume_view(), buffers_.render_volume.view(),
+                                            &state_, p));
     }
   }
 
@@ -242,9 +291,15 @@ class CpuBackend final : public Backend {
   Renders read_renders() override {
     return Renders{buffers_.render_depth, buffers_.render_track, buffers_.render_volume};
   }
-  std::vector<Voxel> read_volume() override { return buffers_.volume; }
+  std::vector<Voxel> read_volume() override {
+    KFX_CHECK(!blocks(),
+              "volume=blocks: the map has no dense cube to read (save and load of a "
+              "block map are not built yet)");
+    return buffers_.volume;
+  }
 
   void reserve_mesh_extraction() override {
+    if (blocks()) return;  // sized per call by the blocks in the map
     if (!mesh_run_offset_.empty()) return;
     const size_t r = static_cast<size_t>(setup_.volume_res_vox);
     const size_t runs = static_cast<size_t>(mc_run_count(setup_.volume_res_vox));
@@ -266,6 +321,7 @@ class CpuBackend final : public Backend {
   }
 
   MeshView extract_mesh() override {
+    if (blocks()) return extract_block_mesh();
     reserve_mesh_extraction();
     const int res = setup_.volume_res_vox;
     const VolumeView volume = buffers_.volume_view();
@@ -325,6 +381,7 @@ class CpuBackend final : public Backend {
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
+    KFX_CHECK(!blocks(), "volume=blocks: a dense volume cannot be loaded into a block map");
     KFX_CHECK(voxels.size() == buffers_.volume.size(),
               "volume of " << voxels.size() << " voxels given, the backend holds "
                            << buffers_.volume.size());
@@ -334,6 +391,84 @@ class CpuBackend final : public Backend {
   }
 
  private:
+  bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
+
+  /// Integration over the block map: every allocated block in view, one block per task.
+  void integrate_blocks(const IntegrateParams& p) {
+    const BlockMapView map = blocks_.view();
+    IntegrateArgsT<OneBlockView> a{p, OneBlockView{}, buffers_.depth_m.view(), &state_,
+                                   buffers_.level_normal[0].view()};
+#pragma omp parallel for schedule(dynamic, 16) firstprivate(a)
+    for (int b = 0; b < map.block_count; ++b) {
+      if (!block_in_view(map, b, a)) continue;
+      a.volume = one_block_view(map, b);
+      integrate_block(a);
+    }
+  }
+
+  template <class Map>
+  void raycast_map(const RaycastParams& p, const Map& map) {
+    const RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
+                              &state_};
+    const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
+    const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
+  }
+
+  template <class Args>
+  void render_volume(const Args& v) {
+    const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) render_volume_pixel(x, y, v);
+    }
+  }
+
+  /// Marching cubes over the block map (kernels/marching_cubes_blocks.hpp).
+  MeshView extract_block_mesh() {
+    const BlockMapView map = blocks_.view();
+    const int n = map.block_count;
+    std::vector<uint8_t> signs(static_cast<size_t>(n));
+#pragma omp parallel for schedule(static)
+    for (int b = 0; b < n; ++b) signs[b] = mc_map_block_sign_bits(map, b);
+    std::vector<int32_t> active;  // block indices, in increasing key order
+    std::vector<uint8_t> is_active(static_cast<size_t>(n));
+#pragma omp parallel for schedule(static)
+    for (int b = 0; b < n; ++b) is_active[b] = mc_map_block_active(map, signs.data(), b);
+    for (int b = 0; b < n; ++b) {
+      if (is_active[b]) active.push_back(b);
+    }
+    std::sort(active.begin(), active.end(),
+              [&](int32_t l, int32_t r) { return map.block_keys[l] < map.block_keys[r]; });
+    std::vector<int32_t> slot(static_cast<size_t>(n), -1);
+    for (size_t s = 0; s < active.size(); ++s) slot[active[s]] = static_cast<int32_t>(s);
+    const int slots = static_cast<int>(active.size());
+    std::vector<uint32_t> first_vertex(static_cast<size_t>(slots) * kBlockVoxels);
+    std::vector<uint32_t> vertex_offset(static_cast<size_t>(slots) + 1, 0);
+    std::vector<uint32_t> triangle_offset(static_cast<size_t>(slots) + 1, 0);
+    BlockMeshArgs a{map,
+                    &kMcTable,
+                    active.data(),
+                    slot.data(),
+                    first_vertex.data(),
+                    vertex_offset.data(),
+                    triangle_offset.data(),
+                    nullptr,
+                    nullptr};
+#pragma omp parallel for schedule(dynamic, 8)
+    for (int s = 0; s < slots; ++s) mc_count_block(s, a);
+    const size_t vertex_total = exclusive_scan(vertex_offset, "vertices");
+    const size_t triangle_total = exclusive_scan(triangle_offset, "triangles");
+    if (mesh_vertices_.size() < vertex_total) mesh_vertices_.resize(vertex_total);
+    if (mesh_triangles_.size() < triangle_total) mesh_triangles_.resize(triangle_total);
+    a.vertices = mesh_vertices_.data();
+    a.triangles = mesh_triangles_.data();
+#pragma omp parallel for schedule(dynamic, 8)
+    for (int s = 0; s < slots; ++s) mc_write_block(s, a);
+    return MeshView{mesh_vertices_.data(), vertex_total, mesh_triangles_.data(), triangle_total};
+  }
+
   /// The undistortion table as mm → m reads it; no data when there is none.
   ImageView<const SourcePixel> source_view() const {
     return setup_.depth_source_px.empty() ? ImageView<const SourcePixel>{}
@@ -363,6 +498,7 @@ class CpuBackend final : public Backend {
   HostImage<uint16_t> input_mm_;
   FrameBuffers<HostImage, HostArray> buffers_;
   std::vector<double> row_partials_;
+  HostBlockMap blocks_;  ///< the block map (MapKind::kBlocks), else empty
   // Mesh extraction (MarchingCubesArgs), allocated on first use.
   std::vector<uint8_t> mesh_brick_signs_;       ///< mc_brick_sign_bits per brick
   std::vector<uint8_t> mesh_brick_active_;      ///< mc_brick_active per brick

@@ -518,6 +518,8 @@ class CudaBackend final : public Backend {
 }  // namespace cuda
 
 std::unique_ptr<Backend> make_cuda_backend(const BackendSetup& setup) {
+  KFX_CHECK(setup.map_kind == MapKind::kDense,
+            "volume=blocks is not supported by the CUDA backend yet; use --backend cpu");
   return std::make_unique<cuda::CudaBackend>(setup);
 }
 
