@@ -4,10 +4,12 @@
 #include <algorithm>
 #include <chrono>
 #include <iostream>
+#include <memory>
 #include <vector>
 
 #include "backend/backend.hpp"
 #include "commands.hpp"
+#include "output/block_map_file.hpp"
 #include "output/mesh_output.hpp"
 #include "output/volume_file.hpp"
 
@@ -40,21 +42,35 @@ void transform_mesh(Mesh& mesh, const Mat4f& T) {
 }
 
 void mesh_command(const MeshOptions& o) {
-  const output::SavedVolume volume = output::read_volume_file(o.volume_path);
-  if (!output::any_observed(volume.voxels)) {
-    std::cerr << "kfx mesh: note: " << o.volume_path << " has no observed voxel (nothing was "
-              << "integrated)\n";
-  }
   // The backend only meshes here: its image buffers are token-sized.
   BackendSetup setup;
   setup.input_width_px = 8;
   setup.input_height_px = 8;
   setup.compute_ratio = 1;
   setup.pyramid_levels = 1;
-  setup.volume_res_vox = volume.res;
-  setup.volume_size_m = volume.size_m;
-  auto backend = make_backend(parse_backend_kind(o.backend), setup);
-  backend->upload_volume(volume.voxels);
+  std::unique_ptr<Backend> backend;
+  Mat4f T_trajectory_volume;
+  if (output::is_block_map_file(o.volume_path)) {  // map.kfxblocks (volume=blocks)
+    const output::SavedBlockMap saved = output::read_block_map_file(o.volume_path);
+    setup.map_kind = MapKind::kBlocks;
+    setup.volume_res_vox = saved.map.grid_res;
+    setup.volume_size_m = saved.map.grid_size_m;
+    setup.block_capacity = static_cast<uint32_t>(std::max<size_t>(1, saved.map.keys.size()));
+    backend = make_backend(parse_backend_kind(o.backend), setup);
+    backend->upload_blocks(saved.map);
+    T_trajectory_volume = saved.T_trajectory_map;
+  } else {
+    const output::SavedVolume volume = output::read_volume_file(o.volume_path);
+    if (!output::any_observed(volume.voxels)) {
+      std::cerr << "kfx mesh: note: " << o.volume_path << " has no observed voxel (nothing was "
+                << "integrated)\n";
+    }
+    setup.volume_res_vox = volume.res;
+    setup.volume_size_m = volume.size_m;
+    backend = make_backend(parse_backend_kind(o.backend), setup);
+    backend->upload_volume(volume.voxels);
+    T_trajectory_volume = volume.T_trajectory_volume;
+  }
   backend->reserve_mesh_extraction();
   // Timed as a benchmark would: extraction, compaction and the copy to the host, per repeat.
   std::vector<double> extraction_ms;
@@ -69,9 +85,9 @@ void mesh_command(const MeshOptions& o) {
   std::vector<double> sorted = extraction_ms;
   std::sort(sorted.begin(), sorted.end());
   Mesh moved;  // a copy only when the mesh must move into the trajectory frame
-  if (!is_identity(volume.T_trajectory_volume)) {
+  if (!is_identity(T_trajectory_volume)) {
     moved = Mesh(mesh);
-    transform_mesh(moved, volume.T_trajectory_volume);
+    transform_mesh(moved, T_trajectory_volume);
     mesh = moved;
   }
   output::write_run_mesh(o.out_path, mesh, o.volume_path, false);
@@ -84,9 +100,11 @@ void mesh_command(const MeshOptions& o) {
 }  // namespace
 
 void add_mesh_command(CLI::App& app) {
-  auto* command = app.add_subcommand("mesh", "mesh a volume saved by kfx run --save-volume");
+  auto* command = app.add_subcommand(
+      "mesh", "mesh a volume (or, with volume=blocks, a block map) saved by kfx run --save-volume");
   auto options = std::make_shared<MeshOptions>();
-  command->add_option("VOLUME", options->volume_path, "volume file (.kfxtsdf)")->required();
+  command->add_option("VOLUME", options->volume_path, "volume file (.kfxtsdf or .kfxblocks)")
+      ->required();
   command->add_option("OUT", options->out_path, "output mesh (.ply)")->required();
   command->add_option("--backend", options->backend, "cpu, cuda or auto")->capture_default_str();
   command

@@ -17,6 +17,7 @@
 #include "eval/report.hpp"
 #include "io/trajectory.hpp"
 #include "map/host_block_map.hpp"
+#include "output/block_map_file.hpp"
 #include "output/cloud_ply.hpp"
 #include "output/host_memory.hpp"
 #include "output/mesh_output.hpp"
@@ -76,10 +77,11 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   io::Reader& reader = *prepared.reader;
   // Everything that can fail for want of room or permission fails here, before the run.
   output::prepare_run_folder(out_dir, outputs.overwrite);
-  KFX_CHECK(!(outputs.save_volume && prepared.config.volume.kind == MapKind::kBlocks),
-            "--save-volume: saving a block map (volume=blocks) is not built yet");
+  const bool blocks = prepared.config.volume.kind == MapKind::kBlocks;
   const size_t volume_bytes = output::volume_host_bytes(prepared.config.volume.resolution_vox);
-  if (outputs.save_volume) output::check_host_memory(volume_bytes, "--save-volume's host copy");
+  if (outputs.save_volume && !blocks) {
+    output::check_host_memory(volume_bytes, "--save-volume's host copy");
+  }
 
   Pipeline pipeline(prepared.config, prepared.input_intrinsics, reader.width_px(),
                     reader.height_px(), prepared.backend);
@@ -253,7 +255,12 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                                     options.input + ", volume frame (as trajectory.txt), metres");
     written += " cloud.ply";
   }
-  if (outputs.save_volume) {
+  if (outputs.save_volume && blocks) {
+    output::SavedBlockMap map;
+    map.map = pipeline.backend().read_blocks();
+    output::write_block_map_file(out_dir + "/map.kfxblocks", map);
+    written += " map.kfxblocks";
+  } else if (outputs.save_volume) {
     output::SavedVolume volume;
     volume.res = pipeline.config().volume.resolution_vox;
     volume.size_m = pipeline.config().volume.size_m;
@@ -301,7 +308,8 @@ void add_run_command(CLI::App& app) {
   command->add_flag("--cloud", outputs->cloud,
                     "also write cloud.ply (points and normals of the last raycast)");
   command->add_flag("--save-volume", outputs->save_volume,
-                    "also write the TSDF as volume.kfxtsdf (for kfx mesh)");
+                    "also write the TSDF as volume.kfxtsdf (with volume=blocks: the block map as "
+                    "map.kfxblocks), for kfx mesh");
   command->add_flag("--renders", outputs->renders,
                     "write SLAMBench's depth, track and volume renders as PNG under DIR/renders/ "
                     "every render_rate (-z) frames");

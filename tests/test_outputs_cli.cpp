@@ -12,7 +12,9 @@
 
 #include "cli_runner.hpp"
 #include "io/png.hpp"
+#include "map/host_block_map.hpp"
 #include "mesh_test_support.hpp"
+#include "output/block_map_file.hpp"
 #include "output/mesh_ply.hpp"
 #include "output/slambench_log_writer.hpp"
 #include "output/volume_file.hpp"
@@ -64,6 +66,70 @@ TEST_F(OutputsCli, SavedVolumeMeshesToTheRunsOwnMesh) {
   EXPECT_EQ(std::memcmp(again.triangles.data(), run_mesh.triangles.data(),
                         again.triangles.size() * sizeof(MeshTriangle)),
             0);
+}
+
+TEST_F(OutputsCli, SavedBlockMapMeshesToTheRunsOwnMeshAndStatsSayItsSize) {
+  const fs::path out = dir_ / "run";
+  auto r = run_kfx(small_run() + "--set volume=blocks --save-volume --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(out / "volume.kfxtsdf"));
+  const Mesh run_mesh = output::read_mesh_ply((out / "mesh.ply").string());
+  ASSERT_GT(run_mesh.triangles.size(), 100u);
+  const auto stats = nlohmann::json::parse(std::ifstream(out / "stats.json"));
+  const size_t blocks = stats["map_blocks"].get<size_t>();
+  EXPECT_GT(blocks, 100u);
+  EXPECT_EQ(stats["map_bytes"].get<size_t>(), blocks * kBytesPerBlock);
+  EXPECT_EQ(stats["map_blocks_dropped"].get<long long>(), 0);
+  // 92 header bytes, then per block 3 coordinates and 8^3 voxels.
+  EXPECT_EQ(fs::file_size(out / "map.kfxblocks"), 92u + blocks * (12u + 4u * 512));
+
+  r = run_kfx("mesh " + (out / "map.kfxblocks").string() + " " + (dir_ / "again.ply").string() +
+              " --backend cpu");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const Mesh again = output::read_mesh_ply((dir_ / "again.ply").string());
+  ASSERT_EQ(again.vertices.size(), run_mesh.vertices.size());
+  ASSERT_EQ(again.triangles.size(), run_mesh.triangles.size());
+  EXPECT_EQ(std::memcmp(again.vertices.data(), run_mesh.vertices.data(),
+                        again.vertices.size() * sizeof(MeshVertex)),
+            0);
+  EXPECT_EQ(std::memcmp(again.triangles.data(), run_mesh.triangles.data(),
+                        again.triangles.size() * sizeof(MeshTriangle)),
+            0);
+}
+
+TEST_F(OutputsCli, AFullBlockMapIsAWarningNamingTheFrame) {
+  // 256^3's voxels (16 mm): the first frame alone needs more blocks than 1 MiB holds.
+  const auto r = run_kfx(
+      "run synthetic:frames=8,width=160,height=120 --backend cpu -q --set volume=blocks --set "
+      "map_budget_mb=1 --out " +
+      (dir_ / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: frame 0: the map is full"), std::string::npos) << r.output;
+  const auto stats = nlohmann::json::parse(std::ifstream(dir_ / "run" / "stats.json"));
+  EXPECT_GT(stats["map_blocks_dropped"].get<long long>(), 0);
+  EXPECT_EQ(stats["map_first_frame_short_of_blocks"].get<int>(), 0);
+}
+
+TEST_F(OutputsCli, BadBlockMapsAreNamed) {
+  output::SavedBlockMap map;
+  map.map.grid_res = 64;
+  map.map.grid_size_m = 2.0f;
+  for (int x : {3, -2}) {  // out of key order: the second sorts first
+    map.map.keys.push_back(pack_block_key(x, 0, 0));
+    map.map.voxels.insert(map.map.voxels.end(), kBlockVoxels, Voxel{100, 1});
+  }
+  const std::string path = (dir_ / "bad.kfxblocks").string();
+  output::write_block_map_file(path, map);
+  auto r = run_kfx("mesh " + path + " " + (dir_ / "o.ply").string() + " --backend cpu");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("out of order"), std::string::npos) << r.output;
+  // Truncated: a block short.
+  fs::resize_file(path, fs::file_size(path) - 100);
+  r = run_kfx("mesh " + path + " " + (dir_ / "o.ply").string() + " --backend cpu");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("bad.kfxblocks"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("a map of 2 blocks has"), std::string::npos) << r.output;
+  EXPECT_FALSE(fs::exists(dir_ / "o.ply"));
 }
 
 TEST_F(OutputsCli, NoMeshWritesNone) {

@@ -24,6 +24,7 @@
 #include "kernels/render.hpp"
 #include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
+#include "map/host_block_map.hpp"
 
 namespace kfx {
 
@@ -185,6 +186,14 @@ class Backend {
   /// Replaces the volume by `voxels` (res³ of them, x fastest), e.g. a saved volume; marks
   /// every brick touched.
   virtual void upload_volume(const std::vector<Voxel>& voxels) = 0;
+  /// Block map only (MapKind::kBlocks): a host copy of its blocks in key order, and replacing
+  /// them (e.g. by a saved map). The dense cube throws kfx::Error.
+  virtual BlockMapContents read_blocks() {
+    KFX_FAIL("read_blocks(): this backend keeps no block map");
+  }
+  virtual void upload_blocks(const BlockMapContents&) {
+    KFX_FAIL("upload_blocks(): this backend keeps no block map");
+  }
 };
 
 /// Scratch bytes mesh extraction needs for a res³ volume: a byte per voxel (owned vertex

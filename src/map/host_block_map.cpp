@@ -67,6 +67,35 @@ void HostBlockMap::add_block(uint64_t key, const Voxel* voxels) {
   ++block_count_;
 }
 
+BlockMapContents HostBlockMap::contents() const {
+  std::vector<int32_t> order(static_cast<size_t>(block_count_));
+  for (int b = 0; b < block_count_; ++b) order[b] = b;
+  std::sort(order.begin(), order.end(),
+            [&](int32_t l, int32_t r) { return block_keys_[l] < block_keys_[r]; });
+  BlockMapContents c;
+  c.grid_res = grid_res_;
+  c.grid_size_m = grid_size_m_;
+  c.keys.reserve(order.size());
+  c.voxels.reserve(order.size() * kBlockVoxels);
+  for (const int32_t b : order) {
+    c.keys.push_back(block_keys_[b]);
+    const Voxel* v = voxels_.get() + static_cast<size_t>(b) * kBlockVoxels;
+    c.voxels.insert(c.voxels.end(), v, v + kBlockVoxels);
+  }
+  return c;
+}
+
+void HostBlockMap::load(const BlockMapContents& c) {
+  KFX_CHECK(c.grid_res == grid_res_ && c.grid_size_m == grid_size_m_,
+            "a map of voxel size " << c.grid_size_m / c.grid_res
+                                   << " m cannot be loaded into one of " << grid_size_m_ / grid_res_
+                                   << " m");
+  KFX_CHECK(c.voxels.size() == c.keys.size() * kBlockVoxels,
+            "a map of " << c.keys.size() << " blocks with " << c.voxels.size() << " voxels");
+  clear();
+  for (size_t i = 0; i < c.keys.size(); ++i) add_block(c.keys[i], &c.voxels[i * kBlockVoxels]);
+}
+
 BlockMapView HostBlockMap::view() {
   BlockMapView v;
   v.hash = BlockHashView{hash_keys_.data(), hash_values_.data(),

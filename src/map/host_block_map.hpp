@@ -25,6 +25,15 @@ struct BlockAllocation {
   int dropped = 0;    ///< new blocks not stored: the map was at its capacity
 };
 
+/// A block map's contents in increasing key order (what a map file holds): the voxel size as
+/// grid_size_m / grid_res, and per block its packed key and kBlockVoxels voxels.
+struct BlockMapContents {
+  int grid_res = 1;
+  float grid_size_m = 0.01f;
+  std::vector<uint64_t> keys;
+  std::vector<Voxel> voxels;  ///< kBlockVoxels per key, in the keys' order
+};
+
 /// An owning block map in host memory.
 class HostBlockMap {
  public:
@@ -42,6 +51,12 @@ class HostBlockMap {
   /// Adds block `key` with the given voxels (loading a saved map); throws kfx::Error when the
   /// key is present already or the map is full.
   void add_block(uint64_t key, const Voxel* voxels);
+
+  /// The blocks in increasing key order (independent of the order they were allocated in).
+  BlockMapContents contents() const;
+  /// Replaces the map by `contents` (same voxel size; blocks must fit the capacity); every block
+  /// is marked touched. Throws kfx::Error on a duplicate key or too many blocks.
+  void load(const BlockMapContents& contents);
 
   BlockMapView view();
   /// Blocks allocated.

@@ -380,6 +380,16 @@ class CpuBackend final : public Backend {
                     mesh_triangles_.data(), triangle_total};
   }
 
+  BlockMapContents read_blocks() override {
+    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
+    return blocks_.contents();
+  }
+  void upload_blocks(const BlockMapContents& contents) override {
+    KFX_CHECK(blocks(), "upload_blocks(): the map is the dense cube (volume=dense)");
+    blocks_.load(contents);
+    state_.map_blocks = blocks_.block_count();
+  }
+
   void upload_volume(const std::vector<Voxel>& voxels) override {
     KFX_CHECK(!blocks(), "volume=blocks: a dense volume cannot be loaded into a block map");
     KFX_CHECK(voxels.size() == buffers_.volume.size(),

@@ -1,0 +1,105 @@
+#include "output/block_map_file.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+
+#include "core/platform.hpp"
+#include "io/binary_output_file.hpp"
+
+namespace kfx::output {
+namespace {
+
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
+              "block map files are copied as they lie in memory (little-endian)");
+static_assert(sizeof(Voxel) == 4, "a voxel is two int16");
+
+constexpr char kMagic[8] = {'K', 'F', 'X', 'B', 'L', 'K', 'S', '\0'};
+constexpr size_t kHeaderBytes = 92;
+constexpr size_t kBlockBytes = 3 * sizeof(int32_t) + kBlockVoxels * sizeof(Voxel);
+
+}  // namespace
+
+bool is_block_map_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  char magic[8] = {};
+  in.read(magic, 8);
+  return in.gcount() == 8 && std::memcmp(magic, kMagic, 8) == 0;
+}
+
+void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
+  const BlockMapContents& m = saved.map;
+  KFX_CHECK(m.voxels.size() == m.keys.size() * kBlockVoxels,
+            path << ": " << m.keys.size() << " blocks with " << m.voxels.size() << " voxels");
+  io::BinaryOutputFile file(path, "block map");
+  unsigned char header[kHeaderBytes];
+  const uint32_t version = kBlockMapFileVersion, res = static_cast<uint32_t>(m.grid_res);
+  const uint64_t count = m.keys.size();
+  std::memcpy(header, kMagic, 8);
+  std::memcpy(header + 8, &version, 4);
+  std::memcpy(header + 12, &res, 4);
+  std::memcpy(header + 16, &m.grid_size_m, 4);
+  std::memcpy(header + 20, saved.T_trajectory_map.m, 64);
+  std::memcpy(header + 84, &count, 8);
+  std::fwrite(header, 1, sizeof(header), file.file());
+  for (size_t i = 0; i < m.keys.size(); ++i) {
+    const Vec3i c = unpack_block_key(m.keys[i]);
+    const int32_t coords[3] = {c.x, c.y, c.z};
+    std::fwrite(coords, sizeof(int32_t), 3, file.file());
+    std::fwrite(&m.voxels[i * kBlockVoxels], sizeof(Voxel), kBlockVoxels, file.file());
+  }
+  file.commit();
+}
+
+SavedBlockMap read_block_map_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  KFX_CHECK(in, "cannot open block map '" << path << "'");
+  unsigned char header[kHeaderBytes];
+  in.read(reinterpret_cast<char*>(header), sizeof(header));
+  KFX_CHECK(in.gcount() == static_cast<std::streamsize>(sizeof(header)),
+            path << ": not a kfx block map (shorter than its " << kHeaderBytes << "-byte header)");
+  KFX_CHECK(std::memcmp(header, kMagic, 8) == 0, path << ": not a kfx block map (bad magic)");
+  uint32_t version = 0, res = 0;
+  uint64_t count = 0;
+  SavedBlockMap saved;
+  BlockMapContents& m = saved.map;
+  std::memcpy(&version, header + 8, 4);
+  std::memcpy(&res, header + 12, 4);
+  std::memcpy(&m.grid_size_m, header + 16, 4);
+  std::memcpy(saved.T_trajectory_map.m, header + 20, 64);
+  std::memcpy(&count, header + 84, 8);
+  KFX_CHECK(version == kBlockMapFileVersion, path << ": block map format version " << version
+                                                  << ", this kfx reads " << kBlockMapFileVersion);
+  KFX_CHECK(res >= 1 && res <= 1 << 20, path << ": grid_res " << res << " outside 1 to 2^20");
+  KFX_CHECK(std::isfinite(m.grid_size_m) && m.grid_size_m > 0,
+            path << ": grid size " << m.grid_size_m << " m is not a positive number");
+  for (const auto& row : saved.T_trajectory_map.m) {
+    for (float x : row) KFX_CHECK(std::isfinite(x), path << ": frame transform is not finite");
+  }
+  m.grid_res = static_cast<int>(res);
+  in.seekg(0, std::ios::end);
+  const uint64_t size = static_cast<uint64_t>(in.tellg());
+  KFX_CHECK(
+      count <= (size - kHeaderBytes) / kBlockBytes && size == kHeaderBytes + count * kBlockBytes,
+      path << ": " << size << " bytes, a map of " << count << " blocks has "
+           << kHeaderBytes + count * kBlockBytes);
+  in.seekg(static_cast<std::streamoff>(kHeaderBytes));
+  m.keys.resize(count);
+  m.voxels.resize(count * kBlockVoxels);
+  for (uint64_t i = 0; i < count; ++i) {
+    int32_t c[3];
+    in.read(reinterpret_cast<char*>(c), sizeof(c));
+    in.read(reinterpret_cast<char*>(&m.voxels[i * kBlockVoxels]), kBlockVoxels * sizeof(Voxel));
+    KFX_CHECK(in, path << ": cannot read block " << i);
+    KFX_CHECK(block_coords_packable(c[0], c[1], c[2]),
+              path << ": block " << i << " at (" << c[0] << ", " << c[1] << ", " << c[2]
+                   << ") lies outside the map's coordinate range");
+    m.keys[i] = pack_block_key(c[0], c[1], c[2]);
+    KFX_CHECK(i == 0 || m.keys[i - 1] < m.keys[i], path << ": block " << i << " at (" << c[0]
+                                                        << ", " << c[1] << ", " << c[2]
+                                                        << ") is listed twice or out of order");
+  }
+  return saved;
+}
+
+}  // namespace kfx::output

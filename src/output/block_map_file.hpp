@@ -1,0 +1,44 @@
+#pragma once
+/// A saved block map (`map.kfxblocks`, docs/outputs.md; `kfx run --save-volume` with
+/// volume=blocks), all little-endian:
+///
+///   offset  size  field
+///        0     8  magic "KFXBLKS\0"
+///        8     4  uint32 format version (1)
+///       12     4  uint32 grid_res   } the voxel size is grid_size_m / grid_res metres; voxel
+///       16     4  float32 grid_size_m } (x, y, z) is centred at ((x, y, z) + 0.5) · that size
+///       20    64  float32[4][4] T_trajectory_map, row-major: map-frame points into the frame of
+///                 trajectory.txt (identity for kfx's own runs)
+///       84     8  uint64 block count n
+///       92        n blocks in increasing key order, each: int32 bx, by, bz (block coordinates:
+///                 the block holds voxels 8·b … 8·b + 7 per axis), then 8³ voxels, x fastest:
+///                 int16 tsdf (value · 32766), int16 weight (0 = never observed)
+
+#include <string>
+
+#include "core/math.hpp"
+#include "map/host_block_map.hpp"
+
+namespace kfx::output {
+
+/// Current format version of block map files.
+constexpr uint32_t kBlockMapFileVersion = 1;
+
+/// The 8 bytes a block map file starts with.
+bool is_block_map_file(const std::string& path);
+
+/// A block map on the host with what is needed to place it.
+struct SavedBlockMap {
+  BlockMapContents map;
+  Mat4f T_trajectory_map = Mat4f::identity();
+};
+
+/// Writes `saved` to `path` (temporary name, renamed when complete).
+void write_block_map_file(const std::string& path, const SavedBlockMap& saved);
+
+/// Reads a block map file; throws kfx::Error naming the file and the problem (magic, version,
+/// voxel size, block count against the file's length, block coordinates out of range, a block
+/// listed twice or out of order).
+SavedBlockMap read_block_map_file(const std::string& path);
+
+}  // namespace kfx::output
