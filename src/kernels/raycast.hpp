@@ -158,15 +158,46 @@ KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m,
 }
 
 /// The same test on a block map: every block the sample's voxels reach is unallocated (it
-/// reads as tsdf +1) or allocated but untouched; the box is their union.
+/// reads as tsdf +1) or allocated but untouched; the box is their union. The coarse cells
+/// (kCoarseShift) are asked first: one whose blocks are all untouched or unallocated, usually
+/// the only one the sample reaches, gives a box of 32³ voxels.
 KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m,
                                                float vox_per_m) {
   UntouchedSample u;
   const float s[3] = {p_m.x * vox_per_m - 0.5f, p_m.y * vox_per_m - 0.5f, p_m.z * vox_per_m - 0.5f};
-  int lo[3], hi[3];
+  int lo[3], hi[3];  // voxels
   for (int i = 0; i < 3; ++i) {
-    lo[i] = block_of_voxel(static_cast<int>(floorf(s[i] - kSkipSlackVox)));
-    hi[i] = block_of_voxel(static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1);
+    lo[i] = static_cast<int>(floorf(s[i] - kSkipSlackVox));
+    hi[i] = static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1;
+  }
+  if (map.coarse_touched) {
+    bool coarse_untouched = true;
+    for (int z = lo[2] >> kCoarseVoxelShift; coarse_untouched && z <= hi[2] >> kCoarseVoxelShift;
+         ++z) {
+      for (int y = lo[1] >> kCoarseVoxelShift; coarse_untouched && y <= hi[1] >> kCoarseVoxelShift;
+           ++y) {
+        for (int x = lo[0] >> kCoarseVoxelShift; x <= hi[0] >> kCoarseVoxelShift; ++x) {
+          const int32_t c =
+              block_coords_packable(x, y, z) ? map.coarse_hash.find(pack_block_key(x, y, z)) : -1;
+          if (c >= 0 && map.coarse_touched[c]) {
+            coarse_untouched = false;
+            break;
+          }
+        }
+      }
+    }
+    if (coarse_untouched) {
+      u.untouched = true;
+      for (int i = 0; i < 3; ++i) {
+        u.box_begin_vox[i] = (lo[i] >> kCoarseVoxelShift) << kCoarseVoxelShift;
+        u.box_end_vox[i] = ((hi[i] >> kCoarseVoxelShift) + 1) << kCoarseVoxelShift;
+      }
+      return u;
+    }
+  }
+  for (int i = 0; i < 3; ++i) {
+    lo[i] = block_of_voxel(lo[i]);
+    hi[i] = block_of_voxel(hi[i]);
   }
   for (int z = lo[2]; z <= hi[2]; ++z) {
     for (int y = lo[1]; y <= hi[1]; ++y) {

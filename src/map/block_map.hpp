@@ -23,6 +23,12 @@ namespace kfx {
 constexpr int kBlockSide = 1 << kBrickShift;
 /// Voxels per block.
 constexpr int kBlockVoxels = kBlockSide * kBlockSide * kBlockSide;
+/// Blocks per coarse cell side (log2): a coarse cell of 4³ blocks (32³ voxels) carries a
+/// "touched" flag, so the raycast crosses large unobserved or empty regions in few tests (the
+/// dense cube's super-bricks, kSuperBrickShift, do the same with a plain array).
+constexpr int kCoarseShift = 2;
+/// Voxels per coarse cell side (log2).
+constexpr int kCoarseVoxelShift = kBrickShift + kCoarseShift;
 
 /// Block coordinate of voxel coordinate c (floor division by kBlockSide, negatives included).
 KFX_HD inline int block_of_voxel(int c) { return c >> kBrickShift; }  // arithmetic shift
@@ -44,6 +50,12 @@ struct BlockMapView {
   /// One byte per block: 0 while every voxel of the block still stores a tsdf of at least
   /// kMarkBelowTsdfStored (VolumeView::brick_touched's rule), so the raycast may step over it.
   uint8_t* block_touched = nullptr;
+  /// The coarse level: coarse cell key (the block key of (bx, by, bz) >> kCoarseShift) → coarse
+  /// index, and one flag per coarse cell: 1 once any of its blocks is touched.
+  BlockHashView coarse_hash;
+  uint8_t* coarse_touched = nullptr;
+  /// Coarse index of block i (so integration sets the coarse flag without a lookup).
+  int32_t* block_coarse = nullptr;
   int block_capacity = 0;  ///< blocks the arrays hold
   int block_count = 0;     ///< blocks allocated (indices 0 .. block_count − 1)
   /// Voxel size = grid_size_m / grid_res (kept as this ratio: see the file comment).
@@ -126,9 +138,10 @@ KFX_HD inline BlockMapReader map_reader(const BlockMapView& v) { return BlockMap
 /// what the per-voxel integration body writes through (IntegrateArgsT<OneBlockView>), so it
 /// reads the same for a block as for the dense cube.
 struct OneBlockView {
-  Voxel* data = nullptr;       ///< the block's kBlockVoxels voxels
-  uint8_t* touched = nullptr;  ///< the block's flag (BlockMapView::block_touched)
-  Vec3i origin_vox{0, 0, 0};   ///< voxel coordinates of the block's voxel 0
+  Voxel* data = nullptr;              ///< the block's kBlockVoxels voxels
+  uint8_t* touched = nullptr;         ///< the block's flag (BlockMapView::block_touched)
+  uint8_t* coarse_touched = nullptr;  ///< its coarse cell's flag (BlockMapView::coarse_touched)
+  Vec3i origin_vox{0, 0, 0};          ///< voxel coordinates of the block's voxel 0
   int grid_res = 1;
   float grid_size_m = 0.01f;
 
@@ -139,17 +152,24 @@ struct OneBlockView {
   }
   /// Voxel (x, y, z), which must lie in this block.
   KFX_HD Voxel& at(int x, int y, int z) const { return data[voxel_in_block(x, y, z)]; }
-  /// Marks the block touched (one writer per block: no race).
+  /// Marks the block touched (one writer per block: no race) and its coarse cell (shared with
+  /// other blocks: set_shared_flag).
   KFX_HD void mark_touched(int, int, int) const {
-    if (!*touched) *touched = 1;
+    if (!*touched) {
+      *touched = 1;
+      set_shared_flag(*coarse_touched);
+    }
   }
 };
 
 /// The block view of block index b of `map`.
 KFX_HD inline OneBlockView one_block_view(const BlockMapView& map, int32_t b) {
   const Vec3i c = map.block_coords(b);
-  return OneBlockView{map.block_voxels(b), map.block_touched + b,
-                      Vec3i{c.x * kBlockSide, c.y * kBlockSide, c.z * kBlockSide}, map.grid_res,
+  return OneBlockView{map.block_voxels(b),
+                      map.block_touched + b,
+                      map.coarse_touched + map.block_coarse[b],
+                      Vec3i{c.x * kBlockSide, c.y * kBlockSide, c.z * kBlockSide},
+                      map.grid_res,
                       map.grid_size_m};
 }
 

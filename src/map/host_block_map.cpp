@@ -19,6 +19,10 @@ HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_siz
       voxels_(new Voxel[static_cast<size_t>(block_capacity) * kBlockVoxels]),
       block_keys_(block_capacity, kEmptyBlockKey),
       block_touched_(block_capacity, 0),
+      block_coarse_(block_capacity, -1),
+      coarse_keys_(block_hash_slot_count(block_capacity), kEmptyBlockKey),
+      coarse_values_(coarse_keys_.size(), -1),
+      coarse_touched_(block_capacity, 0),
       grid_res_(grid_res),
       grid_size_m_(grid_size_m) {
   KFX_CHECK(block_capacity >= 1, "a block map needs room for at least one block");
@@ -29,6 +33,11 @@ void HostBlockMap::clear() {
   std::fill(hash_values_.begin(), hash_values_.end(), -1);
   std::fill(block_keys_.begin(), block_keys_.end(), kEmptyBlockKey);
   std::fill(block_touched_.begin(), block_touched_.end(), 0);
+  std::fill(block_coarse_.begin(), block_coarse_.end(), -1);
+  std::fill(coarse_keys_.begin(), coarse_keys_.end(), kEmptyBlockKey);
+  std::fill(coarse_values_.begin(), coarse_values_.end(), -1);
+  std::fill(coarse_touched_.begin(), coarse_touched_.end(), 0);
+  coarse_count_ = 0;
   block_count_ = 0;
 }
 
@@ -43,11 +52,9 @@ BlockAllocation HostBlockMap::allocate(std::vector<uint64_t>& candidates) {
       ++result.dropped;
       continue;
     }
-    const BlockInsert outcome = map.hash.insert(key, block_count_);
-    KFX_CHECK(outcome == BlockInsert::kInserted, "block hash refused a new key below capacity");
     Voxel* voxels = voxels_.get() + static_cast<size_t>(block_count_) * kBlockVoxels;
     std::fill(voxels, voxels + kBlockVoxels, empty_voxel());
-    block_keys_[block_count_++] = key;
+    insert_new_block(key);
     ++result.allocated;
   }
   return result;
@@ -56,15 +63,32 @@ BlockAllocation HostBlockMap::allocate(std::vector<uint64_t>& candidates) {
 void HostBlockMap::add_block(uint64_t key, const Voxel* voxels) {
   KFX_CHECK(block_count_ < static_cast<int>(block_capacity()),
             "the map holds " << block_capacity() << " blocks; one more does not fit");
-  const BlockInsert outcome = view().hash.insert(key, block_count_);
   const Vec3i c = unpack_block_key(key);
-  KFX_CHECK(outcome == BlockInsert::kInserted,
+  KFX_CHECK(view().hash.find(key) < 0,
             "block (" << c.x << ", " << c.y << ", " << c.z << ") is in the map twice");
   std::copy(voxels, voxels + kBlockVoxels,
             voxels_.get() + static_cast<size_t>(block_count_) * kBlockVoxels);
-  block_keys_[block_count_] = key;
-  block_touched_[block_count_] = 1;  // unknown contents: never skipped
-  ++block_count_;
+  const int b = block_count_;
+  insert_new_block(key);
+  block_touched_[b] = 1;  // unknown contents: never skipped
+  coarse_touched_[block_coarse_[b]] = 1;
+}
+
+void HostBlockMap::insert_new_block(uint64_t key) {
+  const BlockMapView map = view();
+  const BlockInsert outcome = map.hash.insert(key, block_count_);
+  KFX_CHECK(outcome == BlockInsert::kInserted, "block hash refused a new key below capacity");
+  const Vec3i c = unpack_block_key(key);
+  const uint64_t coarse =
+      pack_block_key(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift);
+  int32_t cell = map.coarse_hash.find(coarse);
+  if (cell < 0) {
+    cell = coarse_count_++;
+    KFX_CHECK(map.coarse_hash.insert(coarse, cell) == BlockInsert::kInserted,
+              "coarse hash refused a new key below capacity");
+  }
+  block_coarse_[block_count_] = cell;
+  block_keys_[block_count_++] = key;
 }
 
 BlockMapContents HostBlockMap::contents() const {
@@ -103,6 +127,10 @@ BlockMapView HostBlockMap::view() {
   v.voxels = voxels_.get();
   v.block_keys = block_keys_.data();
   v.block_touched = block_touched_.data();
+  v.coarse_hash = BlockHashView{coarse_keys_.data(), coarse_values_.data(),
+                                static_cast<uint32_t>(coarse_keys_.size() - 1)};
+  v.coarse_touched = coarse_touched_.data();
+  v.block_coarse = block_coarse_.data();
   v.block_capacity = static_cast<int>(block_capacity());
   v.block_count = block_count_;
   v.grid_res = grid_res_;
@@ -111,8 +139,9 @@ BlockMapView HostBlockMap::view() {
 }
 
 uint64_t HostBlockMap::reserved_bytes() const {
-  return hash_keys_.size() * (sizeof(uint64_t) + sizeof(int32_t)) +
-         block_keys_.size() * (sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1);
+  return (hash_keys_.size() + coarse_keys_.size()) * (sizeof(uint64_t) + sizeof(int32_t)) +
+         block_keys_.size() *
+             (sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 + sizeof(int32_t) + 1);
 }
 
 }  // namespace kfx

@@ -13,8 +13,11 @@ namespace kfx {
 
 /// Bytes one block costs in a map: its voxels, its key, its touched flag and two hash slots
 /// (the table is kept at most half full).
-constexpr uint64_t kBytesPerBlock =
-    sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 + 2 * (sizeof(uint64_t) + sizeof(int32_t));
+/// Bytes one block costs in a map: its voxels, its key, its touched flag, its coarse index and
+/// two hash slots in each of the two tables (kept at most half full), and a coarse flag (the
+/// coarse level is sized for one cell per block, its worst case).
+constexpr uint64_t kBytesPerBlock = sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 +
+                                    sizeof(int32_t) + 4 * (sizeof(uint64_t) + sizeof(int32_t)) + 1;
 
 /// Blocks a memory budget of `budget_bytes` holds (at least 1).
 uint32_t block_capacity_for_budget(uint64_t budget_bytes);
@@ -51,6 +54,8 @@ class HostBlockMap {
   /// Adds block `key` with the given voxels (loading a saved map); throws kfx::Error when the
   /// key is present already or the map is full.
   void add_block(uint64_t key, const Voxel* voxels);
+  /// Coarse cells in use.
+  int coarse_count() const { return coarse_count_; }
 
   /// The blocks in increasing key order (independent of the order they were allocated in).
   BlockMapContents contents() const;
@@ -70,6 +75,9 @@ class HostBlockMap {
   float grid_size_m() const { return grid_size_m_; }
 
  private:
+  /// Stores a key absent from the map as block block_count_ (in its coarse cell, which is added
+  /// when new) and counts it; the caller checked the capacity.
+  void insert_new_block(uint64_t key);
   std::vector<uint64_t> hash_keys_;
   std::vector<int32_t> hash_values_;
   /// capacity × kBlockVoxels voxels, left uninitialised until a block is allocated (so a large
@@ -77,6 +85,11 @@ class HostBlockMap {
   std::unique_ptr<Voxel[]> voxels_;
   std::vector<uint64_t> block_keys_;
   std::vector<uint8_t> block_touched_;
+  std::vector<int32_t> block_coarse_;
+  std::vector<uint64_t> coarse_keys_;
+  std::vector<int32_t> coarse_values_;
+  std::vector<uint8_t> coarse_touched_;
+  int coarse_count_ = 0;
   int block_count_ = 0;
   int grid_res_ = 1;
   float grid_size_m_ = 0.01f;
