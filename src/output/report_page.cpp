@@ -86,12 +86,16 @@ window.onerror = function (message, source, line) {
     ["Frames", S.frames],
     ["Tracked", S.tracked + " (" + fixed(100 * S.tracked / Math.max(1, S.frames), 1) + " %)"],
     ["Integrated", S.integrated],
+    ["Tracking lost", S.lost + " frame(s)" + (KFX.lost_frames.length ? " (marked red below)" : "")],
     ["Frames/s (1 / mean computation time)", fixed(S.frames_per_second, 2)]
   ];
   if (S.ate_rmse_m !== undefined) {
-    rows.push(["ATE RMSE (aligned, TUM-style)", fixed(100 * S.ate_rmse_m, 2) + " cm"]);
-    rows.push(["RPE RMSE (" + S.rpe_delta_frames + " frame)", fixed(100 * S.rpe_trans_rmse_m, 2) + " cm, " +
-               fixed(S.rpe_rot_rmse_deg, 3) + "°"]);
+    rows.push(["ATE RMSE (aligned, TUM-style" + (S.ate_flip_y ? ", estimate y flipped" : "") + ")",
+               fixed(100 * S.ate_rmse_m, 2) + " cm"]);
+    if (S.rpe_translation_rmse_m !== undefined) {
+      rows.push(["RPE RMSE (" + S.rpe_delta_frames + " frame)", fixed(100 * S.rpe_translation_rmse_m, 2) + " cm, " +
+                 fixed(S.rpe_rotation_rmse_deg, 3) + "°"]);
+    }
   } else {
     rows.push(["ATE", S.ate_error ? "not computed: " + S.ate_error : "no ground truth"]);
   }
@@ -119,13 +123,9 @@ window.onerror = function (message, source, line) {
   });
   el("settings").innerHTML = settings.join("");
 
-  // ---- Lost frames: tracking ran (after the 4 bootstrap frames, on the tracking rate) and failed ----
+  // ---- Lost frames: tracking ran and failed (stats.json's lost_frames) ----
   var L = KFX.log;
-  var lost = [];
-  for (var i = 0; i < L.frame.length; ++i) {
-    var f = L.frame[i];
-    if (f > 3 && f % KFX.tracking_rate === 0 && !L.tracked[i]) lost.push(f);
-  }
+  var lost = KFX.lost_frames;
 
   // ---- SVG line plots ----
   var W = 520, H = 330, M = { l: 58, r: 14, t: 30, b: 44 };
@@ -208,7 +208,10 @@ window.onerror = function (message, source, line) {
 
   // ---- Per-frame plots: translational error, stage times; lost frames as red lines ----
   if (T.errors_m) {
-    plot(el("frame-plots"), { title: "Translational error after alignment", xlabel: "frame", ylabel: "error (cm)",
+    var squares = T.errors_m.reduce(function (sum, e) { return sum + e * e; }, 0);
+    var rmse = Math.sqrt(squares / Math.max(1, T.errors_m.length));
+    plot(el("frame-plots"), { title: "Translational error after alignment (RMSE " + fixed(100 * rmse, 2) + " cm)",
+      xlabel: "frame", ylabel: "error (cm)",
       series: [{ name: "|kfx − ground truth|", x: T.est_frames, y: T.errors_m.map(function (e) { return 100 * e; }), color: "#1f6fd0" }],
       vlines: lost, zeroY: true });
   }
