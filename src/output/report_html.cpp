@@ -274,6 +274,7 @@ ReportResult write_report(const std::string& run_dir) {
   ReportResult result;
   result.path = run_dir + "/report.html";
   const std::string stats_path = run_dir + "/stats.json";
+  KFX_CHECK(fs::is_directory(run_dir), "'" << run_dir << "': no such folder");
   KFX_CHECK(fs::exists(stats_path),
             "'" << run_dir << "' holds no stats.json: not a finished kfx run");
   json stats;

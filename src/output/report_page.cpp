@@ -23,7 +23,8 @@ svg.plot { background: #fff; border: 1px solid #ddd; }
 .renders img { width: 240px; image-rendering: pixelated; border: 1px solid #ddd; }
 details { margin-top: 0.5em; }
 /* report.html#model: the 3D view alone, filling the window (pictures of the model). */
-body.model-only { margin: 0; padding: 0; max-width: none; }
+body.model-only { margin: 0; padding: 0; max-width: none; overflow: hidden; }
+#view3d canvas { display: block; }  /* inline, its line box would add a scrollbar */
 body.model-only > *:not(#view3d):not(script) { display: none; }
 body.model-only #view3d { height: 100vh; }
 </style>
@@ -282,8 +283,13 @@ window.onerror = function (message, source, line) {
     bounds.union(path.boundingBox);
     var centre = bounds.getCenter(new THREE.Vector3());
     var radius = Math.max(0.1, bounds.getSize(new THREE.Vector3()).length() / 2);
-    // Start above and behind the cameras (which look down +z), looking at the model's centre.
-    camera.position.copy(centre).add(new THREE.Vector3(0, -0.9, -1.6).multiplyScalar(radius * 0.75));
+    // Start above and behind the cameras (which look down +z), looking at the model's centre,
+    // far enough that the sphere around the model and the path fits the narrower field of view.
+    var halfFov = Math.min(camera.fov * Math.PI / 360, Math.atan(Math.tan(camera.fov * Math.PI / 360) * camera.aspect));
+    var distance = 1.05 * radius / Math.sin(halfFov);
+    camera.position.copy(centre).add(new THREE.Vector3(0, -0.9, -1.6).normalize().multiplyScalar(distance));
+    camera.far = Math.max(100, 4 * distance);
+    camera.updateProjectionMatrix();
     camera.lookAt(centre);
     var controls = new THREE.OrbitControls(camera, renderer.domElement);
     controls.target.copy(centre);
@@ -301,17 +307,24 @@ window.onerror = function (message, source, line) {
     pathLine.visible = false;
     draw();
     var gl = renderer.getContext(), w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
-    var pixels = new Uint8Array(w * h * 4), drawn = 0;
+    var pixels = new Uint8Array(w * h * 4), drawn = 0, edge = 0;
     gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
     var bg = [background.r * 255, background.g * 255, background.b * 255];
     for (var p = 0; p < w * h; ++p) {
-      if (Math.abs(pixels[4 * p] - bg[0]) + Math.abs(pixels[4 * p + 1] - bg[1]) + Math.abs(pixels[4 * p + 2] - bg[2]) > 24) ++drawn;
+      if (Math.abs(pixels[4 * p] - bg[0]) + Math.abs(pixels[4 * p + 1] - bg[1]) + Math.abs(pixels[4 * p + 2] - bg[2]) > 24) {
+        ++drawn;
+        var px = p % w, py = Math.floor(p / w);
+        if (px === 0 || py === 0 || px === w - 1 || py === h - 1) ++edge;  // the model cut off
+      }
     }
     document.body.setAttribute("data-mesh-pixels", String(drawn));
+    document.body.setAttribute("data-mesh-edge-pixels", String(edge));
     document.body.setAttribute("data-view-pixels", String(w * h));
     pathLine.visible = true;
     draw();
   }
+  var root = document.documentElement;
+  document.body.setAttribute("data-scrollbars", String(root.scrollWidth > root.clientWidth || root.scrollHeight > root.clientHeight));
   if (!window.kfxErrors.length) document.body.setAttribute("data-status", "ok");
 })();
 </script>

@@ -179,6 +179,9 @@ def main():
         run = os.path.join(tmp, "run")
         subprocess.run([kfx, "run", "synthetic:frames=20,width=160,height=120", "--backend", "cpu",
                         "-q", "--renders", "-z", "5", "--no-report", "--out", run], check=True)
+        real = os.path.join(tmp, "real_mesh")
+        shutil.copytree(run, real)
+        subprocess.run([kfx, "report", real], check=True, capture_output=True)
         # A sphere 1.2 m in front of the first camera (which looks down +z), radius 0.4 m.
         camera = first_camera_position(os.path.join(run, "trajectory.txt"))
         write_sphere_ply(os.path.join(run, "mesh.ply"), (camera[0], camera[1], camera[2] + 1.2), 0.4)
@@ -197,6 +200,18 @@ def main():
         model = int(body.get("data-mesh-pixels", "-1"))
         # The sphere fills a good part of the view from the start position; a blank canvas is 0.
         check(view > 0 and model > 0.02 * view, f"3D view: {model} model pixels of {view}")
+        check(body.get("data-mesh-edge-pixels") == "0",
+              f"3D view: the model is cut off ({body.get('data-mesh-edge-pixels')} model pixels on the border)")
+        # report.html#model: the run's own mesh (a room around the cameras) alone, framed whole
+        # in the window (no model pixel on its border), without scrollbars.
+        model_dom, _ = load_page(chromium, os.path.join(real, "report.html") + "#model", tmp)
+        model_body = body_attributes(model_dom)
+        check(model_body.get("data-status") == "ok", f"#model page status {model_body.get('data-status')!r}")
+        check(int(model_body.get("data-mesh-pixels", "0")) > 0.02 * int(model_body.get("data-view-pixels", "0")),
+              "#model: the model is not drawn")
+        check(model_body.get("data-mesh-edge-pixels") == "0",
+              f"#model: the model is cut off ({model_body.get('data-mesh-edge-pixels')} model pixels on the border)")
+        check(model_body.get("data-scrollbars") == "false", f"#model: scrollbars ({model_body.get('data-scrollbars')})")
         plots = re.findall(r'<svg class="plot".*?</svg>', dom, re.S)
         check(len(plots) >= 4, f"{len(plots)} plots, expected trajectory top/side, error, stage times")
         # Energy per frame (issue 13): a row per domain, with figures or the reason.
