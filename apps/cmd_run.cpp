@@ -215,6 +215,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     config_json[field.section][field.key] = field.format(pipeline.config());
   }
   stats["config"] = config_json;
+  stats["settings_from_input"] = prepared.settings_from_input;
   stats["energy"] = energy->to_json();
   if (!prepared.ground_truth.empty()) {
     // Labels name files, so messages never read "ground truth ground truth".

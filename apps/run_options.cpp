@@ -108,7 +108,9 @@ PreparedRun prepare_run(const RunOptions& o) {
 
   run.config = make_preset(o.preset);
   for (const auto& [key, value] : run.reader->recommended_settings()) {
-    if (!user_keys.count(key)) set_config_value(run.config, key, value);
+    if (user_keys.count(key)) continue;
+    set_config_value(run.config, key, value);
+    run.settings_from_input.push_back(key);
   }
   for (const auto& a : o.assignments) set_config_assignment(run.config, a);
   run.config.validate();
@@ -123,6 +125,9 @@ PreparedRun prepare_run(const RunOptions& o) {
     KFX_CHECK(defaults.has_value(), o.input << ": this input has no default intrinsics; give them "
                                                "with -k fx,fy,cx,cy (pixels, input size)");
     run.input_intrinsics = *defaults;
+    // The settings say which camera was used, not "0,0,0,0" (config.txt, stats.json).
+    run.config.input.camera_px = {defaults->fx, defaults->fy, defaults->cx, defaults->cy};
+    run.settings_from_input.push_back("camera");
     source = run.reader->intrinsics_source();
     if (source.empty()) source = "the input's default";
   }
@@ -135,8 +140,11 @@ PreparedRun prepare_run(const RunOptions& o) {
                              defaults->fy == run.input_intrinsics.fy &&
                              defaults->cx == run.input_intrinsics.cx &&
                              defaults->cy == run.input_intrinsics.cy;
-  if (!distortion_given && format_camera && !format_lens.none()) {
+  // Only where it is used: with undistortion off the lens is not part of what ran.
+  if (!distortion_given && format_camera && !format_lens.none() &&
+      run.config.quality.depth_undistortion) {
     distortion = format_lens;
+    run.settings_from_input.push_back("camera_distortion");
   }
   {
     const Intrinsics& c = run.input_intrinsics;

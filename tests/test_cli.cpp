@@ -141,6 +141,37 @@ TEST_F(CliTest, UndistortionUsesTheFormatsLensOnlyWithTheFormatsCamera) {
   EXPECT_EQ(r.output.find("undistort"), std::string::npos) << r.output;
 }
 
+TEST_F(CliTest, SettingsSayWhatWasUsedAndWhoChoseIt) {
+  // A TUM fr1 folder under exact: the camera comes from the folder's name and is written as
+  // such (not 0,0,0,0); its lens is not used (undistortion off), so it is neither filled in
+  // nor reported as a setting the user changed.
+  const fs::path folder = dir_ / "rgbd_dataset_freiburg1_tiny";
+  fs::rename(make_tum_folder(3), folder);
+  const fs::path out = dir_ / "o";
+  const auto r =
+      run_kfx("run " + folder.string() + " -c 1 -y 2,2 -q --no-mesh --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto stats = nlohmann::json::parse(std::ifstream(out / "stats.json"));
+  const auto& k = stats["intrinsics_input_px"];
+  std::ostringstream camera;
+  camera << k[0].get<double>() << "," << k[1].get<double>() << "," << k[2].get<double>() << ","
+         << k[3].get<double>();
+  EXPECT_EQ(stats["config"]["input"]["camera"], camera.str());
+  EXPECT_EQ(stats["config"]["input"]["camera_distortion"], "0,0,0,0,0");
+  EXPECT_EQ(stats["settings_from_input"], nlohmann::json::array({"camera"}));
+  std::ifstream config(out / "config.txt");
+  const std::string text((std::istreambuf_iterator<char>(config)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("camera = " + camera.str() + "\n"), std::string::npos) << text;
+  // The report lists the user's changes (-c 1 -y 2,2) apart from what the input chose.
+  std::ifstream page(out / "report.html");
+  const std::string html((std::istreambuf_iterator<char>(page)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html.find("\"settings_changed\":[\"compute_size_ratio=1\",\"pyramid_iterations=2,2\"]"),
+            std::string::npos);
+  EXPECT_NE(html.find("\"settings_from_input\":[\"camera=" + camera.str() + "\"]"),
+            std::string::npos);
+}
+
 TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
   const fs::path folder = make_tum_folder(8);
   const fs::path bad = folder / "depth" / "105.000000.png";

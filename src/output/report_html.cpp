@@ -8,6 +8,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "core/platform.hpp"
@@ -93,10 +94,21 @@ std::map<std::string, std::vector<double>> read_slambench_log(const std::string&
   return columns;
 }
 
-/// The settings that differ from the preset's, as "key=value".
-std::vector<std::string> changed_settings(const json& stats) {
+/// Keys of the settings whose values came from the input (stats.json's settings_from_input).
+std::set<std::string> settings_from_input(const json& stats) {
+  std::set<std::string> keys;
+  for (const auto& key : stats.value("settings_from_input", json::array())) {
+    keys.insert(key.get<std::string>());
+  }
+  return keys;
+}
+
+/// The settings as "key=value": those the input chose (`from_input` true) or the others that
+/// differ from the preset's (changed by the user).
+std::vector<std::string> changed_settings(const json& stats, bool from_input) {
   std::vector<std::string> changed;
   if (!stats.contains("config") || !stats.contains("preset")) return changed;
+  const std::set<std::string> input_keys = settings_from_input(stats);
   PipelineConfig preset;
   try {
     preset = make_preset(stats["preset"].get<std::string>());
@@ -107,7 +119,11 @@ std::vector<std::string> changed_settings(const json& stats) {
     const auto& section = stats["config"].value(field.section, json::object());
     if (!section.contains(field.key)) continue;
     const std::string value = section[field.key].get<std::string>();
-    if (value != field.format(preset)) changed.push_back(field.key + "=" + value);
+    if (input_keys.count(field.key) != 0) {
+      if (from_input) changed.push_back(field.key + "=" + value);
+    } else if (!from_input && value != field.format(preset)) {
+      changed.push_back(field.key + "=" + value);
+    }
   }
   return changed;
 }
@@ -244,7 +260,8 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["backend"] = stats.value("backend", "");
   s["device"] = stats.value("device", "");
   s["preset"] = stats.value("preset", "");
-  s["settings_changed"] = changed_settings(stats);
+  s["settings_changed"] = changed_settings(stats, false);
+  s["settings_from_input"] = changed_settings(stats, true);
   s["config"] = stats.value("config", json::object());
   s["frames"] = stats.value("frames", 0);
   s["tracked"] = stats.value("tracked", 0);
