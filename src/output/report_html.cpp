@@ -161,8 +161,15 @@ json position(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z(
 
 /// Trajectory plots and the translational error: aligned onto the ground truth when there is
 /// one (as the ATE does), else the estimate alone in the volume frame.
+/// `frame_numbers`: slambench.log's frame column, one per pose of `est` (the input's numbers,
+/// which skip bad frames); the pose's index where it does not match.
 json trajectory_data(const std::vector<io::StampedPose>& est, const std::string& gt_path,
-                     const json& stats, ReportResult& result) {
+                     const json& stats, const std::vector<double>& frame_numbers,
+                     ReportResult& result) {
+  const auto frame_number = [&](size_t i) {
+    return frame_numbers.size() == est.size() ? static_cast<int>(frame_numbers[i])
+                                              : static_cast<int>(i);
+  };
   json t;
   json path = json::array();
   for (const auto& p : est) path.push_back(json::array({p.t[0], p.t[1], p.t[2]}));
@@ -171,7 +178,7 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
     t["frame"] = "volume";
     t["est"] = path;
     t["est_frames"] = json::array();
-    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(i);
+    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(frame_number(i));
     t["note"] = "no groundtruth.txt in the folder: the estimate alone, in the volume frame";
     return t;
   }
@@ -188,7 +195,7 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
   size_t gt_first = gt.size(), gt_last = 0;
   for (size_t i = 0; i < r.association.pairs.size(); ++i) {
     est_aligned.push_back(position(aligned.col(i)));
-    est_frames.push_back(r.association.pairs[i].est_index);
+    est_frames.push_back(frame_number(r.association.pairs[i].est_index));
     errors.push_back(r.ate.errors_m[i]);
     gt_first = std::min(gt_first, r.association.pairs[i].gt_index);
     gt_last = std::max(gt_last, r.association.pairs[i].gt_index);
@@ -304,10 +311,14 @@ ReportResult write_report(const std::string& run_dir) {
   const auto log = read_slambench_log(run_dir + "/slambench.log");
 
   json data;
+  const auto frame_column = log.find("frame");
+  const std::vector<double> frame_numbers =
+      frame_column == log.end() ? std::vector<double>{} : frame_column->second;
   try {
-    data["trajectory"] = trajectory_data(est, run_dir + "/groundtruth.txt", stats, result);
+    data["trajectory"] =
+        trajectory_data(est, run_dir + "/groundtruth.txt", stats, frame_numbers, result);
   } catch (const Error& e) {
-    data["trajectory"] = trajectory_data(est, "", stats, result);
+    data["trajectory"] = trajectory_data(est, "", stats, frame_numbers, result);
     data["trajectory"]["note"] = std::string("ground truth not usable: ") + e.what();
   }
   data["log"] = log;
