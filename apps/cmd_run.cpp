@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <ctime>
 #include <deque>
+#include <exception>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -69,11 +70,29 @@ std::unique_ptr<energy::RunEnergy> open_energy(const Backend& backend, double id
   return meters;
 }
 
+/// Removes an output folder this run created when the run fails before writing into it (a
+/// backend that cannot start, say): no empty folder is left behind.
+class CreatedFolderCleanup {
+ public:
+  explicit CreatedFolderCleanup(const std::string& dir) : dir_(dir), existed_(fs::exists(dir)) {}
+  ~CreatedFolderCleanup() {
+    std::error_code ec;
+    if (!existed_ && std::uncaught_exceptions() > 0 && fs::is_empty(dir_, ec) && !ec) {
+      fs::remove(dir_, ec);
+    }
+  }
+
+ private:
+  std::string dir_;
+  bool existed_;
+};
+
 void run(const RunOptions& options, const RunOutputs& outputs) {
   const std::string& out_dir = outputs.dir;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
   // Everything that can fail for want of room or permission fails here, before the run.
+  const CreatedFolderCleanup cleanup(out_dir);
   output::prepare_run_folder(out_dir, outputs.overwrite);
   const size_t volume_bytes = output::volume_host_bytes(prepared.config.volume.resolution_vox);
   if (outputs.save_volume) output::check_host_memory(volume_bytes, "--save-volume's host copy");
@@ -224,7 +243,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     stats["mesh_extraction_s"] = seconds_since(start);
     stats["mesh_vertices"] = mesh.vertex_count;
     stats["mesh_triangles"] = mesh.triangle_count;
-    output::write_run_mesh(out_dir + "/mesh.ply", mesh, options.input, options.quiet);
+    output::write_run_mesh(out_dir + "/mesh.ply", mesh, options.input);
     written += " mesh.ply";
   }
   if (outputs.cloud) {

@@ -1,18 +1,26 @@
 #include "run_options.hpp"
 
+#include <algorithm>
+#include <iomanip>
+#include <iostream>
 #include <set>
 #include <sstream>
 
 #include "core/platform.hpp"
 #include "count_check.hpp"
+#include "eval/associate.hpp"
+#include "eval/report.hpp"
+#include "io/synthetic.hpp"
 
 namespace kfx::cli {
 
 void add_run_options(CLI::App& command, RunOptions& o) {
   command
       .add_option("input", o.input,
-                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or "
-                  "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]")
+                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or " +
+                      io::synthetic_spec_syntax() +
+                      " (jump: the camera turns 90 degrees for frames A..B; blank: they have "
+                      "no depth)")
       ->required();
   command.add_option("--backend", o.backend, "cpu, cuda or auto (CUDA when a GPU is present)")
       ->capture_default_str();
@@ -47,6 +55,40 @@ void add_run_options(CLI::App& command, RunOptions& o) {
                    "warn about bad frames and skip them instead of stopping");
   command.add_flag("-q,--quiet", o.quiet, "no progress lines");
 }
+
+namespace {
+
+/// Before the run, where the input lists its stamps up front: a ground truth whose stamps pair
+/// with too few frames to evaluate is an error for --gt (the user chose the file) and a warning
+/// for one found with the input, rather than news after the whole run.
+void check_ground_truth_stamps(const PreparedRun& run, const RunOptions& o) {
+  std::vector<double> stamps = run.reader->stamps_s();
+  if (run.ground_truth.empty() || stamps.empty()) return;
+  if (o.max_frames > 0 && static_cast<int>(stamps.size()) > o.max_frames)
+    stamps.resize(o.max_frames);
+  std::vector<io::StampedPose> frames(stamps.size());
+  for (size_t i = 0; i < stamps.size(); ++i) frames[i].stamp_s = stamps[i];
+  const eval::EvalOptions eval_options;
+  const size_t pairs =
+      eval::associate(frames, run.ground_truth, eval_options.max_dt_s).pairs.size();
+  if (pairs >= eval::kMinEvalPairs) return;
+  const auto gt_range = std::minmax_element(
+      run.ground_truth.begin(), run.ground_truth.end(),
+      [](const io::StampedPose& a, const io::StampedPose& b) { return a.stamp_s < b.stamp_s; });
+  std::ostringstream message;
+  message << std::setprecision(16) << pairs << " of the " << stamps.size()
+          << " frames' stamps lie within " << eval_options.max_dt_s
+          << " s of a ground-truth stamp (frames " << stamps.front() << " to " << stamps.back()
+          << " s, ground truth " << gt_range.first->stamp_s << " to " << gt_range.second->stamp_s
+          << " s); the ATE needs at least " << eval::kMinEvalPairs;
+  KFX_CHECK(o.ground_truth_path.empty(), o.ground_truth_path
+                                             << ": " << message.str()
+                                             << " (a ground truth of another sequence or clock?)");
+  std::cerr << "kfx run: warning: the ground truth found with " << o.input << ": " << message.str()
+            << "; the run will have no ATE\n";
+}
+
+}  // namespace
 
 PreparedRun prepare_run(const RunOptions& o) {
   PreparedRun run;
@@ -118,6 +160,7 @@ PreparedRun prepare_run(const RunOptions& o) {
   // y, so evaluation must flip y back.
   run.evaluate_flip_y = defaults.has_value() && defaults->fy * run.input_intrinsics.fy < 0;
   run.ground_truth = run.reader->ground_truth();
+  check_ground_truth_stamps(run, o);
   return run;
 }
 

@@ -7,7 +7,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <nlohmann/json.hpp>
+#include <sstream>
 #include <string>
 
 #include "cli_runner.hpp"
@@ -208,12 +210,86 @@ TEST_F(CliTest, TruncatedRawIsAnError) {
   EXPECT_FALSE(has_outputs(dir_ / "o"));
 }
 
+TEST_F(CliTest, RunHelpNamesEverySyntheticKey) {
+  // The parser lists its keys when given an unknown one; `kfx run --help` must name them all.
+  const auto bad = run_kfx("run synthetic:nosuchkey=1 --out " + (dir_ / "o").string());
+  const size_t at = bad.output.find("(allowed: ");
+  ASSERT_NE(at, std::string::npos) << bad.output;
+  const std::string keys = bad.output.substr(at + 10, bad.output.find(')', at) - at - 10);
+  const auto help = run_kfx("run --help");
+  ASSERT_EQ(help.exit_code, 0) << help.output;
+  std::istringstream list(keys);
+  int named = 0;
+  for (std::string key; std::getline(list, key, ',');) {
+    key.erase(0, key.find_first_not_of(' '));
+    EXPECT_NE(help.output.find(key + "="), std::string::npos) << key << " missing in:\n"
+                                                              << help.output;
+    ++named;
+  }
+  EXPECT_GE(named, 8) << keys;
+}
+
+TEST(Docs, OutputsNameTheTemporariesAsWritten) {
+  // docs/outputs.md names binary temporaries as the writers make them: NAME.<pid>.tmp.
+  std::ifstream doc(std::string(KFX_SOURCE_DIR) + "/docs/outputs.md");
+  ASSERT_TRUE(doc) << "docs/outputs.md";
+  const std::string text((std::istreambuf_iterator<char>(doc)), std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("NAME.<pid>.tmp"), std::string::npos);
+  EXPECT_EQ(text.find("NAME.tmp"), std::string::npos);
+}
+
+TEST_F(CliTest, BenchReportsFramesPerSecondAsRunDoes) {
+  // kfx bench's frames/s has the schema's definition (1 / mean computation time), in its JSON
+  // and its text, as kfx run and kfx sweep report it.
+  const fs::path json_path = dir_ / "bench.json";
+  const auto r = run_kfx(
+      "bench synthetic:frames=6,width=160,height=120 --backend cpu --repeat 2 --warmup 1 "
+      "--idle-seconds 0 --json " +
+      json_path.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto bench = nlohmann::json::parse(std::ifstream(json_path));
+  ASSERT_TRUE(bench.contains("frames_per_second")) << bench.dump();
+  const double mean_ms = bench["computation_ms"]["mean"].get<double>();
+  EXPECT_DOUBLE_EQ(bench["frames_per_second"].get<double>(), 1000.0 / mean_ms);
+  EXPECT_NE(bench.value("frames_per_second_definition", "").find("mean computation"),
+            std::string::npos);
+  char line[128];
+  std::snprintf(line, sizeof(line), "computation: %.1f frames/s (1 / mean computation time",
+                1000.0 / mean_ms);
+  EXPECT_NE(r.output.find(line), std::string::npos) << r.output;
+}
+
 TEST_F(CliTest, CudaWithoutGpuIsAClearError) {
   const auto probe =
       run_kfx("run synthetic:frames=1,width=160,height=120 --backend cuda -q --out " +
               (dir_ / "probe").string());
   if (probe.exit_code == 0) GTEST_SKIP() << "a CUDA device is present";
   EXPECT_NE(probe.output.find("CUDA backend was requested"), std::string::npos) << probe.output;
+  // The failed run leaves no empty output folder behind.
+  EXPECT_FALSE(fs::exists(dir_ / "probe")) << probe.output;
+  // Without a GPU (no NVIDIA driver loaded) it says so, not that a driver is "insufficient".
+  if (!fs::exists("/proc/driver/nvidia/version") &&
+      probe.output.find("built without the CUDA backend") == std::string::npos) {
+    EXPECT_NE(probe.output.find("this machine has no NVIDIA GPU"), std::string::npos)
+        << probe.output;
+    EXPECT_EQ(probe.output.find("insufficient"), std::string::npos) << probe.output;
+  }
+}
+
+TEST_F(CliTest, GroundTruthWhoseStampsNeverMatchFailsBeforeTheRun) {
+  // Frames stamped 100..103 s, a ground truth at 5000..5003 s: known from the listing, so the
+  // run stops before its first frame instead of reporting "no ATE" at the end.
+  const fs::path folder = make_tum_folder(4);
+  std::ofstream gt(dir_ / "gt.txt");
+  for (int i = 0; i < 4; ++i) gt << 5000 + i << " 0 0 0 0 0 0 1\n";
+  gt.close();
+  const auto r = run_kfx("run " + folder.string() + " --gt " + (dir_ / "gt.txt").string() +
+                         " --out " + (dir_ / "o").string() + " -k 60,60,32,24 -c 1 -y 2,2");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("gt.txt"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("ground-truth stamp"), std::string::npos) << r.output;
+  EXPECT_EQ(r.output.find("done ("), std::string::npos) << r.output;  // no frame ran
+  EXPECT_FALSE(has_outputs(dir_ / "o"));
 }
 
 }  // namespace

@@ -112,6 +112,35 @@ std::vector<std::string> changed_settings(const json& stats) {
   return changed;
 }
 
+/// Whether the run's ATE flipped y (stats.json schema 2: flat `ate_flip_y`; schema 1 nested it
+/// under `ate`), so the plots are aligned as the ATE was.
+bool evaluated_with_flip_y(const json& stats) {
+  if (stats.contains("ate_flip_y")) return stats["ate_flip_y"].get<bool>();
+  if (stats.contains("ate") && stats["ate"].is_object()) return stats["ate"].value("flip_y", false);
+  return false;
+}
+
+/// The frames whose tracking ran and failed: stats.json's `lost_frames`; for a run written
+/// before it existed, the log's untracked frames on the tracking rate after the bootstrap
+/// frames (from the run's settings; the reference view may then start later than this says).
+json lost_frames(const json& stats, const std::map<std::string, std::vector<double>>& log) {
+  if (stats.contains("lost_frames")) return stats["lost_frames"];
+  int bootstrap = 4, rate = 1;
+  if (stats.contains("config")) {
+    const json& config = stats["config"];
+    bootstrap = std::stoi(config.value("quality", json::object()).value("bootstrap_frames", "4"));
+    rate = std::stoi(config.value("tracking", json::object()).value("tracking_rate", "1"));
+  }
+  json lost = json::array();
+  const auto frame = log.find("frame"), tracked = log.find("tracked");
+  if (frame == log.end() || tracked == log.end()) return lost;
+  for (size_t i = 0; i < frame->second.size(); ++i) {
+    const int f = static_cast<int>(frame->second[i]);
+    if (f >= bootstrap && f % std::max(1, rate) == 0 && tracked->second[i] == 0) lost.push_back(f);
+  }
+  return lost;
+}
+
 json position(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); }
 
 /// Trajectory plots and the translational error: aligned onto the ground truth when there is
@@ -132,7 +161,7 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
   }
   const auto gt = io::read_tum_trajectory(gt_path);
   eval::EvalOptions options;
-  if (stats.contains("ate")) options.flip_y = stats["ate"].value("flip_y", false);
+  options.flip_y = evaluated_with_flip_y(stats);
   const eval::EvalResult r =
       eval::evaluate_trajectories(est, gt, options, "trajectory.txt", gt_path);
   result.has_ground_truth = true;
@@ -223,14 +252,13 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["frames_per_second"] = stats.value("frames_per_second", 0.0);
   s["kfx_version"] = stats.value("kfx_version", "");
   s["energy"] = stats.value("energy", json::object());  // per domain: figures or the reason
-  if (stats.contains("ate")) {
-    s["ate_rmse_m"] = stats["ate"]["ate"].value("rmse_m", 0.0);
-    s["rpe_trans_rmse_m"] = stats["ate"]["rpe"].value("trans_rmse_m", 0.0);
-    s["rpe_rot_rmse_deg"] = stats["ate"]["rpe"].value("rot_rmse_deg", 0.0);
-    s["rpe_delta_frames"] = stats["ate"]["rpe"].value("delta_frames", 1);
-  } else if (stats.contains("ate_error")) {
-    s["ate_error"] = stats["ate_error"];
+  s["lost"] = stats.value("lost", 0);
+  // stats.json schema 2's flat names; the page shows what the run itself computed.
+  for (const char* key : {"ate_rmse_m", "ate_flip_y", "rpe_translation_rmse_m",
+                          "rpe_rotation_rmse_deg", "rpe_delta_frames"}) {
+    if (stats.contains(key)) s[key] = stats[key];
   }
+  if (stats.contains("ate_error")) s["ate_error"] = stats["ate_error"];
   s["ground_truth"] = result.has_ground_truth;
   return s;
 }
@@ -246,6 +274,7 @@ ReportResult write_report(const std::string& run_dir) {
   ReportResult result;
   result.path = run_dir + "/report.html";
   const std::string stats_path = run_dir + "/stats.json";
+  KFX_CHECK(fs::is_directory(run_dir), "'" << run_dir << "': no such folder");
   KFX_CHECK(fs::exists(stats_path),
             "'" << run_dir << "' holds no stats.json: not a finished kfx run");
   json stats;
@@ -265,10 +294,7 @@ ReportResult write_report(const std::string& run_dir) {
     data["trajectory"]["note"] = std::string("ground truth not usable: ") + e.what();
   }
   data["log"] = log;
-  data["tracking_rate"] = 1;
-  if (stats.contains("config") && stats["config"].contains("tracking")) {
-    data["tracking_rate"] = std::stoi(stats["config"]["tracking"].value("tracking_rate", "1"));
-  }
+  data["lost_frames"] = lost_frames(stats, log);
   data["renders"] = renders_data(run_dir, result);
   data["mesh"] = mesh_data(run_dir, result);
   data["summary"] = summary_data(stats, result);

@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <iostream>
 #include <map>
 
@@ -26,10 +27,16 @@ bool cuda_device_present(std::string* why_not) {
   int count = 0;
   const cudaError_t status = cudaGetDeviceCount(&count);
   if (status != cudaSuccess || count == 0) {
+    // Without a GPU the runtime finds no driver and says the driver is "insufficient": say
+    // what the user needs to know instead.
+    const bool driver_loaded = std::filesystem::exists("/proc/driver/nvidia/version");
     if (why_not) {
-      *why_not = status != cudaSuccess
-                     ? std::string("no usable CUDA device (") + cudaGetErrorString(status) + ")"
-                     : std::string("no CUDA device is present");
+      if (count == 0 && (status == cudaSuccess || status == cudaErrorNoDevice || !driver_loaded)) {
+        *why_not = std::string("this machine has no NVIDIA GPU") +
+                   (driver_loaded ? "" : " (no NVIDIA driver is loaded)") + "; use --backend cpu";
+      } else {
+        *why_not = std::string("no usable CUDA device (") + cudaGetErrorString(status) + ")";
+      }
     }
     cudaGetLastError();  // clear the sticky error of a failed query
     return false;
