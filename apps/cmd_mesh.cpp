@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <memory>
 #include <vector>
@@ -20,7 +21,8 @@ struct MeshOptions {
   std::string volume_path;
   std::string out_path;
   std::string backend = "auto";
-  int repeat = 1;  ///< extractions timed (the mesh of the last is written)
+  int repeat = 1;          ///< extractions timed (the mesh of the last is written)
+  bool overwrite = false;  ///< replace an existing OUT (refused otherwise, as kfx run does)
 };
 
 bool is_identity(const Mat4f& T) {
@@ -42,6 +44,8 @@ void transform_mesh(Mesh& mesh, const Mat4f& T) {
 }
 
 void mesh_command(const MeshOptions& o) {
+  KFX_CHECK(o.overwrite || !std::filesystem::exists(o.out_path),
+            "'" << o.out_path << "' exists; use --overwrite to replace it, or another name");
   // The backend only meshes here: its image buffers are token-sized.
   BackendSetup setup;
   setup.input_width_px = 8;
@@ -90,7 +94,7 @@ void mesh_command(const MeshOptions& o) {
     transform_mesh(moved, T_trajectory_volume);
     mesh = moved;
   }
-  output::write_run_mesh(o.out_path, mesh, o.volume_path, false);
+  output::write_run_mesh(o.out_path, mesh, o.volume_path);
   std::cout << mesh.vertex_count << " vertices, " << mesh.triangle_count << " triangles ("
             << backend->name() << ") -> " << o.out_path << "\n"
             << "extraction " << sorted[sorted.size() / 2] << " ms median of " << o.repeat
@@ -112,6 +116,7 @@ void add_mesh_command(CLI::App& app) {
                    "extract this many times and print the median extraction time (benchmarks)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  command->add_flag("--overwrite", options->overwrite, "replace OUT if it exists");
   command->callback([options] { mesh_command(*options); });
 }
 
