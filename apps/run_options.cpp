@@ -68,7 +68,12 @@ PreparedRun prepare_run(const RunOptions& o) {
   for (const auto& [key, value] : run.reader->recommended_settings()) {
     if (!user_keys.count(key)) set_config_value(run.config, key, value);
   }
+  // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
+  if (run.reader->has_colour() && !user_keys.count("colour")) run.config.colour.fuse = true;
   for (const auto& a : o.assignments) set_config_assignment(run.config, a);
+  KFX_CHECK(
+      !run.config.colour.fuse || run.reader->has_colour(),
+      o.input << ": colour=on but this input has no colour (" << run.reader->description() << ")");
   run.config.validate();
 
   const auto& k = run.config.input.camera_px;
