@@ -140,13 +140,14 @@ struct RenderColourArgs {
 };
 
 /// The model's colour seen from the current camera: the ray's first surface point coloured by
-/// the colour field there (sample_colour); black where the ray misses or no colour was fused.
+/// the colour field there (sample_colour); transparent black (alpha 0) where the ray misses or
+/// no colour was fused, so a comparison can tell "not covered" from a black surface.
 KFX_HD inline void render_colour_pixel(int x, int y, const RenderColourArgs& a) {
   const Mat4f view = a.ray.state->T_world_cam * a.k.inverse_matrix();
   const Vec3f origin = view.translation_part();
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
   Vec3f hit{0.0f, 0.0f, 0.0f};
-  Rgba8 c{0, 0, 0, 255};
+  Rgba8 c{0, 0, 0, 0};
   Vec3f rgb;
   if (raycast_ray(a.ray, origin, direction, hit) > 0.0f && sample_colour(a.colour, hit, rgb)) {
     c = Rgba8{static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),

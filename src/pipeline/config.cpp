@@ -248,6 +248,10 @@ std::vector<ConfigField> build_fields() {
   integer("integration_rate", "integration", "r", "integration-rate",
           "integrate every N-th tracked frame (>= 1)",
           [](C& c) -> int& { return c.integration.rate; });
+  integer("integration_holdout", "integration", "", "",
+          "evaluation: never integrate frames f >= bootstrap_frames with f % N == 0, so renders "
+          "there show the model from views it has not seen (0 = off)",
+          [](C& c) -> int& { return c.integration.holdout; });
   num("near_m", "raycast", "", "", "raycast near plane, metres",
       [](C& c) -> float& { return c.raycast.near_m; });
   num("far_m", "raycast", "", "", "raycast far plane, metres",
@@ -548,6 +552,8 @@ void PipelineConfig::validate() const {
             "min_inlier_fraction must be in [0, 1]");
   KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
   KFX_CHECK(integration.rate >= 1, "integration_rate must be >= 1, got " << integration.rate);
+  KFX_CHECK(integration.holdout >= 0,
+            "integration_holdout must be >= 0 (0 = off), got " << integration.holdout);
   KFX_CHECK(raycast.near_m > 0 && raycast.far_m > raycast.near_m,
             "raycast planes must satisfy 0 < near_m < far_m, got " << raycast.near_m << ", "
                                                                    << raycast.far_m);

@@ -53,6 +53,9 @@ struct PipelineConfig {
   } tracking;
   struct Integration {
     int rate = 2;  ///< integrate tracked frames f with f % rate == 0 (and frames 0–3)
+    /// Evaluation: frames f ≥ bootstrap with f % holdout == 0 are tracked but never integrated,
+    /// so the model can be compared with frames it has not seen (0 = none held out).
+    int holdout = 0;
   } integration;
   struct Raycast {
     float near_m = 0.4f;          ///< near plane

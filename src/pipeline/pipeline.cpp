@@ -80,7 +80,9 @@ void Pipeline::submit(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>
   const int bootstrap = config_.quality.bootstrap_frames;
   const bool track = have_reference_ && f % config_.tracking.rate == 0;
   const bool always = f < bootstrap;
-  const bool may_integrate = always || f % config_.integration.rate == 0;
+  const int holdout = config_.integration.holdout;
+  const bool held_out = !always && holdout > 0 && f % holdout == 0;
+  const bool may_integrate = always || (f % config_.integration.rate == 0 && !held_out);
   report.raycast = f >= bootstrap - 1 && f % config_.approx.raycast_rate == 0;
   if (report.raycast) have_reference_ = true;
   // Which stages run depends on the frame number only: the shape names the sequence.
