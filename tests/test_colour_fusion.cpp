@@ -6,12 +6,15 @@
 
 #include <cmath>
 #include <cstring>
+#include <filesystem>
 
+#include "cli_runner.hpp"
 #include "core/colour_volume.hpp"
 #include "io/synthetic.hpp"
 #include "io_test_support.hpp"
 #include "output/mesh_colour.hpp"
 #include "output/mesh_ply.hpp"
+#include "output/mesh_view.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sequence_runner.hpp"
 
@@ -149,6 +152,51 @@ TEST(ColourFusion, MeshPlyRoundTripsColours) {
   output::write_mesh_ply(dir.file("g.ply"), mesh, "test");
   EXPECT_EQ(io::test::read_text(dir.file("g.ply")).find("red"), std::string::npos);
   EXPECT_TRUE(output::read_mesh_ply(dir.file("g.ply")).colours.empty());
+}
+
+TEST(ColourFusion, ReportViewMeshKeepsColoursThroughThinning) {
+  io::test::TempDir dir("kfx_colour");
+  Mesh mesh;
+  mesh.vertices = {MeshVertex{{0, 0, 0}, {0, 0, 1}}, MeshVertex{{1, 0, 0}, {0, 0, 1}},
+                   MeshVertex{{0, 1, 0}, {0, 0, 1}}, MeshVertex{{0, 1e-4f, 0}, {0, 0, 1}}};
+  mesh.triangles = {MeshTriangle{{0, 1, 2}}, MeshTriangle{{3, 1, 2}}, MeshTriangle{{0, 3, 1}}};
+  mesh.colours = {Rgb8{100, 0, 0}, Rgb8{0, 255, 0}, Rgb8{1, 2, 3}, Rgb8{200, 0, 0}};
+  output::write_mesh_ply(dir.file("m.ply"), mesh, "test");
+  const output::ViewMesh view = output::read_view_mesh(dir.file("m.ply"));
+  ASSERT_EQ(view.colours.size(), 12u);
+  // Thinned to two triangles: vertices 0 and 3 share a cell and average their colours.
+  const output::ViewMesh thin = output::thin_for_view(view, 2);
+  ASSERT_EQ(thin.colours.size(), 3 * thin.vertex_count());
+  bool merged = false;
+  for (size_t v = 0; v < thin.vertex_count(); ++v) merged |= thin.colours[3 * v] == 150;
+  EXPECT_TRUE(merged);
+}
+
+TEST(ColourFusion, RunWritesColouredOutputsAndReport) {
+  io::test::TempDir dir("kfx_colour");
+  const std::string out = dir.file("run");
+  const auto result = test::run_kfx(
+      "run synthetic:frames=8,width=160,height=120,noise=0 --backend cpu -q --renders --cloud "
+      "-o " +
+      out);
+  ASSERT_EQ(result.exit_code, 0) << result.output;
+  EXPECT_TRUE(output::read_mesh_ply(out + "/mesh.ply").colours.size() > 1000);
+  const std::string cloud = io::test::read_text(out + "/cloud.ply");
+  EXPECT_NE(cloud.find("property uchar red"), std::string::npos);
+  EXPECT_TRUE(std::filesystem::exists(out + "/renders/colour_000004.png"));
+  const std::string report = io::test::read_text(out + "/report.html");
+  EXPECT_NE(report.find("\"colours\":"), std::string::npos);
+  EXPECT_NE(report.find("\"colour\":\"data:image/png"), std::string::npos);
+  const auto stats = io::test::read_text(out + "/stats.json");
+  EXPECT_NE(stats.find("\"memory_bytes\""), std::string::npos);
+  // colour=off: the grey outputs of before.
+  const auto grey = test::run_kfx(
+      "run synthetic:frames=8,width=160,height=120,noise=0 --backend cpu -q --renders "
+      "--set colour=off -o " +
+      out + "_grey");
+  ASSERT_EQ(grey.exit_code, 0) << grey.output;
+  EXPECT_TRUE(output::read_mesh_ply(out + "_grey/mesh.ply").colours.empty());
+  EXPECT_FALSE(std::filesystem::exists(out + "_grey/renders/colour_000004.png"));
 }
 
 // CPU against GPU over the four bootstrap frames (integrated untracked at the same pose on
