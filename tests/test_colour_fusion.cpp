@@ -67,6 +67,17 @@ TEST(ColourFusion, LeavesTrajectoryAndTsdfBitForBit) {
   EXPECT_EQ(on.renders.colour.width(), 160);
 }
 
+TEST(ColourFusion, LeavesCudaTrajectoryAndTsdfBitForBit) {
+  std::string why_not;
+  if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
+  const ColourRun off = run_synthetic(false, 12, 320, 240, BackendKind::kCuda);
+  const ColourRun on = run_synthetic(true, 12, 320, 240, BackendKind::kCuda);
+  ASSERT_EQ(off.poses.size(), on.poses.size());
+  EXPECT_EQ(std::memcmp(off.poses.data(), on.poses.data(), off.poses.size() * sizeof(Mat4f)), 0);
+  ASSERT_EQ(off.tsdf.size(), on.tsdf.size());
+  EXPECT_EQ(std::memcmp(off.tsdf.data(), on.tsdf.data(), off.tsdf.size() * sizeof(Voxel)), 0);
+}
+
 // The goal: vertex colour against the scene's true colour, RMSE at most 6 (8-bit
 // units) with noise off. 60 frames of the room at 320×240, 256³ over 4.2 m (16 mm voxels).
 TEST(ColourFusion, SyntheticMeshColourMatchesTheTrueColour) {
