@@ -619,13 +619,19 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   return p;
 }
 
-std::vector<std::string> preset_settings(const std::string& name) {
+std::vector<std::pair<std::string, std::string>> preset_values(const std::string& name) {
   const PipelineConfig preset = make_preset(name), exact;
-  std::vector<std::string> settings;
+  std::vector<std::pair<std::string, std::string>> values;
   for (const auto& field : config_fields()) {
     const std::string value = field.format(preset);
-    if (value != field.format(exact)) settings.push_back(field.key + "=" + value);
+    if (value != field.format(exact)) values.emplace_back(field.key, value);
   }
+  return values;
+}
+
+std::vector<std::string> preset_settings(const std::string& name) {
+  std::vector<std::string> settings;
+  for (const auto& [key, value] : preset_values(name)) settings.push_back(key + "=" + value);
   return settings;
 }
 
