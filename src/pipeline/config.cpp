@@ -662,8 +662,8 @@ PipelineConfig make_preset(const std::string& name) {
     // with seeds no plan had used, on the GPU and the CPU. A constant 5 cm raycast step, the
     // cheaper ray factor, no depth-0 test and every 2nd z slice integrated per frame. No robust
     // ICP weight: Huber at 1 cm lowered the TUM ATE but converged too slowly after blank
-    // stretches and fast motion (up to 1.31x exact's ATE on unseen synthetic cases). It misses
-    // from some start frames (tum_fr1_rpy from frame 100: 1.11x).
+    // stretches and fast motion (on unseen synthetic cases). It misses from some start frames
+    // (tum_fr1_rpy from frame 100; figures: bench/RESULTS.md, "`fast` chosen again").
     for (const char* a : {"raycast_constant_step_m=0.05", "ray_factor=approx",
                           "integrate_zero_depth_test=off", "integration_z_stride=2"}) {
       set_config_assignment(c, a);
@@ -671,8 +671,8 @@ PipelineConfig make_preset(const std::string& name) {
     return c;
   }
   if (name == "quality") {
-    // Chosen by the quality_s7 plan on an H200 (issue 9, docs/presets.md, bench/RESULTS.md):
-    // ATE 30-36 % below exact's on every shared sequence at ~2,800 frames/s. The depth image is
+    // Chosen by the quality_s7 plan on an H200 (issue 9, docs/presets.md; its ATE and speed:
+    // bench/RESULTS.md, "`quality` chosen again"). The depth image is
     // undistorted with the camera's lens (TUM fr1's: the largest single gain on real Kinect
     // data; a no-op without a known lens), ICP is Huber-weighted at 3.5 mm with twice KFusion's
     // iteration caps (with the caps of exact, the small Huber scale converged too slowly on
