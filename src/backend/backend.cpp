@@ -55,11 +55,14 @@ const char* stage_name(Stage stage) {
   }
 }
 
-void check_depth_frame(const HostImage<uint16_t>& depth_mm, const BackendSetup& setup) {
-  KFX_CHECK(depth_mm.width() == setup.input_width_px && depth_mm.height() == setup.input_height_px,
-            "depth frame is " << depth_mm.width() << "x" << depth_mm.height()
+void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& setup) {
+  KFX_CHECK(depth_mm.width == setup.input_width_px && depth_mm.height == setup.input_height_px,
+            "depth frame is " << depth_mm.width << "x" << depth_mm.height
                               << ", the pipeline was set up for " << setup.input_width_px << "x"
                               << setup.input_height_px);
+  KFX_CHECK(depth_mm.pitch == depth_mm.width && depth_mm.data != nullptr,
+            "depth frame rows are not packed (pitch " << depth_mm.pitch << " for width "
+                                                      << depth_mm.width << ")");
 }
 
 BackendKind parse_backend_kind(const std::string& text) {

@@ -109,8 +109,9 @@ class Backend {
 
   /// Empties the volume (tsdf 1, weight 0) and sets the pose; no reference view yet.
   virtual void reset(const Mat4f& T_world_cam) = 0;
-  /// Copies the next input depth frame (input size, millimetres) to the backend.
-  virtual void upload_depth(const HostImage<uint16_t>& depth_mm) = 0;
+  /// Copies the next input depth frame (input size, millimetres, rows packed: pitch == width) to
+  /// the backend; the caller's memory is read during the call only.
+  virtual void upload_depth(ImageView<const uint16_t> depth_mm) = 0;
   /// Brackets one frame's stage calls. `shape` identifies which stages the frame runs (the
   /// pipeline derives it from the frame number alone), so the GPU can record the sequence once
   /// per shape as a graph and replay it. end_frame() submits the frame; read_state() waits.

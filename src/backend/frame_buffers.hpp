@@ -94,6 +94,6 @@ struct FrameBuffers {
 };
 
 /// Throws kfx::Error unless `depth_mm` has the input size the backend was set up for.
-void check_depth_frame(const HostImage<uint16_t>& depth_mm, const BackendSetup& setup);
+void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& setup);
 
 }  // namespace kfx

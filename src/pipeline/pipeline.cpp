@@ -58,7 +58,7 @@ FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm) {
   return collect();
 }
 
-void Pipeline::submit(const HostImage<uint16_t>& depth_mm) {
+void Pipeline::submit(ImageView<const uint16_t> depth_mm) {
   const int f = frame_;
   FrameReport report;
   report.index = f;

@@ -45,7 +45,9 @@ class Pipeline {
   /// Starts over: empty volume, initial pose, frame 0 (buffers and recorded graphs are kept).
   void reset();
   /// Submits the next frame without waiting (the GPU computes while the host reads on).
-  void submit(const HostImage<uint16_t>& depth_mm);
+  void submit(const HostImage<uint16_t>& depth_mm) { submit(depth_mm.view()); }
+  /// The same from pixels someone else owns (rows packed), read during the call only.
+  void submit(ImageView<const uint16_t> depth_mm);
   /// Waits for the oldest submitted frame and returns its report.
   FrameReport collect();
   /// Turns the renders on or off: when on, every frame f with f % render.rate == 0 renders

@@ -90,9 +90,9 @@ class CpuBackend final : public Backend {
     finished_.clear();
   }
 
-  void upload_depth(const HostImage<uint16_t>& depth_mm) override {
+  void upload_depth(ImageView<const uint16_t> depth_mm) override {
     check_depth_frame(depth_mm, setup_);
-    input_mm_.pixels() = depth_mm.pixels();
+    std::copy(depth_mm.data, depth_mm.data + depth_mm.size(), input_mm_.data());
   }
 
   // The CPU runs each stage as it is called; end_frame() keeps the frame's result until read,

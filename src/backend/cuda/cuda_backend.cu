@@ -180,16 +180,15 @@ class CudaBackend final : public Backend {
     frames_submitted_ = 0;
   }
 
-  void upload_depth(const HostImage<uint16_t>& depth_mm) override {
+  void upload_depth(ImageView<const uint16_t> depth_mm) override {
     check_depth_frame(depth_mm, setup_);
     parity_ = frames_submitted_ % 2;
     // The frame two back used these buffers: wait until it has finished with them.
     KFX_CUDA_CHECK(cudaEventSynchronize(frame_done_[parity_].get()));
-    std::memcpy(staging_mm_[parity_].data(), depth_mm.data(),
-                depth_mm.pixels().size() * sizeof(uint16_t));
+    std::memcpy(staging_mm_[parity_].data(), depth_mm.data, depth_mm.size() * sizeof(uint16_t));
     KFX_CUDA_CHECK(cudaMemcpyAsync(input_mm_[parity_].data(), staging_mm_[parity_].data(),
-                                   depth_mm.pixels().size() * sizeof(uint16_t),
-                                   cudaMemcpyHostToDevice, copy_stream_.get()));
+                                   depth_mm.size() * sizeof(uint16_t), cudaMemcpyHostToDevice,
+                                   copy_stream_.get()));
     KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
   }
 
