@@ -338,6 +338,17 @@ TEST(BlockMap, AFullBudgetIsReportedPerFrameNotSilent) {
   for (const auto& r : run.reports) EXPECT_EQ(r.map_blocks, capacity);
 }
 
+TEST(BlockMap, ColourIsRefusedUntilTheBlocksCarryIt) {
+  PipelineConfig c = with_blocks(PipelineConfig{});
+  set_config_value(c, "colour", "on");
+  try {
+    c.validate();
+    FAIL() << "colour with a block map was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("volume=dense"), std::string::npos) << e.what();
+  }
+}
+
 TEST(BlockMap, TheCudaBackendRefusesItWithAClearError) {
   BackendSetup setup;
   setup.map_kind = MapKind::kBlocks;
