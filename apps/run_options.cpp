@@ -112,7 +112,12 @@ PreparedRun prepare_run(const RunOptions& o) {
     set_config_value(run.config, key, value);
     run.settings_from_input.push_back(key);
   }
+  // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
+  if (run.reader->has_colour() && !user_keys.count("colour")) run.config.colour.fuse = true;
   for (const auto& a : o.assignments) set_config_assignment(run.config, a);
+  KFX_CHECK(
+      !run.config.colour.fuse || run.reader->has_colour(),
+      o.input << ": colour=on but this input has no colour (" << run.reader->description() << ")");
   run.config.validate();
 
   const auto& k = run.config.input.camera_px;

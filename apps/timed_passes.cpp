@@ -25,7 +25,7 @@ TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& f
                              const std::function<void(int, double, const RunSummary&)>& on_pass,
                              energy::RunEnergy* energy, const std::function<void()>& after_warmup) {
   for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
-    pipeline.process(frames[i].depth_mm);
+    pipeline.process(frames[i].depth_mm, &frames[i].rgb);
   }
   if (after_warmup) after_warmup();
   TimedPasses result;
@@ -42,7 +42,7 @@ TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& f
     const auto start = std::chrono::steady_clock::now();
     // One frame in flight: the host prepares frame f+1 while the device computes frame f.
     for (const auto& frame : frames) {
-      pipeline.submit(frame.depth_mm);
+      pipeline.submit(frame.depth_mm, &frame.rgb);
       if (pipeline.frames_in_flight() > 1) take(pipeline.collect());
     }
     while (pipeline.frames_in_flight() > 0) take(pipeline.collect());

@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/platform.hpp"
+#include "core/se3.hpp"
 
 namespace kfx {
 namespace {
@@ -247,6 +248,10 @@ std::vector<ConfigField> build_fields() {
   integer("integration_rate", "integration", "r", "integration-rate",
           "integrate every N-th tracked frame (>= 1)",
           [](C& c) -> int& { return c.integration.rate; });
+  integer("integration_holdout", "integration", "", "",
+          "evaluation: never integrate frames f >= bootstrap_frames with f % N == 0, so renders "
+          "there show the model from views it has not seen (0 = off)",
+          [](C& c) -> int& { return c.integration.holdout; });
   num("near_m", "raycast", "", "", "raycast near plane, metres",
       [](C& c) -> float& { return c.raycast.near_m; });
   num("far_m", "raycast", "", "", "raycast far plane, metres",
@@ -255,6 +260,42 @@ std::vector<ConfigField> build_fields() {
       [](C& c) -> float& { return c.raycast.large_step_mu; });
   integer("render_rate", "render", "z", "rendering-rate", "render every N-th frame (>= 1)",
           [](C& c) -> int& { return c.render.rate; });
+  // Colour.
+  {
+    ConfigField f;
+    f.key = "colour";
+    f.section = "colour";
+    f.help =
+        "fuse the input's colour beside the TSDF: coloured mesh, cloud and renders (on|off; kfx "
+        "turns it on when the input has colour; never changes the trajectory)";
+    f.parse = [](C& c, const std::string& text) { c.colour.fuse = parse_bool("colour", text); };
+    f.format = [](const C& c) { return std::string(c.colour.fuse ? "on" : "off"); };
+    t.push_back(f);
+  }
+  {
+    ConfigField f;
+    f.key = "colour_camera";
+    f.section = "colour";
+    f.help = "colour camera fx,fy,cx,cy in pixels of the colour image (all 0 = the depth camera's)";
+    f.parse = [](C& c, const std::string& text) {
+      c.colour.camera_px = parse_floats<4>("colour_camera", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.colour.camera_px); };
+    t.push_back(f);
+  }
+  {
+    ConfigField f;
+    f.key = "colour_extrinsic";
+    f.section = "colour";
+    f.help =
+        "depth camera pose in the colour camera's frame: tx,ty,tz (m),rx,ry,rz (rotation vector, "
+        "rad); all 0 = registered images (TUM, ICL-NUIM)";
+    f.parse = [](C& c, const std::string& text) {
+      c.colour.extrinsic = parse_floats<6>("colour_extrinsic", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.colour.extrinsic); };
+    t.push_back(f);
+  }
   // Approximations (the seed thesis's techniques and more), each exact by default.
   // A choice setting: its text names one value of an enum, parsed here once.
   auto choice = [&](std::string key, std::string help, auto choices,
@@ -511,6 +552,8 @@ void PipelineConfig::validate() const {
             "min_inlier_fraction must be in [0, 1]");
   KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
   KFX_CHECK(integration.rate >= 1, "integration_rate must be >= 1, got " << integration.rate);
+  KFX_CHECK(integration.holdout >= 0,
+            "integration_holdout must be >= 0 (0 = off), got " << integration.holdout);
   KFX_CHECK(raycast.near_m > 0 && raycast.far_m > raycast.near_m,
             "raycast planes must satisfy 0 < near_m < far_m, got " << raycast.near_m << ", "
                                                                    << raycast.far_m);
@@ -545,6 +588,13 @@ void PipelineConfig::validate() const {
   }
   KFX_CHECK(quality.bootstrap_frames >= 1 && quality.bootstrap_frames <= 4,
             "bootstrap_frames must be in 1..4, got " << quality.bootstrap_frames);
+  const auto& ck = colour.camera_px;
+  KFX_CHECK((ck[0] == 0 && ck[1] == 0 && ck[2] == 0 && ck[3] == 0) || (ck[0] != 0 && ck[1] != 0),
+            "colour_camera: fx and fy must be non-zero, got " << ck[0] << "," << ck[1]);
+  for (float e : colour.extrinsic) {
+    KFX_CHECK(std::isfinite(e) && std::fabs(e) <= 10.0f,
+              "colour_extrinsic: each entry must be a finite number within +-10, got " << e);
+  }
   KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
             "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
   KFX_CHECK(cuda.z_chunks >= 0 && cuda.z_chunks <= 1024,
@@ -562,6 +612,17 @@ std::string PipelineConfig::dump() const {
     out << field.key << " = " << field.format(*this) << "\n";
   }
   return out.str();
+}
+
+ColourCamera make_colour_camera(const PipelineConfig& config, const Intrinsics& input_k) {
+  ColourCamera camera;
+  const auto& k = config.colour.camera_px;
+  camera.k = (k[0] == 0 && k[1] == 0) ? input_k : Intrinsics{k[0], k[1], k[2], k[3]};
+  const auto& e = config.colour.extrinsic;
+  const double rotation_only[6] = {0, 0, 0, e[3], e[4], e[5]};
+  camera.T_colour_cam = se3_exp(rotation_only);
+  for (int i = 0; i < 3; ++i) camera.T_colour_cam.m[i][3] = e[i];
+  return camera;
 }
 
 StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& compute_k,
