@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <filesystem>
 #include <iostream>
 #include <vector>
 
@@ -18,7 +19,8 @@ struct MeshOptions {
   std::string volume_path;
   std::string out_path;
   std::string backend = "auto";
-  int repeat = 1;  ///< extractions timed (the mesh of the last is written)
+  int repeat = 1;          ///< extractions timed (the mesh of the last is written)
+  bool overwrite = false;  ///< replace an existing OUT (refused otherwise, as kfx run does)
 };
 
 bool is_identity(const Mat4f& T) {
@@ -40,6 +42,8 @@ void transform_mesh(Mesh& mesh, const Mat4f& T) {
 }
 
 void mesh_command(const MeshOptions& o) {
+  KFX_CHECK(o.overwrite || !std::filesystem::exists(o.out_path),
+            "'" << o.out_path << "' exists; use --overwrite to replace it, or another name");
   const output::SavedVolume volume = output::read_volume_file(o.volume_path);
   if (!output::any_observed(volume.voxels)) {
     std::cerr << "kfx mesh: note: " << o.volume_path << " has no observed voxel (nothing was "
@@ -74,7 +78,7 @@ void mesh_command(const MeshOptions& o) {
     transform_mesh(moved, volume.T_trajectory_volume);
     mesh = moved;
   }
-  output::write_run_mesh(o.out_path, mesh, o.volume_path, false);
+  output::write_run_mesh(o.out_path, mesh, o.volume_path);
   std::cout << mesh.vertex_count << " vertices, " << mesh.triangle_count << " triangles ("
             << backend->name() << ") -> " << o.out_path << "\n"
             << "extraction " << sorted[sorted.size() / 2] << " ms median of " << o.repeat
@@ -94,6 +98,7 @@ void add_mesh_command(CLI::App& app) {
                    "extract this many times and print the median extraction time (benchmarks)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  command->add_flag("--overwrite", options->overwrite, "replace OUT if it exists");
   command->callback([options] { mesh_command(*options); });
 }
 

@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <ctime>
 #include <deque>
+#include <exception>
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
@@ -28,6 +29,7 @@
 #include "output/slambench_log_writer.hpp"
 #include "output/stats_json.hpp"
 #include "output/volume_file.hpp"
+#include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -70,11 +72,29 @@ std::unique_ptr<energy::RunEnergy> open_energy(const Backend& backend, double id
   return meters;
 }
 
+/// Removes an output folder this run created when the run fails before writing into it (a
+/// backend that cannot start, say): no empty folder is left behind.
+class CreatedFolderCleanup {
+ public:
+  explicit CreatedFolderCleanup(const std::string& dir) : dir_(dir), existed_(fs::exists(dir)) {}
+  ~CreatedFolderCleanup() {
+    std::error_code ec;
+    if (!existed_ && std::uncaught_exceptions() > 0 && fs::is_empty(dir_, ec) && !ec) {
+      fs::remove(dir_, ec);
+    }
+  }
+
+ private:
+  std::string dir_;
+  bool existed_;
+};
+
 void run(const RunOptions& options, const RunOutputs& outputs) {
   const std::string& out_dir = outputs.dir;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
   // Everything that can fail for want of room or permission fails here, before the run.
+  const CreatedFolderCleanup cleanup(out_dir);
   output::prepare_run_folder(out_dir, outputs.overwrite);
   const size_t volume_bytes = output::volume_host_bytes(prepared.config.volume.resolution_vox);
   if (outputs.save_volume) output::check_host_memory(volume_bytes, "--save-volume's host copy");
@@ -108,6 +128,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   RunSummary summary;
   std::vector<io::StampedPose> trajectory;
   int frames_with_depth = 0, skipped = 0;
+  std::vector<int> skipped_frames;  ///< input numbers of the bad frames skipped
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
@@ -116,13 +137,25 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   struct Submitted {
     double stamp_s;
     double acquisition_s;
+    int input_index;    ///< the frame's number in the input (differs after skipped bad frames)
+    DepthSample depth;  ///< for the diagnostics, judged once the pose is known
   };
+  // Says when the camera or the scene leaves the volume, or the depth scale looks wrong.
+  FrameDiagnostics diagnostics(pipeline.config(), prepared.input_intrinsics);
   std::deque<Submitted> submitted;
   int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
-  auto finish = [&](const FrameReport& report) {
-    const Submitted s = submitted.front();
+  auto finish = [&](const FrameReport& pipeline_report) {
+    const Submitted s = std::move(submitted.front());
     submitted.pop_front();
+    // One numbering everywhere the user looks (warnings, progress, slambench.log, renders,
+    // stats.json): the input's, so a skipped bad frame leaves a gap instead of renumbering.
+    FrameReport report = pipeline_report;
+    report.index = s.input_index;
+    // Warnings, not progress: said with -q too, before the tracking loss they may explain.
+    for (const auto& line : diagnostics.check(report.index, s.depth, report.T_world_cam)) {
+      std::cerr << "kfx run: warning: " << line << "\n";
+    }
     log.add(report, s.acquisition_s);
     trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
     summary.add(report);
@@ -160,12 +193,14 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                 result.message << " (use --skip-bad-frames to skip bad frames)");
       std::cerr << "kfx run: warning: skipping bad frame: " << result.message << "\n";
       ++skipped;
+      skipped_frames.push_back(frame.index);
       continue;
     }
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
-    submitted.push_back(Submitted{frame.stamp_s, acquisition_s});
+    submitted.push_back(
+        Submitted{frame.stamp_s, acquisition_s, frame.index, diagnostics.sample(frame.depth_mm)});
     const bool renders_now = pipeline.renders(pipeline.frame_count());
     pipeline.submit(frame.depth_mm, &frame.rgb);
     // A rendering frame is collected at once: its renders are read before the next submit.
@@ -187,6 +222,14 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   stats["skipped_bad_frames"] = skipped;
   stats["colour"] = {{"fused", pipeline.config().colour.fuse},
                      {"memory_bytes", pipeline.colour_bytes()}};
+  stats["skipped_frames"] = skipped_frames;
+  for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
+    const FrameCauseCount& count = diagnostics.count(static_cast<FrameCause>(c));
+    stats["frame_warnings"][frame_cause_name(static_cast<FrameCause>(c))] = {
+        {"frames", count.frames},
+        {"first_frame",
+         count.first_frame >= 0 ? nlohmann::json(count.first_frame) : nlohmann::json(nullptr)}};
+  }
   stats["backend"] = pipeline.backend().name();
   stats["device"] = pipeline.backend().device_name();
   stats["preset"] = options.preset;
@@ -199,6 +242,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     config_json[field.section][field.key] = field.format(pipeline.config());
   }
   stats["config"] = config_json;
+  stats["settings_from_input"] = prepared.settings_from_input;
   stats["energy"] = energy->to_json();
   if (!prepared.ground_truth.empty()) {
     // Labels name files, so messages never read "ground truth ground truth".
@@ -240,7 +284,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     stats["mesh_extraction_s"] = seconds_since(start);
     stats["mesh_vertices"] = mesh.vertex_count;
     stats["mesh_triangles"] = mesh.triangle_count;
-    output::write_run_mesh(out_dir + "/mesh.ply", mesh, options.input, options.quiet);
+    output::write_run_mesh(out_dir + "/mesh.ply", mesh, options.input);
     written += " mesh.ply";
   }
   if (outputs.cloud) {

@@ -1,18 +1,26 @@
 #include "run_options.hpp"
 
+#include <algorithm>
+#include <iomanip>
+#include <iostream>
 #include <set>
 #include <sstream>
 
 #include "core/platform.hpp"
 #include "count_check.hpp"
+#include "eval/associate.hpp"
+#include "eval/report.hpp"
+#include "io/synthetic.hpp"
 
 namespace kfx::cli {
 
 void add_run_options(CLI::App& command, RunOptions& o) {
   command
       .add_option("input", o.input,
-                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or "
-                  "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]")
+                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or " +
+                      io::synthetic_spec_syntax() +
+                      " (jump: the camera turns 90 degrees for frames A..B; blank: they have "
+                      "no depth)")
       ->required();
   command.add_option("--backend", o.backend, "cpu, cuda or auto (CUDA when a GPU is present)")
       ->capture_default_str();
@@ -48,6 +56,40 @@ void add_run_options(CLI::App& command, RunOptions& o) {
   command.add_flag("-q,--quiet", o.quiet, "no progress lines");
 }
 
+namespace {
+
+/// Before the run, where the input lists its stamps up front: a ground truth whose stamps pair
+/// with too few frames to evaluate is an error for --gt (the user chose the file) and a warning
+/// for one found with the input, rather than news after the whole run.
+void check_ground_truth_stamps(const PreparedRun& run, const RunOptions& o) {
+  std::vector<double> stamps = run.reader->stamps_s();
+  if (run.ground_truth.empty() || stamps.empty()) return;
+  if (o.max_frames > 0 && static_cast<int>(stamps.size()) > o.max_frames)
+    stamps.resize(o.max_frames);
+  std::vector<io::StampedPose> frames(stamps.size());
+  for (size_t i = 0; i < stamps.size(); ++i) frames[i].stamp_s = stamps[i];
+  const eval::EvalOptions eval_options;
+  const size_t pairs =
+      eval::associate(frames, run.ground_truth, eval_options.max_dt_s).pairs.size();
+  if (pairs >= eval::kMinEvalPairs) return;
+  const auto gt_range = std::minmax_element(
+      run.ground_truth.begin(), run.ground_truth.end(),
+      [](const io::StampedPose& a, const io::StampedPose& b) { return a.stamp_s < b.stamp_s; });
+  std::ostringstream message;
+  message << std::setprecision(16) << pairs << " of the " << stamps.size()
+          << " frames' stamps lie within " << eval_options.max_dt_s
+          << " s of a ground-truth stamp (frames " << stamps.front() << " to " << stamps.back()
+          << " s, ground truth " << gt_range.first->stamp_s << " to " << gt_range.second->stamp_s
+          << " s); the ATE needs at least " << eval::kMinEvalPairs;
+  KFX_CHECK(o.ground_truth_path.empty(), o.ground_truth_path
+                                             << ": " << message.str()
+                                             << " (a ground truth of another sequence or clock?)");
+  std::cerr << "kfx run: warning: the ground truth found with " << o.input << ": " << message.str()
+            << "; the run will have no ATE\n";
+}
+
+}  // namespace
+
 PreparedRun prepare_run(const RunOptions& o) {
   PreparedRun run;
   run.backend = parse_backend_kind(o.backend);
@@ -66,7 +108,9 @@ PreparedRun prepare_run(const RunOptions& o) {
 
   run.config = make_preset(o.preset);
   for (const auto& [key, value] : run.reader->recommended_settings()) {
-    if (!user_keys.count(key)) set_config_value(run.config, key, value);
+    if (user_keys.count(key)) continue;
+    set_config_value(run.config, key, value);
+    run.settings_from_input.push_back(key);
   }
   // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
   if (run.reader->has_colour() && !user_keys.count("colour")) run.config.colour.fuse = true;
@@ -86,6 +130,9 @@ PreparedRun prepare_run(const RunOptions& o) {
     KFX_CHECK(defaults.has_value(), o.input << ": this input has no default intrinsics; give them "
                                                "with -k fx,fy,cx,cy (pixels, input size)");
     run.input_intrinsics = *defaults;
+    // The settings say which camera was used, not "0,0,0,0" (config.txt, stats.json).
+    run.config.input.camera_px = {defaults->fx, defaults->fy, defaults->cx, defaults->cy};
+    run.settings_from_input.push_back("camera");
     source = run.reader->intrinsics_source();
     if (source.empty()) source = "the input's default";
   }
@@ -98,8 +145,11 @@ PreparedRun prepare_run(const RunOptions& o) {
                              defaults->fy == run.input_intrinsics.fy &&
                              defaults->cx == run.input_intrinsics.cx &&
                              defaults->cy == run.input_intrinsics.cy;
-  if (!distortion_given && format_camera && !format_lens.none()) {
+  // Only where it is used: with undistortion off the lens is not part of what ran.
+  if (!distortion_given && format_camera && !format_lens.none() &&
+      run.config.quality.depth_undistortion) {
     distortion = format_lens;
+    run.settings_from_input.push_back("camera_distortion");
   }
   {
     const Intrinsics& c = run.input_intrinsics;
@@ -123,6 +173,7 @@ PreparedRun prepare_run(const RunOptions& o) {
   // y, so evaluation must flip y back.
   run.evaluate_flip_y = defaults.has_value() && defaults->fy * run.input_intrinsics.fy < 0;
   run.ground_truth = run.reader->ground_truth();
+  check_ground_truth_stamps(run, o);
   return run;
 }
 

@@ -24,7 +24,10 @@ double mean_of(const std::vector<double>& values) {
 void RunSummary::add(const FrameReport& report) {
   ++frames;
   tracked += report.tracked ? 1 : 0;
-  lost += report.tracking_ran && !report.tracked ? 1 : 0;
+  if (report.tracking_ran && !report.tracked) {
+    ++lost;
+    lost_frames.push_back(report.index);
+  }
   integrated += report.integrated ? 1 : 0;
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
     stage_ms[s].push_back(report.stage_ms[s]);
@@ -42,6 +45,7 @@ nlohmann::json RunSummary::to_json() const {
   j["frames"] = frames;
   j["tracked"] = tracked;
   j["lost"] = lost;
+  j["lost_frames"] = lost_frames;
   j["integrated"] = integrated;
   j["frames_per_second"] = frames_per_second();
   j["frames_per_second_definition"] =

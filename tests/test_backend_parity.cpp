@@ -88,7 +88,7 @@ TrackingState run_frame(Backend& b, const HostImage<uint16_t>& depth, bool track
   ray.step_m = 4.0f / 128;
   AcceptParams accept;
   accept.compute_pixels = 320 * 240;
-  b.upload_depth(depth);
+  b.upload_depth(depth.view());
   b.begin_frame((track ? 1 : 0) | 2 | (always ? 4 : 0) | 8 | (render ? 16 : 0));
   b.preprocess(pre);
   if (track) {

@@ -88,6 +88,44 @@ TEST_F(OutputsCli, EmptyVolumeGivesAValidEmptyPly) {
   EXPECT_TRUE(mesh.vertices.empty() && mesh.triangles.empty());
 }
 
+TEST_F(OutputsCli, MeshRefusesAnExistingFileUnlessOverwrite) {
+  output::SavedVolume empty;
+  empty.res = 16;
+  empty.size_m = 1.0f;
+  empty.voxels.assign(16 * 16 * 16, Voxel{32766, 0});
+  output::write_volume_file((dir_ / "v.kfxtsdf").string(), empty);
+  std::ofstream(dir_ / "mine.ply") << "mine";
+  const std::string args = "mesh " + (dir_ / "v.kfxtsdf").string() + " " +
+                           (dir_ / "mine.ply").string() + " --backend cpu";
+  auto r = run_kfx(args);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("--overwrite"), std::string::npos) << r.output;
+  std::string content;
+  std::getline(std::ifstream(dir_ / "mine.ply"), content);
+  EXPECT_EQ(content, "mine");  // untouched, as kfx run leaves an earlier run
+  r = run_kfx(args + " --overwrite");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_TRUE(output::read_mesh_ply((dir_ / "mine.ply").string()).triangles.empty());
+}
+
+TEST_F(OutputsCli, QuietStillWarnsOfAnEmptyVolume) {
+  // A wall 10 m away, far beyond the 4.8 m volume: nothing is integrated. -q hides progress,
+  // not this warning.
+  const fs::path tum = dir_ / "tum";
+  fs::create_directories(tum / "depth");
+  std::ofstream list(tum / "depth.txt");
+  for (int i = 0; i < 3; ++i) {
+    const std::string name = "depth/" + std::to_string(100 + i) + ".000000.png";
+    io::write_png_gray16((tum / name).string(), HostImage<uint16_t>(64, 48, 50000));
+    list << 100 + i << ".000000 " << name << "\n";
+  }
+  list.close();
+  const auto r = run_kfx("run " + tum.string() + " -k 60,60,32,24 -c 1 -q -v 64 --backend cpu " +
+                         "--out " + (dir_ / "run").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("holds no surface"), std::string::npos) << r.output;
+}
+
 TEST_F(OutputsCli, BadVolumeIsNamed) {
   std::ofstream(dir_ / "bad.kfxtsdf") << "not a volume at all, but long enough to hold a header "
                                          "of eighty-four bytes, so the magic is what fails";

@@ -152,6 +152,12 @@ TEST_F(ReportTest, ReportOfAFolderThatIsNoRunIsAClearError) {
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("stats.json"), std::string::npos) << r.output;
   EXPECT_FALSE(fs::exists(dir_ / "report.html"));
+  // A folder that does not exist is named as such, not as one without stats.json.
+  const auto missing = test::run_kfx("report " + (dir_ / "nonexistent").string());
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_NE(missing.output.find("no such folder"), std::string::npos) << missing.output;
+  EXPECT_EQ(missing.output.find("stats.json"), std::string::npos) << missing.output;
+  EXPECT_FALSE(fs::exists(dir_ / "nonexistent"));
 }
 
 }  // namespace

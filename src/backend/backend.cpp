@@ -55,19 +55,23 @@ const char* stage_name(Stage stage) {
   }
 }
 
-void check_depth_frame(const HostImage<uint16_t>& depth_mm, const BackendSetup& setup) {
-  KFX_CHECK(depth_mm.width() == setup.input_width_px && depth_mm.height() == setup.input_height_px,
-            "depth frame is " << depth_mm.width() << "x" << depth_mm.height()
+void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& setup) {
+  KFX_CHECK(depth_mm.width == setup.input_width_px && depth_mm.height == setup.input_height_px,
+            "depth frame is " << depth_mm.width << "x" << depth_mm.height
                               << ", the pipeline was set up for " << setup.input_width_px << "x"
                               << setup.input_height_px);
+  KFX_CHECK(depth_mm.pitch == depth_mm.width && depth_mm.data != nullptr,
+            "depth frame rows are not packed (pitch " << depth_mm.pitch << " for width "
+                                                      << depth_mm.width << ")");
 }
 
-void check_colour_frame(const HostImage<Rgb8>& rgb, const BackendSetup& setup) {
+void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup) {
   KFX_CHECK(setup.colour, "a colour image was given but the pipeline was set up without colour");
-  KFX_CHECK(rgb.width() == setup.input_width_px && rgb.height() == setup.input_height_px,
-            "colour image is " << rgb.width() << "x" << rgb.height()
-                               << ", the pipeline was set up for " << setup.input_width_px << "x"
-                               << setup.input_height_px << " (the depth image's size)");
+  KFX_CHECK(rgb.width == setup.input_width_px && rgb.height == setup.input_height_px &&
+                rgb.pitch == rgb.width,
+            "colour image is " << rgb.width << "x" << rgb.height << ", the pipeline was set up for "
+                               << setup.input_width_px << "x" << setup.input_height_px
+                               << " (the depth image's size)");
 }
 
 BackendKind parse_backend_kind(const std::string& text) {

@@ -110,9 +110,9 @@ struct FrameBuffers {
 };
 
 /// Throws kfx::Error unless `depth_mm` has the input size the backend was set up for.
-void check_depth_frame(const HostImage<uint16_t>& depth_mm, const BackendSetup& setup);
+void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& setup);
 
 /// Throws kfx::Error unless colour is on and `rgb` has the input size.
-void check_colour_frame(const HostImage<Rgb8>& rgb, const BackendSetup& setup);
+void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup);
 
 }  // namespace kfx

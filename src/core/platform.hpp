@@ -3,7 +3,6 @@
 /// the contract check macro. Compiles with a plain host compiler (no CUDA headers needed).
 
 #include <sstream>
-#include <stdexcept>
 #include <string>
 
 #if defined(__CUDACC__)
@@ -22,22 +21,8 @@
 #define KFX_NOINLINE
 #endif
 
-namespace kfx {
-
-/// The one exception type of the library: a clear message plus the source location that raised
-/// it. The CLI prints `what()`; `where()` is for debugging.
-class Error : public std::runtime_error {
- public:
-  Error(const std::string& message, const char* file, int line)
-      : std::runtime_error(message), where_(std::string(file) + ":" + std::to_string(line)) {}
-  /// Source location (file:line) that raised the error.
-  const std::string& where() const { return where_; }
-
- private:
-  std::string where_;
-};
-
-}  // namespace kfx
+// kfx::Error, the one exception type, is public (the API throws it).
+#include "kfx/error.hpp"
 
 /// Throws kfx::Error with a streamed message when `cond` is false. Host code only.
 #define KFX_CHECK(cond, msg)                                           \

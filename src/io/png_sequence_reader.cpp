@@ -238,6 +238,13 @@ ReadResult PngSequenceReader::next(Frame& frame) {
   return {ReadStatus::kOk, ""};
 }
 
+std::vector<double> PngSequenceReader::stamps_s() const {
+  std::vector<double> stamps;
+  stamps.reserve(spec_.entries.size());
+  for (const auto& entry : spec_.entries) stamps.push_back(entry.stamp_s);
+  return stamps;
+}
+
 std::string PngSequenceReader::description() const {
   std::ostringstream out;
   out << spec_.format_name << " '" << spec_.folder << "' (" << spec_.entries.size() << " frames, "

@@ -70,6 +70,7 @@ class PngSequenceReader : public Reader {
   std::string intrinsics_source() const override { return spec_.intrinsics_source; }
   LensDistortion default_distortion() const override { return spec_.distortion; }
   std::vector<StampedPose> ground_truth() const override { return spec_.ground_truth; }
+  std::vector<double> stamps_s() const override;
   std::string description() const override;
 
  private:

@@ -60,6 +60,9 @@ class Reader {
   virtual bool has_colour() const { return false; }
   /// Ground-truth poses (camera to world), empty when there are none.
   virtual std::vector<StampedPose> ground_truth() const = 0;
+  /// Every frame's stamp in seconds, in order, where the format lists them up front (so a
+  /// ground truth can be checked before the run); empty when they are known only frame by frame.
+  virtual std::vector<double> stamps_s() const { return {}; }
   /// One line describing the source, e.g. "TUM RGB-D folder X (798 frames)".
   virtual std::string description() const = 0;
   /// Pipeline settings (config key, value) that suit this input, applied unless the user set

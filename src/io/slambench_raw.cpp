@@ -190,6 +190,9 @@ class RawReader : public Reader {
   std::vector<StampedPose> ground_truth() const override {
     return sidecar_ ? sidecar_->ground_truth : std::vector<StampedPose>{};
   }
+  std::vector<double> stamps_s() const override {
+    return sidecar_ ? sidecar_->stamps_s : std::vector<double>{};
+  }
   std::vector<std::pair<std::string, std::string>> recommended_settings() const override {
     return sidecar_ ? sidecar_->recommended_settings
                     : std::vector<std::pair<std::string, std::string>>{};

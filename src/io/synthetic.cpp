@@ -142,6 +142,11 @@ void parse_stretch(const std::string& spec, const std::string& key, const std::s
 
 }  // namespace
 
+std::string synthetic_spec_syntax() {
+  // Keep in step with kAllowedKeys (a test checks that help names every key).
+  return "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1,speed=X,jump=A-B,blank=A-B]";
+}
+
 SyntheticOptions parse_synthetic_spec(const std::string& spec) {
   const std::string prefix = "synthetic";
   KFX_CHECK(spec.compare(0, prefix.size(), prefix) == 0 &&

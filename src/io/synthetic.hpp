@@ -59,6 +59,10 @@ struct SyntheticOptions {
 /// allowed keys, values or range on an unknown key, a malformed item or a bad value.
 SyntheticOptions parse_synthetic_spec(const std::string& spec);
 
+/// The spec's syntax with every key, for help texts:
+/// "synthetic[:frames=N,width=W,...,blank=A-B]".
+std::string synthetic_spec_syntax();
+
 /// The Kinect-like depth model of the synthetic scene (noise=1), one pixel at a time: axial
 /// noise growing with depth and incidence (Nguyen, Izadi, Lovell 2012), whole millimetres, and
 /// holes out of range, at grazing incidence and (randomly) on depth edges.

@@ -6,9 +6,9 @@
 
 namespace kfx::output {
 
-void write_run_mesh(const std::string& path, const MeshView& mesh, const std::string& source,
-                    bool quiet) {
-  if (mesh.triangle_count == 0 && !quiet) {
+void write_run_mesh(const std::string& path, const MeshView& mesh, const std::string& source) {
+  // A warning, not progress: -q does not hide it.
+  if (mesh.triangle_count == 0) {
     std::cerr << "kfx: note: the volume holds no surface (no cell with all 8 corners observed "
                  "crosses zero); "
               << path << " is a valid PLY with no faces\n";

@@ -10,8 +10,7 @@ namespace kfx::output {
 
 /// Writes `mesh` as PLY (output/mesh_ply.hpp) with a header comment naming `source`, the frame
 /// and units. An empty mesh (nothing integrated) is still a valid PLY; a note on stderr says so
-/// (unless quiet).
-void write_run_mesh(const std::string& path, const MeshView& mesh, const std::string& source,
-                    bool quiet);
+/// (always: it is a warning, not progress).
+void write_run_mesh(const std::string& path, const MeshView& mesh, const std::string& source);
 
 }  // namespace kfx::output

@@ -8,6 +8,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "core/platform.hpp"
@@ -93,10 +94,21 @@ std::map<std::string, std::vector<double>> read_slambench_log(const std::string&
   return columns;
 }
 
-/// The settings that differ from the preset's, as "key=value".
-std::vector<std::string> changed_settings(const json& stats) {
+/// Keys of the settings whose values came from the input (stats.json's settings_from_input).
+std::set<std::string> settings_from_input(const json& stats) {
+  std::set<std::string> keys;
+  for (const auto& key : stats.value("settings_from_input", json::array())) {
+    keys.insert(key.get<std::string>());
+  }
+  return keys;
+}
+
+/// The settings as "key=value": those the input chose (`from_input` true) or the others that
+/// differ from the preset's (changed by the user).
+std::vector<std::string> changed_settings(const json& stats, bool from_input) {
   std::vector<std::string> changed;
   if (!stats.contains("config") || !stats.contains("preset")) return changed;
+  const std::set<std::string> input_keys = settings_from_input(stats);
   PipelineConfig preset;
   try {
     preset = make_preset(stats["preset"].get<std::string>());
@@ -107,17 +119,57 @@ std::vector<std::string> changed_settings(const json& stats) {
     const auto& section = stats["config"].value(field.section, json::object());
     if (!section.contains(field.key)) continue;
     const std::string value = section[field.key].get<std::string>();
-    if (value != field.format(preset)) changed.push_back(field.key + "=" + value);
+    if (input_keys.count(field.key) != 0) {
+      if (from_input) changed.push_back(field.key + "=" + value);
+    } else if (!from_input && value != field.format(preset)) {
+      changed.push_back(field.key + "=" + value);
+    }
   }
   return changed;
+}
+
+/// Whether the run's ATE flipped y (stats.json schema 2: flat `ate_flip_y`; schema 1 nested it
+/// under `ate`), so the plots are aligned as the ATE was.
+bool evaluated_with_flip_y(const json& stats) {
+  if (stats.contains("ate_flip_y")) return stats["ate_flip_y"].get<bool>();
+  if (stats.contains("ate") && stats["ate"].is_object()) return stats["ate"].value("flip_y", false);
+  return false;
+}
+
+/// The frames whose tracking ran and failed: stats.json's `lost_frames`; for a run written
+/// before it existed, the log's untracked frames on the tracking rate after the bootstrap
+/// frames (from the run's settings; the reference view may then start later than this says).
+json lost_frames(const json& stats, const std::map<std::string, std::vector<double>>& log) {
+  if (stats.contains("lost_frames")) return stats["lost_frames"];
+  int bootstrap = 4, rate = 1;
+  if (stats.contains("config")) {
+    const json& config = stats["config"];
+    bootstrap = std::stoi(config.value("quality", json::object()).value("bootstrap_frames", "4"));
+    rate = std::stoi(config.value("tracking", json::object()).value("tracking_rate", "1"));
+  }
+  json lost = json::array();
+  const auto frame = log.find("frame"), tracked = log.find("tracked");
+  if (frame == log.end() || tracked == log.end()) return lost;
+  for (size_t i = 0; i < frame->second.size(); ++i) {
+    const int f = static_cast<int>(frame->second[i]);
+    if (f >= bootstrap && f % std::max(1, rate) == 0 && tracked->second[i] == 0) lost.push_back(f);
+  }
+  return lost;
 }
 
 json position(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z()}); }
 
 /// Trajectory plots and the translational error: aligned onto the ground truth when there is
 /// one (as the ATE does), else the estimate alone in the volume frame.
+/// `frame_numbers`: slambench.log's frame column, one per pose of `est` (the input's numbers,
+/// which skip bad frames); the pose's index where it does not match.
 json trajectory_data(const std::vector<io::StampedPose>& est, const std::string& gt_path,
-                     const json& stats, ReportResult& result) {
+                     const json& stats, const std::vector<double>& frame_numbers,
+                     ReportResult& result) {
+  const auto frame_number = [&](size_t i) {
+    return frame_numbers.size() == est.size() ? static_cast<int>(frame_numbers[i])
+                                              : static_cast<int>(i);
+  };
   json t;
   json path = json::array();
   for (const auto& p : est) path.push_back(json::array({p.t[0], p.t[1], p.t[2]}));
@@ -126,13 +178,13 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
     t["frame"] = "volume";
     t["est"] = path;
     t["est_frames"] = json::array();
-    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(i);
+    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(frame_number(i));
     t["note"] = "no groundtruth.txt in the folder: the estimate alone, in the volume frame";
     return t;
   }
   const auto gt = io::read_tum_trajectory(gt_path);
   eval::EvalOptions options;
-  if (stats.contains("ate")) options.flip_y = stats["ate"].value("flip_y", false);
+  options.flip_y = evaluated_with_flip_y(stats);
   const eval::EvalResult r =
       eval::evaluate_trajectories(est, gt, options, "trajectory.txt", gt_path);
   result.has_ground_truth = true;
@@ -143,7 +195,7 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
   size_t gt_first = gt.size(), gt_last = 0;
   for (size_t i = 0; i < r.association.pairs.size(); ++i) {
     est_aligned.push_back(position(aligned.col(i)));
-    est_frames.push_back(r.association.pairs[i].est_index);
+    est_frames.push_back(frame_number(r.association.pairs[i].est_index));
     errors.push_back(r.ate.errors_m[i]);
     gt_first = std::min(gt_first, r.association.pairs[i].gt_index);
     gt_last = std::max(gt_last, r.association.pairs[i].gt_index);
@@ -216,7 +268,8 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["backend"] = stats.value("backend", "");
   s["device"] = stats.value("device", "");
   s["preset"] = stats.value("preset", "");
-  s["settings_changed"] = changed_settings(stats);
+  s["settings_changed"] = changed_settings(stats, false);
+  s["settings_from_input"] = changed_settings(stats, true);
   s["config"] = stats.value("config", json::object());
   s["frames"] = stats.value("frames", 0);
   s["tracked"] = stats.value("tracked", 0);
@@ -224,14 +277,13 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["frames_per_second"] = stats.value("frames_per_second", 0.0);
   s["kfx_version"] = stats.value("kfx_version", "");
   s["energy"] = stats.value("energy", json::object());  // per domain: figures or the reason
-  if (stats.contains("ate")) {
-    s["ate_rmse_m"] = stats["ate"]["ate"].value("rmse_m", 0.0);
-    s["rpe_trans_rmse_m"] = stats["ate"]["rpe"].value("trans_rmse_m", 0.0);
-    s["rpe_rot_rmse_deg"] = stats["ate"]["rpe"].value("rot_rmse_deg", 0.0);
-    s["rpe_delta_frames"] = stats["ate"]["rpe"].value("delta_frames", 1);
-  } else if (stats.contains("ate_error")) {
-    s["ate_error"] = stats["ate_error"];
+  s["lost"] = stats.value("lost", 0);
+  // stats.json schema 2's flat names; the page shows what the run itself computed.
+  for (const char* key : {"ate_rmse_m", "ate_flip_y", "rpe_translation_rmse_m",
+                          "rpe_rotation_rmse_deg", "rpe_delta_frames"}) {
+    if (stats.contains(key)) s[key] = stats[key];
   }
+  if (stats.contains("ate_error")) s["ate_error"] = stats["ate_error"];
   s["ground_truth"] = result.has_ground_truth;
   return s;
 }
@@ -247,6 +299,7 @@ ReportResult write_report(const std::string& run_dir) {
   ReportResult result;
   result.path = run_dir + "/report.html";
   const std::string stats_path = run_dir + "/stats.json";
+  KFX_CHECK(fs::is_directory(run_dir), "'" << run_dir << "': no such folder");
   KFX_CHECK(fs::exists(stats_path),
             "'" << run_dir << "' holds no stats.json: not a finished kfx run");
   json stats;
@@ -259,17 +312,18 @@ ReportResult write_report(const std::string& run_dir) {
   const auto log = read_slambench_log(run_dir + "/slambench.log");
 
   json data;
+  const auto frame_column = log.find("frame");
+  const std::vector<double> frame_numbers =
+      frame_column == log.end() ? std::vector<double>{} : frame_column->second;
   try {
-    data["trajectory"] = trajectory_data(est, run_dir + "/groundtruth.txt", stats, result);
+    data["trajectory"] =
+        trajectory_data(est, run_dir + "/groundtruth.txt", stats, frame_numbers, result);
   } catch (const Error& e) {
-    data["trajectory"] = trajectory_data(est, "", stats, result);
+    data["trajectory"] = trajectory_data(est, "", stats, frame_numbers, result);
     data["trajectory"]["note"] = std::string("ground truth not usable: ") + e.what();
   }
   data["log"] = log;
-  data["tracking_rate"] = 1;
-  if (stats.contains("config") && stats["config"].contains("tracking")) {
-    data["tracking_rate"] = std::stoi(stats["config"]["tracking"].value("tracking_rate", "1"));
-  }
+  data["lost_frames"] = lost_frames(stats, log);
   data["renders"] = renders_data(run_dir, result);
   data["mesh"] = mesh_data(run_dir, result);
   data["summary"] = summary_data(stats, result);

@@ -23,7 +23,8 @@ svg.plot { background: #fff; border: 1px solid #ddd; }
 .renders img { width: 240px; image-rendering: pixelated; border: 1px solid #ddd; }
 details { margin-top: 0.5em; }
 /* report.html#model: the 3D view alone, filling the window (pictures of the model). */
-body.model-only { margin: 0; padding: 0; max-width: none; }
+body.model-only { margin: 0; padding: 0; max-width: none; overflow: hidden; }
+#view3d canvas { display: block; }  /* inline, its line box would add a scrollbar */
 body.model-only > *:not(#view3d):not(script) { display: none; }
 body.model-only #view3d { height: 100vh; }
 </style>
@@ -83,15 +84,20 @@ window.onerror = function (message, source, line) {
     ["Input", S.input_description || S.input],
     ["Preset", S.preset],
     ["Settings changed from the preset", S.settings_changed.length ? S.settings_changed.join(", ") : "none"],
+    ["Settings from the input", S.settings_from_input.length ? S.settings_from_input.join(", ") : "none"],
     ["Frames", S.frames],
     ["Tracked", S.tracked + " (" + fixed(100 * S.tracked / Math.max(1, S.frames), 1) + " %)"],
     ["Integrated", S.integrated],
+    ["Tracking lost", S.lost + " frame(s)" + (KFX.lost_frames.length ? " (marked red below)" : "")],
     ["Frames/s (1 / mean computation time)", fixed(S.frames_per_second, 2)]
   ];
   if (S.ate_rmse_m !== undefined) {
-    rows.push(["ATE RMSE (aligned, TUM-style)", fixed(100 * S.ate_rmse_m, 2) + " cm"]);
-    rows.push(["RPE RMSE (" + S.rpe_delta_frames + " frame)", fixed(100 * S.rpe_trans_rmse_m, 2) + " cm, " +
-               fixed(S.rpe_rot_rmse_deg, 3) + "°"]);
+    rows.push(["ATE RMSE (aligned, TUM-style" + (S.ate_flip_y ? ", estimate y flipped" : "") + ")",
+               fixed(100 * S.ate_rmse_m, 2) + " cm"]);
+    if (S.rpe_translation_rmse_m !== undefined) {
+      rows.push(["RPE RMSE (" + S.rpe_delta_frames + " frame)", fixed(100 * S.rpe_translation_rmse_m, 2) + " cm, " +
+                 fixed(S.rpe_rotation_rmse_deg, 3) + "°"]);
+    }
   } else {
     rows.push(["ATE", S.ate_error ? "not computed: " + S.ate_error : "no ground truth"]);
   }
@@ -119,13 +125,9 @@ window.onerror = function (message, source, line) {
   });
   el("settings").innerHTML = settings.join("");
 
-  // ---- Lost frames: tracking ran (after the 4 bootstrap frames, on the tracking rate) and failed ----
+  // ---- Lost frames: tracking ran and failed (stats.json's lost_frames) ----
   var L = KFX.log;
-  var lost = [];
-  for (var i = 0; i < L.frame.length; ++i) {
-    var f = L.frame[i];
-    if (f > 3 && f % KFX.tracking_rate === 0 && !L.tracked[i]) lost.push(f);
-  }
+  var lost = KFX.lost_frames;
 
   // ---- SVG line plots ----
   var W = 520, H = 330, M = { l: 58, r: 14, t: 30, b: 44 };
@@ -208,7 +210,10 @@ window.onerror = function (message, source, line) {
 
   // ---- Per-frame plots: translational error, stage times; lost frames as red lines ----
   if (T.errors_m) {
-    plot(el("frame-plots"), { title: "Translational error after alignment", xlabel: "frame", ylabel: "error (cm)",
+    var squares = T.errors_m.reduce(function (sum, e) { return sum + e * e; }, 0);
+    var rmse = Math.sqrt(squares / Math.max(1, T.errors_m.length));
+    plot(el("frame-plots"), { title: "Translational error after alignment (RMSE " + fixed(100 * rmse, 2) + " cm)",
+      xlabel: "frame", ylabel: "error (cm)",
       series: [{ name: "|kfx − ground truth|", x: T.est_frames, y: T.errors_m.map(function (e) { return 100 * e; }), color: "#1f6fd0" }],
       vlines: lost, zeroY: true });
   }
@@ -286,8 +291,13 @@ window.onerror = function (message, source, line) {
     bounds.union(path.boundingBox);
     var centre = bounds.getCenter(new THREE.Vector3());
     var radius = Math.max(0.1, bounds.getSize(new THREE.Vector3()).length() / 2);
-    // Start above and behind the cameras (which look down +z), looking at the model's centre.
-    camera.position.copy(centre).add(new THREE.Vector3(0, -0.9, -1.6).multiplyScalar(radius * 0.75));
+    // Start above and behind the cameras (which look down +z), looking at the model's centre,
+    // far enough that the sphere around the model and the path fits the narrower field of view.
+    var halfFov = Math.min(camera.fov * Math.PI / 360, Math.atan(Math.tan(camera.fov * Math.PI / 360) * camera.aspect));
+    var distance = 1.05 * radius / Math.sin(halfFov);
+    camera.position.copy(centre).add(new THREE.Vector3(0, -0.9, -1.6).normalize().multiplyScalar(distance));
+    camera.far = Math.max(100, 4 * distance);
+    camera.updateProjectionMatrix();
     camera.lookAt(centre);
     var controls = new THREE.OrbitControls(camera, renderer.domElement);
     controls.target.copy(centre);
@@ -305,17 +315,24 @@ window.onerror = function (message, source, line) {
     pathLine.visible = false;
     draw();
     var gl = renderer.getContext(), w = gl.drawingBufferWidth, h = gl.drawingBufferHeight;
-    var pixels = new Uint8Array(w * h * 4), drawn = 0;
+    var pixels = new Uint8Array(w * h * 4), drawn = 0, edge = 0;
     gl.readPixels(0, 0, w, h, gl.RGBA, gl.UNSIGNED_BYTE, pixels);
     var bg = [background.r * 255, background.g * 255, background.b * 255];
     for (var p = 0; p < w * h; ++p) {
-      if (Math.abs(pixels[4 * p] - bg[0]) + Math.abs(pixels[4 * p + 1] - bg[1]) + Math.abs(pixels[4 * p + 2] - bg[2]) > 24) ++drawn;
+      if (Math.abs(pixels[4 * p] - bg[0]) + Math.abs(pixels[4 * p + 1] - bg[1]) + Math.abs(pixels[4 * p + 2] - bg[2]) > 24) {
+        ++drawn;
+        var px = p % w, py = Math.floor(p / w);
+        if (px === 0 || py === 0 || px === w - 1 || py === h - 1) ++edge;  // the model cut off
+      }
     }
     document.body.setAttribute("data-mesh-pixels", String(drawn));
+    document.body.setAttribute("data-mesh-edge-pixels", String(edge));
     document.body.setAttribute("data-view-pixels", String(w * h));
     pathLine.visible = true;
     draw();
   }
+  var root = document.documentElement;
+  document.body.setAttribute("data-scrollbars", String(root.scrollWidth > root.clientWidth || root.scrollHeight > root.clientHeight));
   if (!window.kfxErrors.length) document.body.setAttribute("data-status", "ok");
 })();
 </script>

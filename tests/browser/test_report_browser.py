@@ -4,10 +4,14 @@ of mesh.ply's layout is put beside it, `kfx report` makes the page and headless 
 through SwiftShader) loads it. Checks: no script error, the 3D view draws the model (the page
 counts its own non-background pixels with the camera path hidden), the plots and renders are
 there; and for a run whose tracking fails, without mesh.ply, the page says the mesh is missing,
-still works, draws no model and marks the lost frames.
+still works, draws no model and marks the lost frames. The summary must say what stats.json
+says (frames, tracked, lost and the frames marked, frames/s, ATE, RPE, the y flip) for a run with
+ground truth, one whose intrinsics mirror y, one without ground truth and one with
+bootstrap_frames=1.
 
 Usage: test_report_browser.py KFX_BINARY. Exit 77 (skipped) when Chromium is not installed."""
 
+import json
 import math
 import os
 import re
@@ -85,6 +89,71 @@ def body_attributes(dom):
     return dict(re.findall(r'([\w-]+)="([^"]*)"', body.group(1)))
 
 
+def summary_rows(dom):
+    """The summary table as {label: text}, as the page shows it."""
+    table = re.search(r'<table class="summary" id="summary">(.*?)</table>', dom, re.S)
+    assert table, "no summary table in the dumped DOM"
+    return {re.sub(r"<[^>]+>", "", label).strip(): re.sub(r"<[^>]+>", "", value).strip()
+            for label, value in re.findall(r"<tr><td>(.*?)</td><td>(.*?)</td></tr>", table.group(1), re.S)}
+
+
+def number_after(text, prefix=""):
+    """The first number in text after prefix; NaN (equal to nothing) when there is none."""
+    match = re.search(re.escape(prefix) + r"\s*(-?[0-9]+(?:\.[0-9]+)?)", text)
+    return float(match.group(1)) if match else math.nan
+
+
+def check_summary_against_stats(check, name, dom, stats):
+    """What the page SAYS equals stats.json: frames, tracked, lost (and the frames marked lost),
+    frames/s, ATE and RPE (or that there is no ground truth), and the error plot's RMSE equals
+    the ATE (the plots are aligned as the ATE was, y flip included)."""
+    rows = summary_rows(dom)
+    check(rows.get("Frames") == str(stats["frames"]), f"{name}: Frames {rows.get('Frames')!r}, stats {stats['frames']}")
+    check(number_after(rows.get("Tracked", "")) == stats["tracked"],
+          f"{name}: Tracked {rows.get('Tracked')!r}, stats {stats['tracked']}")
+    check(number_after(rows.get("Tracking lost", "")) == stats["lost"],
+          f"{name}: Tracking lost {rows.get('Tracking lost')!r}, stats {stats['lost']}")
+    fps = rows.get("Frames/s (1 / mean computation time)", "")
+    check(abs(number_after(fps) - stats["frames_per_second"]) <= 0.0051,
+          f"{name}: Frames/s {fps!r}, stats {stats['frames_per_second']}")
+    plots = re.findall(r'<svg class="plot".*?</svg>', dom, re.S)
+    stage_plots = [p for p in plots if "Stage times" in p]
+    check(len(stage_plots) == 1, f"{name}: {len(stage_plots)} stage-time plots")
+    if stage_plots:
+        marked = len(re.findall(r'class="lost"', stage_plots[0]))
+        check(marked == stats["lost"], f"{name}: {marked} frames marked lost, stats.json counts {stats['lost']}")
+    ate_rows = [label for label in rows if label.startswith("ATE")]
+    if "ate_rmse_m" in stats:
+        label = next((l for l in ate_rows if "RMSE" in l), None)
+        check(label is not None, f"{name}: no ATE RMSE row (rows: {list(rows)})")
+        if label:
+            check(abs(number_after(rows[label]) - 100 * stats["ate_rmse_m"]) <= 0.0051,
+                  f"{name}: ATE {rows[label]!r}, stats {100 * stats['ate_rmse_m']:.4f} cm")
+            check(("y flipped" in label) == stats["ate_flip_y"], f"{name}: ATE label {label!r}, flip {stats['ate_flip_y']}")
+        rpe = next((l for l in rows if l.startswith("RPE")), None)
+        check(rpe is not None, f"{name}: no RPE row (rows: {list(rows)})")
+        if rpe:
+            check(abs(number_after(rows[rpe]) - 100 * stats["rpe_translation_rmse_m"]) <= 0.0051,
+                  f"{name}: RPE {rows[rpe]!r}, stats {100 * stats['rpe_translation_rmse_m']:.4f} cm")
+        error_plot = next((p for p in plots if "Translational error" in p), "")
+        check(error_plot != "", f"{name}: no translational error plot")
+        if error_plot:
+            plotted = number_after(error_plot, "RMSE")
+            check(abs(plotted - 100 * stats["ate_rmse_m"]) <= 0.0101,
+                  f"{name}: the error plot's RMSE {plotted} cm, stats' ATE {100 * stats['ate_rmse_m']:.4f} cm")
+        note = re.search(r'<div class="note" id="trajectory-note">(.*?)</div>', dom, re.S)
+        check(note and ("y flipped" in note.group(1)) == stats["ate_flip_y"],
+              f"{name}: trajectory note {note.group(1) if note else None!r}, flip {stats['ate_flip_y']}")
+    else:
+        check(rows.get("ATE") == "no ground truth", f"{name}: ATE row {rows.get('ATE')!r} without ground truth")
+        check(not any(l.startswith("RPE") for l in rows), f"{name}: an RPE row without ground truth")
+
+
+def read_stats(run):
+    with open(os.path.join(run, "stats.json")) as f:
+        return json.load(f)
+
+
 def console_errors(log):
     return [line for line in log.splitlines()
             if "CONSOLE" in line and ("Uncaught" in line or "Error" in line)]
@@ -110,6 +179,9 @@ def main():
         run = os.path.join(tmp, "run")
         subprocess.run([kfx, "run", "synthetic:frames=20,width=160,height=120", "--backend", "cpu",
                         "-q", "--renders", "-z", "5", "--no-report", "--out", run], check=True)
+        real = os.path.join(tmp, "real_mesh")
+        shutil.copytree(run, real)
+        subprocess.run([kfx, "report", real], check=True, capture_output=True)
         # A sphere 1.2 m in front of the first camera (which looks down +z), radius 0.4 m.
         camera = first_camera_position(os.path.join(run, "trajectory.txt"))
         write_sphere_ply(os.path.join(run, "mesh.ply"), (camera[0], camera[1], camera[2] + 1.2), 0.4)
@@ -128,6 +200,18 @@ def main():
         model = int(body.get("data-mesh-pixels", "-1"))
         # The sphere fills a good part of the view from the start position; a blank canvas is 0.
         check(view > 0 and model > 0.02 * view, f"3D view: {model} model pixels of {view}")
+        check(body.get("data-mesh-edge-pixels") == "0",
+              f"3D view: the model is cut off ({body.get('data-mesh-edge-pixels')} model pixels on the border)")
+        # report.html#model: the run's own mesh (a room around the cameras) alone, framed whole
+        # in the window (no model pixel on its border), without scrollbars.
+        model_dom, _ = load_page(chromium, os.path.join(real, "report.html") + "#model", tmp)
+        model_body = body_attributes(model_dom)
+        check(model_body.get("data-status") == "ok", f"#model page status {model_body.get('data-status')!r}")
+        check(int(model_body.get("data-mesh-pixels", "0")) > 0.02 * int(model_body.get("data-view-pixels", "0")),
+              "#model: the model is not drawn")
+        check(model_body.get("data-mesh-edge-pixels") == "0",
+              f"#model: the model is cut off ({model_body.get('data-mesh-edge-pixels')} model pixels on the border)")
+        check(model_body.get("data-scrollbars") == "false", f"#model: scrollbars ({model_body.get('data-scrollbars')})")
         plots = re.findall(r'<svg class="plot".*?</svg>', dom, re.S)
         check(len(plots) >= 4, f"{len(plots)} plots, expected trajectory top/side, error, stage times")
         # Energy per frame (issue 13): a row per domain, with figures or the reason.
@@ -135,6 +219,9 @@ def main():
         check(all("<polyline" in p for p in plots), "a plot without a line")
         check(len(re.findall(r'<img alt="(?:depth|track|volume) \d+"', dom)) == 12,
               "expected 12 renders (frames 0, 5, 10, 15)")
+
+        # The summary says what stats.json says (a run with ground truth and renders).
+        check_summary_against_stats(check, "synthetic run", dom, read_stats(run))
 
         # A run whose tracking always fails (the accept test wants 99 % inliers), without
         # mesh.ply: the page says the mesh is missing, still works, and marks the lost frames.
@@ -155,6 +242,37 @@ def main():
         lost_lines = [len(re.findall(r'class="lost"', p)) for p in plots]
         check(lost_lines.count(8) >= 2, f"lost-frame lines per plot: {lost_lines}, expected 8 in two")
         check("tracking failed" in dom, "the trajectory plots do not mark the failed frames")
+        check_summary_against_stats(check, "lost run", dom, read_stats(run2))
+
+        # Three more runs whose summaries must equal their stats.json: intrinsics mirrored in
+        # y (the ATE flips y, so must the plots), one bootstrap frame with every tracking
+        # failing (frames 1..11 lost, not 4 onwards), and an input without ground truth.
+        k = read_stats(run)["intrinsics_input_px"]
+        small = "synthetic:frames=12,width=160,height=120"
+        cases = {
+            "flip": [small, "-k", f"{k[0]},{-k[1]},{k[2]},{k[3]}"],
+            "bootstrap1": [small, "--set", "bootstrap_frames=1", "--set", "min_inlier_fraction=0.99"],
+        }
+        raw = os.path.join(tmp, "nogt.raw")
+        subprocess.run([kfx, "convert", small, raw], check=True, capture_output=True)
+        with open(raw + ".json") as f:
+            sidecar = json.load(f)
+        sidecar["ground_truth"] = []
+        with open(raw + ".json", "w") as f:
+            json.dump(sidecar, f)
+        cases["no ground truth"] = [raw]
+        for name, args in cases.items():
+            folder = os.path.join(tmp, name.replace(" ", "_"))
+            subprocess.run([kfx, "run", *args, "--backend", "cpu", "-q", "--no-mesh", "--out", folder],
+                           check=True, capture_output=True)
+            stats = read_stats(folder)
+            if name == "flip":
+                check(stats.get("ate_flip_y") is True, "the mirrored run's ATE did not flip y")
+            if name == "bootstrap1":
+                check(stats["lost"] == 11, f"bootstrap_frames=1 run: {stats['lost']} lost, expected 11 (frames 1..11)")
+            dom, log = load_page(chromium, os.path.join(folder, "report.html"), tmp)
+            check(body_attributes(dom).get("data-status") == "ok", f"{name}: page status not ok")
+            check_summary_against_stats(check, name, dom, stats)
 
     if failures:
         return 1

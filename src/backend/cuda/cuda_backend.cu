@@ -10,6 +10,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <filesystem>
 #include <iostream>
 #include <map>
 
@@ -26,10 +27,16 @@ bool cuda_device_present(std::string* why_not) {
   int count = 0;
   const cudaError_t status = cudaGetDeviceCount(&count);
   if (status != cudaSuccess || count == 0) {
+    // Without a GPU the runtime finds no driver and says the driver is "insufficient": say
+    // what the user needs to know instead.
+    const bool driver_loaded = std::filesystem::exists("/proc/driver/nvidia/version");
     if (why_not) {
-      *why_not = status != cudaSuccess
-                     ? std::string("no usable CUDA device (") + cudaGetErrorString(status) + ")"
-                     : std::string("no CUDA device is present");
+      if (count == 0 && (status == cudaSuccess || status == cudaErrorNoDevice || !driver_loaded)) {
+        *why_not = std::string("this machine has no NVIDIA GPU") +
+                   (driver_loaded ? "" : " (no NVIDIA driver is loaded)") + "; use --backend cpu";
+      } else {
+        *why_not = std::string("no usable CUDA device (") + cudaGetErrorString(status) + ")";
+      }
     }
     cudaGetLastError();  // clear the sticky error of a failed query
     return false;
@@ -181,26 +188,25 @@ class CudaBackend final : public Backend {
     frames_submitted_ = 0;
   }
 
-  void upload_depth(const HostImage<uint16_t>& depth_mm) override {
+  void upload_depth(ImageView<const uint16_t> depth_mm) override {
     check_depth_frame(depth_mm, setup_);
     parity_ = frames_submitted_ % 2;
     // The frame two back used these buffers: wait until it has finished with them.
     KFX_CUDA_CHECK(cudaEventSynchronize(frame_done_[parity_].get()));
-    std::memcpy(staging_mm_[parity_].data(), depth_mm.data(),
-                depth_mm.pixels().size() * sizeof(uint16_t));
+    std::memcpy(staging_mm_[parity_].data(), depth_mm.data, depth_mm.size() * sizeof(uint16_t));
     KFX_CUDA_CHECK(cudaMemcpyAsync(input_mm_[parity_].data(), staging_mm_[parity_].data(),
-                                   depth_mm.pixels().size() * sizeof(uint16_t),
-                                   cudaMemcpyHostToDevice, copy_stream_.get()));
+                                   depth_mm.size() * sizeof(uint16_t), cudaMemcpyHostToDevice,
+                                   copy_stream_.get()));
     KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
   }
 
-  void upload_colour(const HostImage<Rgb8>& rgb) override {
+  void upload_colour(ImageView<const Rgb8> rgb) override {
     check_colour_frame(rgb, setup_);
     // After upload_depth(), which waited for the frame two back: these buffers are free.
-    std::memcpy(staging_rgb_[parity_].data(), rgb.data(), rgb.pixels().size() * sizeof(Rgb8));
-    KFX_CUDA_CHECK(cudaMemcpyAsync(input_rgb_[parity_].data(), staging_rgb_[parity_].data(),
-                                   rgb.pixels().size() * sizeof(Rgb8), cudaMemcpyHostToDevice,
-                                   copy_stream_.get()));
+    const size_t bytes = static_cast<size_t>(rgb.size()) * sizeof(Rgb8);
+    std::memcpy(staging_rgb_[parity_].data(), rgb.data, bytes);
+    KFX_CUDA_CHECK(cudaMemcpyAsync(input_rgb_[parity_].data(), staging_rgb_[parity_].data(), bytes,
+                                   cudaMemcpyHostToDevice, copy_stream_.get()));
     KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
   }
 

@@ -1,0 +1,61 @@
+#pragma once
+/// What a reconstruction hands out: its pose per frame, the mesh, the point cloud and images.
+/// Plain arrays (row-major, packed) that numpy, Open3D or a renderer take as they are.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+namespace kfx {
+
+/// A rigid transform as a row-major 4×4 matrix (rotation, translation in metres, last row
+/// 0 0 0 1).
+using Pose = std::array<float, 16>;
+
+/// What happened to one frame.
+struct FrameResult {
+  int index = 0;              ///< frame number, from 0 since the start or the last reset
+  double stamp_s = 0.0;       ///< the frame's stamp, as given
+  bool tracking_ran = false;  ///< tracking was attempted (a model existed, on the tracking rate)
+  bool tracked = false;     ///< tracking held (tracking_ran && !tracked: tracking lost, pose kept)
+  bool integrated = false;  ///< the depth was fused into the map
+  Pose T_world_cam{};       ///< the camera's pose after the frame, in the map (volume) frame
+  double computation_ms = 0;  ///< the frame's computation time (GPU time on CUDA)
+  int icp_iterations = 0;     ///< ICP iterations run, all pyramid levels
+};
+
+/// An indexed triangle mesh in the map frame (metres).
+struct TriangleMesh {
+  std::vector<float> vertices_m;   ///< x y z per vertex
+  std::vector<float> normals;      ///< unit nx ny nz per vertex
+  std::vector<int32_t> triangles;  ///< three vertex indices per triangle, counter-clockwise
+                                   ///< seen from free space
+  std::vector<uint8_t> colours;    ///< r g b per vertex; empty when the map holds no colour
+  size_t vertex_count() const { return vertices_m.size() / 3; }
+  size_t triangle_count() const { return triangles.size() / 3; }
+};
+
+/// Points with normals in the map frame (metres): the surface as a raycast sees it.
+struct PointCloud {
+  std::vector<float> points_m;   ///< x y z per point
+  std::vector<float> normals;    ///< unit nx ny nz per point
+  std::vector<uint8_t> colours;  ///< r g b per point; empty when the map holds no colour
+  size_t point_count() const { return points_m.size() / 3; }
+};
+
+/// An 8-bit RGBA image, row-major, packed.
+struct RgbaImage {
+  int width_px = 0;
+  int height_px = 0;
+  std::vector<uint8_t> rgba;  ///< width × height × 4 bytes
+};
+
+/// A float image (e.g. depth in metres, 0 = nothing seen), row-major, packed.
+struct FloatImage {
+  int width_px = 0;
+  int height_px = 0;
+  std::vector<float> values;
+};
+
+}  // namespace kfx

@@ -1,0 +1,119 @@
+#pragma once
+/// A KinectFusion reconstruction: settings in, frames in one at a time, the camera's pose out
+/// after each; the map on demand (mesh, point cloud, renders from the current or any pose);
+/// reset; the map saved and loaded. One reconstruction is used from one thread at a time;
+/// several may run at once, each on its own thread (as `kfx bench --concurrent`).
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "kfx/camera.hpp"
+#include "kfx/frame.hpp"
+#include "kfx/model.hpp"
+#include "kfx/sequence.hpp"
+#include "kfx/settings.hpp"
+
+namespace kfx {
+
+/// The settings and camera actually used, after the input's recommendations and defaults.
+struct ResolvedSetup {
+  Settings settings;        ///< preset, the input's recommended settings, then the user's
+  Camera camera;            ///< intrinsics and lens used (input size)
+  std::string camera_note;  ///< one line: the intrinsics used, where from and why
+  /// The intrinsics mirror the dataset's world in y (SLAMBench's ICL-NUIM convention), so a
+  /// ground-truth comparison must flip y.
+  bool flips_y = false;
+};
+
+/// Resolves `settings` for `sequence` as `kfx run` does: the preset, then the sequence's
+/// recommended settings unless `settings` overrides those keys, then the overrides; the camera
+/// from the setting `camera` when given, else the sequence's (with its lens when the camera is
+/// the format's own). Throws kfx::Error when the input has no intrinsics and none are given.
+ResolvedSetup resolve_setup(const Settings& settings, const Sequence& sequence);
+
+/// A reconstruction over one backend, its map allocated once at construction.
+class Reconstruction {
+ public:
+  /// Validates `settings` for `camera` and allocates the map and buffers on the backend;
+  /// throws kfx::Error naming the setting, or the memory that is missing. The setting `camera`
+  /// (fx,fy,cx,cy), when given, replaces the camera's intrinsics.
+  Reconstruction(const Settings& settings, const Camera& camera);
+  /// For frames of `sequence`: resolve_setup(settings, sequence), then as above.
+  Reconstruction(const Settings& settings, const Sequence& sequence);
+  ~Reconstruction();
+  Reconstruction(Reconstruction&&) noexcept;
+  Reconstruction& operator=(Reconstruction&&) noexcept;
+
+  /// Processes the next frame and returns its result. Throws kfx::Error, and changes nothing,
+  /// when the frame is not the camera's size, is not a valid depth image (NaN, negative or
+  /// infinite metres, a non-positive scale), or carries colour the map cannot hold.
+  FrameResult process(const FrameView& frame);
+  /// The same for a frame a Sequence read.
+  FrameResult process(const SequenceFrame& frame) { return process(frame.view()); }
+
+  /// Submits the next frame without waiting for it (on the GPU it computes while the caller
+  /// prepares the next); the frame's memory is read during the call only. Checked as process().
+  void submit(const FrameView& frame);
+  void submit(const SequenceFrame& frame) { submit(frame.view()); }
+  /// Waits for the oldest submitted frame and returns its result; throws when none is pending.
+  FrameResult collect();
+  /// Frames submitted and not yet collected.
+  int frames_in_flight() const;
+
+  /// Starts over: empty map, initial pose, frame 0, trajectory cleared (buffers are kept).
+  void reset();
+
+  /// The pose after the last collected frame (the initial pose before any).
+  Pose pose() const;
+  /// The first camera pose (a translation into the volume, setting init_pose_factor).
+  Pose initial_pose() const;
+  /// Results of every collected frame since the start or the last reset, in order.
+  const std::vector<FrameResult>& trajectory() const;
+  /// Frames submitted since the start or the last reset.
+  int frame_count() const;
+
+  /// The map as a triangle mesh (marching cubes; waits for submitted frames).
+  TriangleMesh mesh();
+  /// The surface as the last raycast saw it, as points with normals.
+  PointCloud point_cloud();
+  /// The map shaded (SLAMBench's renderVolume) from `T_world_cam`, at compute size.
+  RgbaImage render(const Pose& T_world_cam);
+  /// The same from the current pose.
+  RgbaImage render() { return render(pose()); }
+  /// The depth (metres along the optical axis, 0 where nothing is seen) of the map seen from
+  /// `T_world_cam`, at compute size.
+  FloatImage render_depth(const Pose& T_world_cam);
+
+  /// Writes the trajectory in TUM format (stamp tx ty tz qx qy qz qw, the pose after each frame,
+  /// camera to map frame), byte for byte as `kfx run`'s trajectory.txt; `input` names the
+  /// source in its header.
+  void save_trajectory(const std::string& path, const std::string& input = "") const;
+  /// Writes the mesh as binary PLY (as `kfx run`'s mesh.ply).
+  void save_mesh(const std::string& path, const std::string& input = "");
+  /// True when the map can be saved and loaded (the dense volume can).
+  bool map_saveable() const;
+  /// Writes the map (volume.kfxtsdf, docs/outputs.md); throws kfx::Error where the map kind
+  /// cannot be saved.
+  void save_map(const std::string& path);
+  /// Replaces the map by one save_map() wrote (same resolution and size); the pose is kept.
+  void load_map(const std::string& path);
+
+  /// The settings in force (after validation), as `kfx settings` prints them.
+  std::string settings_dump() const;
+  /// The camera the reconstruction was made for.
+  const Camera& camera() const;
+  /// Compute-size image: width, height (input size / compute_size_ratio).
+  int compute_width_px() const;
+  int compute_height_px() const;
+  /// "cpu" or "cuda", and the device (CPU model and threads, or GPU name).
+  std::string backend_name() const;
+  std::string device_name() const;
+
+ private:
+  friend struct ReconstructionAccess;
+  struct Impl;
+  std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace kfx

@@ -1,0 +1,191 @@
+"""kfx: KinectFusion (dense RGB-D SLAM) for CPUs and NVIDIA GPUs.
+
+    import kfx
+    sequence = kfx.open("synthetic:frames=60")
+    reconstruction = kfx.Reconstruction(sequence, preset="exact", backend="cpu")
+    for frame in sequence:
+        result = reconstruction.process(frame)      # result.pose: 4x4, result.tracked
+    reconstruction.save_mesh("mesh.ply")
+
+Settings are keyword arguments checked by the one settings table (``kfx.settings_table()``,
+``kfx settings`` on the command line); every error is a ``kfx.Error`` naming the problem.
+"""
+
+from __future__ import annotations
+
+import warnings
+from dataclasses import dataclass
+from typing import Any, Iterator, Optional
+
+from ._kfx import (
+    Camera,
+    Error,
+    Frame,
+    FrameResult,
+    ReadStatus,
+    Settings,
+    has_cuda,
+    presets,
+    settings_table,
+    version,
+)
+from ._kfx import Sequence as _Sequence
+from ._kfx import _Reconstruction
+
+__all__ = [
+    "Camera", "Error", "Frame", "FrameResult", "Mesh", "PointCloud", "Reconstruction",
+    "Sequence", "Settings", "has_cuda", "make_settings", "open", "presets", "settings_table",
+    "to_open3d", "version",
+]
+__version__ = version()
+
+
+def _setting_text(key: str, value: Any) -> str:
+    """A keyword argument's value as the settings table reads it."""
+    if isinstance(value, bool):
+        return "on" if value else "off"
+    if isinstance(value, (list, tuple)):
+        return ",".join(_setting_text(key, v) for v in value)
+    if isinstance(value, (int, float, str)):
+        return str(value)
+    # numpy scalars and arrays
+    if hasattr(value, "tolist"):
+        return _setting_text(key, value.tolist())
+    raise Error(f"setting '{key}': cannot use a value of type {type(value).__name__}")
+
+
+def make_settings(preset: str = "exact", backend: str = "auto", cuda_device: int = -1,
+                  **settings: Any) -> Settings:
+    """A Settings from a preset, the backend and settings as keyword arguments
+    (``volume_resolution=128``, ``camera=(fx, fy, cx, cy)``, ``icp_robust="huber"``)."""
+    s = Settings(preset)
+    s.backend = backend
+    s.cuda_device = cuda_device
+    for key, value in settings.items():
+        s.set(key, _setting_text(key, value))
+    return s
+
+
+class Sequence(_Sequence):
+    """Frames of an input, read in order: a TUM RGB-D or ICL-NUIM folder, ICL-NUIM's native
+    form, a SLAMBench ``.raw`` or ``synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]``.
+
+    Iterating yields ``kfx.Frame`` objects (``.depth`` in millimetres, ``.stamp``). A bad frame
+    raises ``kfx.Error`` naming it, or with ``skip_bad_frames=True`` is skipped with a warning.
+    """
+
+    def __init__(self, input: str, depth_scale: float = 0.0, ground_truth: str = "",
+                 skip_bad_frames: bool = False) -> None:
+        super().__init__(input, depth_scale, ground_truth)
+        self.skip_bad_frames = skip_bad_frames
+        self.skipped = 0
+
+    def __iter__(self) -> Iterator[Frame]:
+        return self
+
+    def __next__(self) -> Frame:
+        while True:
+            status, frame = self.read()
+            if status == ReadStatus.OK:
+                return frame
+            if status == ReadStatus.END:
+                raise StopIteration
+            if not self.skip_bad_frames:
+                raise Error(self.message + " (skip_bad_frames=True skips bad frames)")
+            warnings.warn("kfx: skipping bad frame: " + self.message, stacklevel=2)
+            self.skipped += 1
+
+
+def open(input: str, depth_scale: float = 0.0, ground_truth: str = "",
+         skip_bad_frames: bool = False) -> Sequence:
+    """Opens an input as a Sequence (see ``kfx.Sequence``)."""
+    return Sequence(input, depth_scale, ground_truth, skip_bad_frames)
+
+
+@dataclass
+class Mesh:
+    """A triangle mesh in the map frame (metres)."""
+
+    vertices: Any  #: (N, 3) float32
+    normals: Any  #: (N, 3) float32, unit
+    triangles: Any  #: (M, 3) int32, counter-clockwise seen from free space
+    colours: Any = None  #: (N, 3) uint8, or None when the map holds no colour
+
+
+@dataclass
+class PointCloud:
+    """Points with normals in the map frame (metres), as the last raycast saw the surface."""
+
+    points: Any  #: (N, 3) float32
+    normals: Any  #: (N, 3) float32
+    colours: Any = None  #: (N, 3) uint8 or None
+
+
+class Reconstruction(_Reconstruction):
+    """A KinectFusion reconstruction: frames in, one at a time; the pose after each; the map
+    on demand.
+
+    ``Reconstruction(sequence, preset="exact", backend="auto", **settings)`` sets it up for a
+    Sequence's frames (its camera and recommended settings, as ``kfx run``);
+    ``Reconstruction(camera=kfx.Camera(...), **settings)`` for frames you bring as numpy arrays.
+    One reconstruction is used from one thread at a time; several may run side by side.
+    """
+
+    def __init__(self, sequence: Optional[_Sequence] = None, *, camera: Optional[Camera] = None,
+                 preset: str = "exact", backend: str = "auto", cuda_device: int = -1,
+                 settings: Optional[Settings] = None, **kwargs: Any) -> None:
+        if settings is None:
+            settings = make_settings(preset, backend, cuda_device, **kwargs)
+        elif kwargs:
+            raise Error("give settings either as a kfx.Settings or as keyword arguments")
+        if (sequence is None) == (camera is None):
+            raise Error("give exactly one of a sequence or a camera")
+        if sequence is not None:
+            super().__init__(settings, sequence)
+        else:
+            super().__init__(settings, camera)
+
+    def process(self, frame: Any, stamp: float = 0.0, depth_scale: Optional[float] = None,
+                colour: Any = None) -> FrameResult:
+        """Processes the next frame: a ``kfx.Frame`` from a Sequence, or a depth array (uint16
+        in units of ``1/depth_scale`` m, millimetres by default; or float32 metres), its
+        ``stamp`` and optionally a uint8 (H, W, 3) colour image. Returns its FrameResult."""
+        if isinstance(frame, Frame):
+            return self.process_frame(frame)
+        return self.process_array(frame, stamp, depth_scale, colour)
+
+    def submit(self, frame: Any, stamp: float = 0.0, depth_scale: Optional[float] = None,
+               colour: Any = None) -> None:
+        """As process(), without waiting: collect() returns the result (on the GPU the frame
+        computes while Python prepares the next)."""
+        if isinstance(frame, Frame):
+            self.submit_frame(frame)
+        else:
+            self.submit_array(frame, stamp, depth_scale, colour)
+
+    def mesh(self) -> Mesh:
+        """The map as a triangle mesh (marching cubes)."""
+        return Mesh(*self.mesh_arrays())
+
+    def point_cloud(self) -> PointCloud:
+        """The surface as the last raycast saw it."""
+        return PointCloud(*self.cloud_arrays())
+
+
+def to_open3d(mesh: Mesh) -> Any:
+    """The mesh as an ``open3d.geometry.TriangleMesh`` (needs Open3D installed)."""
+    try:
+        import open3d  # noqa: PLC0415 (optional dependency)
+    except ImportError as e:
+        raise ImportError("kfx.to_open3d needs Open3D: pip install open3d") from e
+    import numpy as np  # noqa: PLC0415
+
+    o3d_mesh = open3d.geometry.TriangleMesh(
+        open3d.utility.Vector3dVector(np.asarray(mesh.vertices, dtype=np.float64)),
+        open3d.utility.Vector3iVector(np.asarray(mesh.triangles, dtype=np.int32)))
+    o3d_mesh.vertex_normals = open3d.utility.Vector3dVector(
+        np.asarray(mesh.normals, dtype=np.float64))
+    if mesh.colours is not None:
+        o3d_mesh.vertex_colors = open3d.utility.Vector3dVector(
+            np.asarray(mesh.colours, dtype=np.float64) / 255.0)
+    return o3d_mesh

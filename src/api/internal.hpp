@@ -1,0 +1,43 @@
+#pragma once
+/// What the API's implementation shares with the in-tree clients (the CLI, tests): the
+/// internal objects behind the public types. Never included by a public header.
+
+#include <vector>
+
+#include "core/camera.hpp"
+#include "io/reader.hpp"
+#include "kfx/reconstruction.hpp"
+#include "kfx/sequence.hpp"
+#include "kfx/settings.hpp"
+#include "pipeline/config.hpp"
+#include "pipeline/pipeline.hpp"
+
+namespace kfx {
+namespace api {
+
+/// The configuration `settings` describes (preset, then overrides in order); not validated.
+PipelineConfig make_config(const Settings& settings);
+
+/// A public pose from a matrix, and back.
+Pose to_pose(const Mat4f& m);
+Mat4f to_mat4f(const Pose& pose);
+
+}  // namespace api
+
+/// The reader behind a Sequence.
+struct SequenceAccess {
+  static io::Reader& reader(Sequence& sequence);
+  static const io::Reader& reader(const Sequence& sequence);
+};
+
+/// The pipeline behind a Reconstruction, for the CLI's run outputs (per-stage times, the
+/// SLAMBench log, energy on the backend's device). Frames still go through the Reconstruction.
+struct ReconstructionAccess {
+  static Pipeline& pipeline(Reconstruction& reconstruction);
+  /// The internal report of the last collected frame (stage times, renders made).
+  static const FrameReport& last_report(const Reconstruction& reconstruction);
+  /// Turns the renders of Pipeline::set_rendering on; frames that render are collected at once.
+  static void set_rendering(Reconstruction& reconstruction, bool on);
+};
+
+}  // namespace kfx

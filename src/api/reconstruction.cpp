@@ -1,0 +1,275 @@
+/// kfx::Reconstruction over kfx::Pipeline: the frame loop's bookkeeping (stamps, results,
+/// trajectory) once, for the CLI, C++ callers and Python alike.
+
+#include <cstring>
+#include <deque>
+
+#include "api/depth_input.hpp"
+#include "api/internal.hpp"
+#include "api/render_view.hpp"
+#include "core/platform.hpp"
+#include "io/trajectory.hpp"
+#include "output/mesh_ply.hpp"
+#include "output/run_trajectory.hpp"
+#include "output/volume_file.hpp"
+
+namespace kfx {
+
+namespace api {
+
+Pose to_pose(const Mat4f& m) {
+  Pose p;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) p[r * 4 + c] = m.m[r][c];
+  return p;
+}
+
+Mat4f to_mat4f(const Pose& p) {
+  Mat4f m;
+  for (int r = 0; r < 4; ++r)
+    for (int c = 0; c < 4; ++c) m.m[r][c] = p[r * 4 + c];
+  return m;
+}
+
+}  // namespace api
+
+struct Reconstruction::Impl {
+  PipelineConfig config;
+  Camera camera;
+  std::unique_ptr<Pipeline> pipeline;
+  StageParams params;  ///< for renders from any pose
+  std::vector<FrameResult> trajectory;
+  std::deque<double> stamps_in_flight;
+  HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
+  FrameReport last_report;
+
+  Impl(const Settings& settings, const Camera& given) : config(api::make_config(settings)) {
+    camera = given;
+    const auto& k = config.input.camera_px;
+    if (k[0] != 0 || k[1] != 0) {  // the setting `camera` replaces the camera's intrinsics
+      camera.fx_px = k[0];
+      camera.fy_px = k[1];
+      camera.cx_px = k[2];
+      camera.cy_px = k[3];
+    }
+    KFX_CHECK(camera.width_px > 0 && camera.height_px > 0,
+              "camera of " << camera.width_px << "x" << camera.height_px << " pixels");
+    KFX_CHECK(camera.fx_px != 0 && camera.fy_px != 0,
+              "the camera has no intrinsics (fx, fy are 0): give them in the Camera or with the "
+              "setting camera=fx,fy,cx,cy (pixels, input size)");
+    if (config.input.distortion.none()) {
+      const auto& d = camera.distortion;
+      config.input.distortion = LensDistortion{d[0], d[1], d[2], d[3], d[4]};
+    }
+    config.validate();
+    const Intrinsics intrinsics{camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
+    pipeline =
+        std::make_unique<Pipeline>(config, intrinsics, camera.width_px, camera.height_px,
+                                   parse_backend_kind(settings.backend()), settings.cuda_device(),
+                                   settings.reconstructions_on_device());
+    const int ratio = config.input.compute_size_ratio;
+    params = make_stage_params(config, pipeline->compute_intrinsics(), camera.width_px / ratio,
+                               camera.height_px / ratio);
+  }
+
+  std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
+
+  void submit(const FrameView& frame) {
+    const std::string label = frame_label();
+    KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
+              label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
+                    << ", the reconstruction was made for " << camera.width_px << "x"
+                    << camera.height_px);
+    KFX_CHECK(frame.colour.data == nullptr,
+              label << ": this map holds no colour yet; pass frames without colour");
+    const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
+    pipeline->submit(mm);
+    stamps_in_flight.push_back(frame.stamp_s);
+  }
+
+  FrameResult collect() {
+    KFX_CHECK(pipeline->frames_in_flight() > 0, "collect() without a submitted frame");
+    last_report = pipeline->collect();
+    FrameResult r;
+    r.index = last_report.index;
+    r.stamp_s = stamps_in_flight.front();
+    stamps_in_flight.pop_front();
+    r.tracking_ran = last_report.tracking_ran;
+    r.tracked = last_report.tracked;
+    r.integrated = last_report.integrated;
+    r.T_world_cam = api::to_pose(last_report.T_world_cam);
+    r.computation_ms = last_report.computation_ms;
+    r.icp_iterations = last_report.icp_iterations;
+    trajectory.push_back(r);
+    return r;
+  }
+
+  /// Collects every frame in flight (their results join the trajectory).
+  void drain() {
+    while (pipeline->frames_in_flight() > 0) collect();
+  }
+
+  output::SavedVolume volume() {
+    drain();
+    output::SavedVolume v;
+    v.res = config.volume.resolution_vox;
+    v.size_m = config.volume.size_m;
+    v.voxels = pipeline->backend().read_volume();
+    return v;
+  }
+};
+
+Reconstruction::Reconstruction(const Settings& settings, const Camera& camera)
+    : impl_(std::make_unique<Impl>(settings, camera)) {}
+
+Reconstruction::Reconstruction(const Settings& settings, const Sequence& sequence) {
+  const ResolvedSetup setup = resolve_setup(settings, sequence);
+  impl_ = std::make_unique<Impl>(setup.settings, setup.camera);
+}
+
+Reconstruction::~Reconstruction() = default;
+Reconstruction::Reconstruction(Reconstruction&&) noexcept = default;
+Reconstruction& Reconstruction::operator=(Reconstruction&&) noexcept = default;
+
+FrameResult Reconstruction::process(const FrameView& frame) {
+  impl_->drain();
+  impl_->submit(frame);
+  return impl_->collect();
+}
+
+void Reconstruction::submit(const FrameView& frame) { impl_->submit(frame); }
+FrameResult Reconstruction::collect() { return impl_->collect(); }
+int Reconstruction::frames_in_flight() const { return impl_->pipeline->frames_in_flight(); }
+
+void Reconstruction::reset() {
+  impl_->drain();
+  impl_->pipeline->reset();
+  impl_->trajectory.clear();
+}
+
+Pose Reconstruction::pose() const {
+  return impl_->trajectory.empty() ? initial_pose() : impl_->trajectory.back().T_world_cam;
+}
+Pose Reconstruction::initial_pose() const { return api::to_pose(impl_->pipeline->initial_pose()); }
+const std::vector<FrameResult>& Reconstruction::trajectory() const { return impl_->trajectory; }
+int Reconstruction::frame_count() const { return impl_->pipeline->frame_count(); }
+
+TriangleMesh Reconstruction::mesh() {
+  impl_->drain();
+  const MeshView view = impl_->pipeline->backend().extract_mesh();
+  TriangleMesh mesh;
+  mesh.vertices_m.resize(view.vertex_count * 3);
+  mesh.normals.resize(view.vertex_count * 3);
+  for (size_t i = 0; i < view.vertex_count; ++i) {
+    const MeshVertex& v = view.vertices[i];
+    std::memcpy(&mesh.vertices_m[i * 3], &v.p_m, sizeof(float) * 3);
+    std::memcpy(&mesh.normals[i * 3], &v.normal, sizeof(float) * 3);
+  }
+  mesh.triangles.resize(view.triangle_count * 3);
+  if (view.triangle_count > 0) {
+    std::memcpy(mesh.triangles.data(), view.triangles, sizeof(MeshTriangle) * view.triangle_count);
+  }
+  return mesh;
+}
+
+PointCloud Reconstruction::point_cloud() {
+  impl_->drain();
+  const DebugMaps maps = impl_->pipeline->backend().read_maps();
+  PointCloud cloud;
+  const auto& vertex = maps.ref_vertex;
+  const auto& normal = maps.ref_normal;
+  for (int y = 0; y < vertex.height(); ++y) {
+    for (int x = 0; x < vertex.width(); ++x) {
+      if (normal(x, y).x == kInvalidNormal) continue;  // no surface at this pixel
+      const Vec3f p = vertex(x, y), n = normal(x, y);
+      cloud.points_m.insert(cloud.points_m.end(), {p.x, p.y, p.z});
+      cloud.normals.insert(cloud.normals.end(), {n.x, n.y, n.z});
+    }
+  }
+  return cloud;
+}
+
+RgbaImage Reconstruction::render(const Pose& T_world_cam) {
+  output::SavedVolume v = impl_->volume();
+  const api::ViewImages view =
+      api::render_view(v.voxels, v.res, v.size_m, impl_->params.render, compute_width_px(),
+                       compute_height_px(), api::to_mat4f(T_world_cam), false);
+  RgbaImage image;
+  image.width_px = view.shaded.width();
+  image.height_px = view.shaded.height();
+  image.rgba.resize(view.shaded.pixels().size() * 4);
+  std::memcpy(image.rgba.data(), view.shaded.data(), image.rgba.size());
+  return image;
+}
+
+FloatImage Reconstruction::render_depth(const Pose& T_world_cam) {
+  output::SavedVolume v = impl_->volume();
+  const api::ViewImages view =
+      api::render_view(v.voxels, v.res, v.size_m, impl_->params.render, compute_width_px(),
+                       compute_height_px(), api::to_mat4f(T_world_cam), true);
+  FloatImage image;
+  image.width_px = view.depth_m.width();
+  image.height_px = view.depth_m.height();
+  image.values = view.depth_m.pixels();
+  return image;
+}
+
+void Reconstruction::save_trajectory(const std::string& path, const std::string& input) const {
+  KFX_CHECK(impl_->pipeline->frames_in_flight() == 0,
+            "save_trajectory(): collect the frames in flight first");
+  std::vector<io::StampedPose> poses;
+  poses.reserve(impl_->trajectory.size());
+  for (const FrameResult& r : impl_->trajectory) {
+    poses.push_back(io::to_stamped_pose(r.stamp_s, api::to_mat4f(r.T_world_cam)));
+  }
+  output::write_run_trajectory(path, poses, input, impl_->pipeline->initial_pose(),
+                               impl_->pipeline->compute_intrinsics());
+}
+
+void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
+  impl_->drain();
+  const MeshView mesh = impl_->pipeline->backend().extract_mesh();
+  output::write_mesh_ply(path, mesh,
+                         "kfx " + std::string(KFX_VERSION) + " mesh of " + input +
+                             ", volume frame (as trajectory.txt), metres");
+}
+
+bool Reconstruction::map_saveable() const { return true; }  // the dense volume
+
+void Reconstruction::save_map(const std::string& path) {
+  KFX_CHECK(map_saveable(), path << ": this map kind cannot be saved");
+  output::write_volume_file(path, impl_->volume());
+}
+
+void Reconstruction::load_map(const std::string& path) {
+  KFX_CHECK(map_saveable(), path << ": this map kind cannot be loaded");
+  output::SavedVolume v = output::read_volume_file(path);
+  const auto& vol = impl_->config.volume;
+  KFX_CHECK(v.res == vol.resolution_vox && v.size_m == vol.size_m,
+            path << ": the saved map is " << v.res << " voxels over " << v.size_m
+                 << " m, this reconstruction's " << vol.resolution_vox << " over " << vol.size_m
+                 << " m (set volume_resolution and volume_size_m to match)");
+  impl_->drain();
+  impl_->pipeline->backend().upload_volume(v.voxels);
+}
+
+std::string Reconstruction::settings_dump() const { return impl_->pipeline->config().dump(); }
+const Camera& Reconstruction::camera() const { return impl_->camera; }
+int Reconstruction::compute_width_px() const {
+  return impl_->camera.width_px / impl_->config.input.compute_size_ratio;
+}
+int Reconstruction::compute_height_px() const {
+  return impl_->camera.height_px / impl_->config.input.compute_size_ratio;
+}
+std::string Reconstruction::backend_name() const { return impl_->pipeline->backend().name(); }
+std::string Reconstruction::device_name() const { return impl_->pipeline->backend().device_name(); }
+
+Pipeline& ReconstructionAccess::pipeline(Reconstruction& r) { return *r.impl_->pipeline; }
+const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
+  return r.impl_->last_report;
+}
+void ReconstructionAccess::set_rendering(Reconstruction& r, bool on) {
+  r.impl_->pipeline->set_rendering(on);
+}
+
+}  // namespace kfx

@@ -1,0 +1,82 @@
+/// resolve_setup(): the settings and camera of a run over a sequence, as `kfx run` uses them.
+
+#include <sstream>
+
+#include "api/internal.hpp"
+#include "core/platform.hpp"
+#include "kfx/reconstruction.hpp"
+
+namespace kfx {
+
+ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
+  ResolvedSetup run;
+  // The preset, then the input's recommendations unless the user set those keys, then the
+  // user's settings in their order.
+  run.settings = Settings(user.preset());
+  run.settings.backend(user.backend())
+      .cuda_device(user.cuda_device())
+      .reconstructions_on_device(user.reconstructions_on_device());
+  for (const auto& [key, value] : sequence.recommended_settings()) {
+    if (!user.is_set(key)) run.settings.set(key, value);
+  }
+  for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
+  PipelineConfig config = api::make_config(run.settings);
+  config.validate();
+
+  const io::Reader& reader = SequenceAccess::reader(sequence);
+  const auto& k = config.input.camera_px;
+  const auto defaults = reader.default_intrinsics();
+  Intrinsics intrinsics;
+  std::string source;
+  if (k[0] != 0 || k[1] != 0) {
+    intrinsics = Intrinsics{k[0], k[1], k[2], k[3]};
+    source = "given by the user (-k / camera)";
+  } else {
+    KFX_CHECK(defaults.has_value(), sequence.input()
+                                        << ": this input has no default intrinsics; give them "
+                                           "with -k fx,fy,cx,cy (pixels, input size)");
+    intrinsics = *defaults;
+    source = reader.intrinsics_source();
+    if (source.empty()) source = "the input's default";
+  }
+  // A lens distortion belongs to one calibration: the format's applies only with the format's
+  // own intrinsics (given or defaulted), never to a camera the user described otherwise.
+  LensDistortion distortion = config.input.distortion;
+  const bool distortion_given = !distortion.none();
+  const LensDistortion format_lens = reader.default_distortion();
+  const bool format_camera = defaults.has_value() && defaults->fx == intrinsics.fx &&
+                             defaults->fy == intrinsics.fy && defaults->cx == intrinsics.cx &&
+                             defaults->cy == intrinsics.cy;
+  if (!distortion_given && format_camera && !format_lens.none()) distortion = format_lens;
+
+  std::ostringstream note;
+  note << "intrinsics fx " << intrinsics.fx << ", fy " << intrinsics.fy << ", cx " << intrinsics.cx
+       << ", cy " << intrinsics.cy << " px at " << reader.width_px() << "x" << reader.height_px()
+       << ": " << source;
+  if (config.quality.depth_undistortion) {
+    const LensDistortion& d = distortion;
+    if (d.none()) {
+      note << "; depth_undistortion is on but the lens distortion is unknown (set "
+              "camera_distortion=k1,k2,p1,p2,k3): the depth is used as it is";
+    } else {
+      note << "; depth undistorted with k1,k2,p1,p2,k3 = " << d.k1 << "," << d.k2 << "," << d.p1
+           << "," << d.p2 << "," << d.k3
+           << (distortion_given ? " (given by the user)" : " (the format's camera)");
+    }
+  }
+  run.camera_note = note.str();
+  run.camera.width_px = reader.width_px();
+  run.camera.height_px = reader.height_px();
+  run.camera.fx_px = intrinsics.fx;
+  run.camera.fy_px = intrinsics.fy;
+  run.camera.cx_px = intrinsics.cx;
+  run.camera.cy_px = intrinsics.cy;
+  run.camera.distortion = {distortion.k1, distortion.k2, distortion.p1, distortion.p2,
+                           distortion.k3};
+  // SLAMBench runs ICL-NUIM with +fy where the true camera has −fy: that mirrors the world in
+  // y, so evaluation must flip y back.
+  run.flips_y = defaults.has_value() && defaults->fy * intrinsics.fy < 0;
+  return run;
+}
+
+}  // namespace kfx

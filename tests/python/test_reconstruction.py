@@ -1,0 +1,158 @@
+"""kfx from Python: the same trajectory as the CLI byte for byte, numpy in and out, the map."""
+
+import subprocess
+
+import numpy as np
+import pytest
+
+import kfx
+from conftest import INPUT, SHARED, kfx_cli
+
+
+def test_trajectory_is_the_cli_runs_byte_for_byte(tmp_path):
+    cli = kfx_cli()
+    if cli is None:
+        pytest.skip("the kfx CLI is not built (build/release/kfx or KFX_CLI)")
+    subprocess.run([str(cli), "run", INPUT, "--backend", "cpu", "-q", "--no-mesh", "--no-report",
+                    "--set", "volume_resolution=64", "--out", str(tmp_path / "cli")],
+                   check=True, capture_output=True)
+    sequence = kfx.open(INPUT)
+    r = kfx.Reconstruction(sequence, backend="cpu", volume_resolution=64)
+    for frame in sequence:
+        r.submit(frame)
+        if r.frames_in_flight > 1:
+            r.collect()
+    while r.frames_in_flight:
+        r.collect()
+    r.save_trajectory(str(tmp_path / "py.txt"), INPUT)
+    expected = (tmp_path / "cli" / "trajectory.txt").read_bytes()
+    assert expected
+    assert (tmp_path / "py.txt").read_bytes() == expected
+
+
+def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
+    packed = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    metres = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    scaled = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    for f in frames:
+        a = packed.process(np.array(f.depth), stamp=f.stamp)
+        b = metres.process(f.depth.astype(np.float32) / 1000.0, stamp=f.stamp)
+        c = scaled.process(f.depth * np.uint16(5), stamp=f.stamp, depth_scale=5000.0)
+        assert np.array_equal(a.pose, b.pose), f.index
+        assert np.array_equal(a.pose, c.pose), f.index
+        assert a.stamp == f.stamp
+    poses = packed.poses()
+    assert poses.shape == (len(frames), 4, 4) and poses.dtype == np.float32
+    assert np.array_equal(packed.stamps(), [f.stamp for f in frames])
+    # the camera moved and tracking held after the bootstrap frames
+    assert not np.array_equal(poses[-1], packed.initial_pose)
+    assert all(r.tracked for r in packed.results()[4:])
+
+
+def test_frame_depth_is_a_read_only_view(frames):
+    f = frames[3]
+    assert f.depth.dtype == np.uint16 and f.depth.shape == (120, 160)
+    assert not f.depth.flags.writeable
+    assert f.colour is None
+
+
+def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
+    for f in frames:
+        result = reconstruction.process(f)
+    assert result.pose.shape == (4, 4)
+    mesh = reconstruction.mesh()
+    assert mesh.vertices.shape[1] == 3 and mesh.vertices.dtype == np.float32
+    assert mesh.normals.shape == mesh.vertices.shape
+    assert mesh.triangles.shape[1] == 3 and mesh.triangles.dtype == np.int32
+    assert len(mesh.triangles) > 100
+    assert mesh.triangles.max() < len(mesh.vertices)
+    assert mesh.colours is None
+    cloud = reconstruction.point_cloud()
+    assert cloud.points.shape[0] > 1000
+    w, h = reconstruction.compute_size
+    image = reconstruction.render()
+    assert image.shape == (h, w, 4) and image.dtype == np.uint8
+    assert (image[..., 0] > 0).mean() > 0.5
+    depth = reconstruction.render_depth(reconstruction.pose.astype(np.float64))
+    assert depth.shape == (h, w) and (depth > 0).mean() > 0.5
+
+    reconstruction.save_mesh(str(tmp_path / "mesh.ply"), INPUT)
+    assert (tmp_path / "mesh.ply").read_bytes().startswith(b"ply\n")
+    reconstruction.save_map(str(tmp_path / "map.kfxtsdf"))
+    loaded = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    loaded.load_map(str(tmp_path / "map.kfxtsdf"))
+    again = loaded.mesh()
+    assert np.array_equal(again.vertices, mesh.vertices)
+    assert np.array_equal(again.triangles, mesh.triangles)
+
+
+def test_reset_repeats_the_run(reconstruction, frames):
+    first = [reconstruction.process(f).pose for f in frames]
+    reconstruction.reset()
+    assert reconstruction.frame_count == 0 and len(reconstruction.results()) == 0
+    second = [reconstruction.process(f).pose for f in frames]
+    assert all(np.array_equal(a, b) for a, b in zip(first, second))
+
+
+def test_camera_and_settings(frames):
+    camera = kfx.Camera(160, 120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
+    r = kfx.Reconstruction(camera=camera, backend="cpu", preset="fast",
+                           volume_resolution=64, volume_size_m=4.8, init_pose_factor=(0.5, 0.5, 0.1))
+    assert "volume_resolution = 64" in r.settings_dump()
+    assert r.backend == "cpu"
+    assert r.process(frames[0].depth, stamp=1.5).stamp == 1.5
+    assert "exact" in kfx.presets()
+    keys = [row[0] for row in kfx.settings_table()]
+    assert "volume_resolution" in keys and "icp_robust" in keys
+
+
+def test_several_reconstructions_at_once(frames):
+    import threading
+
+    results = {}
+
+    def run(name):
+        r = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+        for f in frames:
+            r.process(f)
+        results[name] = r.poses()
+
+    threads = [threading.Thread(target=run, args=(i,)) for i in range(2)]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    assert np.array_equal(results[0], results[1])
+
+
+def test_every_input_the_cli_reads():
+    """Readers of the shared data sets, where present (synthetic: everywhere)."""
+    seq = kfx.open("synthetic:frames=3")
+    assert [f.index for f in seq] == [0, 1, 2]
+    assert seq.camera is not None and seq.ground_truth().shape == (3, 8)
+    found = 0
+    for name in ["tum_fr1_xyz", "icl_office_kt0", "icl_living_room_kt2_native"]:
+        path = SHARED / "data" / name
+        if not path.exists():
+            continue
+        found += 1
+        seq = kfx.open(str(path))
+        first = next(iter(seq))
+        assert first.depth.shape == (seq.height, seq.width)
+        assert first.depth.max() > 0
+    if found == 0:
+        pytest.skip(f"no shared data sets under {SHARED / 'data'}")
+
+
+def test_open3d_helper(reconstruction, frames):
+    for f in frames[:6]:
+        reconstruction.process(f)
+    mesh = reconstruction.mesh()
+    try:
+        import open3d  # noqa: F401
+    except ImportError:
+        with pytest.raises(ImportError, match="needs Open3D"):
+            kfx.to_open3d(mesh)
+        return
+    o3d_mesh = kfx.to_open3d(mesh)
+    assert len(o3d_mesh.triangles) == len(mesh.triangles)
