@@ -220,8 +220,6 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   stats["input"] = options.input;
   stats["input_description"] = reader.description();
   stats["skipped_bad_frames"] = skipped;
-  stats["colour"] = {{"fused", pipeline.config().colour.fuse},
-                     {"memory_bytes", pipeline.colour_bytes()}};
   stats["skipped_frames"] = skipped_frames;
   for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
     const FrameCauseCount& count = diagnostics.count(static_cast<FrameCause>(c));
@@ -230,6 +228,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
         {"first_frame",
          count.first_frame >= 0 ? nlohmann::json(count.first_frame) : nlohmann::json(nullptr)}};
   }
+  stats["colour"] = {{"fused", pipeline.config().colour.fuse},
+                     {"memory_bytes", pipeline.colour_bytes()}};
   stats["backend"] = pipeline.backend().name();
   stats["device"] = pipeline.backend().device_name();
   stats["preset"] = options.preset;

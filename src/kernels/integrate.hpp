@@ -256,8 +256,9 @@ KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const 
 
 /// Updates voxel (x, y, z), whose centre is at camera-frame point p (docs/algorithm.md §2.3), and
 /// marks its brick when its tsdf falls below kMarkBelowTsdfStored.
-/// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
-/// the GPU pass 18 % faster but moved icl_office_kt0's ATE from 0.84 to 0.93 cm (measured).
+/// NOTE: the divisions are SLAMBench's, on purpose: one reciprocal of p.z made the GPU pass
+/// faster but moved icl_office_kt0's ATE (bench/RESULTS.md, "CUDA backend, exact preset,
+/// 320×240").
 KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
   if (a.weight_mode != IntegrationWeight::kConstant) {
     integrate_voxel_weighted(p, x, y, z, a);

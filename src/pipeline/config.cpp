@@ -680,13 +680,19 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   return p;
 }
 
-std::vector<std::string> preset_settings(const std::string& name) {
+std::vector<std::pair<std::string, std::string>> preset_values(const std::string& name) {
   const PipelineConfig preset = make_preset(name), exact;
-  std::vector<std::string> settings;
+  std::vector<std::pair<std::string, std::string>> values;
   for (const auto& field : config_fields()) {
     const std::string value = field.format(preset);
-    if (value != field.format(exact)) settings.push_back(field.key + "=" + value);
+    if (value != field.format(exact)) values.emplace_back(field.key, value);
   }
+  return values;
+}
+
+std::vector<std::string> preset_settings(const std::string& name) {
+  std::vector<std::string> settings;
+  for (const auto& [key, value] : preset_values(name)) settings.push_back(key + "=" + value);
   return settings;
 }
 
@@ -717,8 +723,8 @@ PipelineConfig make_preset(const std::string& name) {
     // with seeds no plan had used, on the GPU and the CPU. A constant 5 cm raycast step, the
     // cheaper ray factor, no depth-0 test and every 2nd z slice integrated per frame. No robust
     // ICP weight: Huber at 1 cm lowered the TUM ATE but converged too slowly after blank
-    // stretches and fast motion (up to 1.31x exact's ATE on unseen synthetic cases). It misses
-    // from some start frames (tum_fr1_rpy from frame 100: 1.11x).
+    // stretches and fast motion (on unseen synthetic cases). It misses from some start frames
+    // (tum_fr1_rpy from frame 100; figures: bench/RESULTS.md, "`fast` chosen again").
     for (const char* a : {"raycast_constant_step_m=0.05", "ray_factor=approx",
                           "integrate_zero_depth_test=off", "integration_z_stride=2"}) {
       set_config_assignment(c, a);
@@ -726,8 +732,8 @@ PipelineConfig make_preset(const std::string& name) {
     return c;
   }
   if (name == "quality") {
-    // Chosen by the quality_s7 plan on an H200 (issue 9, docs/presets.md, bench/RESULTS.md):
-    // ATE 30-36 % below exact's on every shared sequence at ~2,800 frames/s. The depth image is
+    // Chosen by the quality_s7 plan on an H200 (issue 9, docs/presets.md; its ATE and speed:
+    // bench/RESULTS.md, "`quality` chosen again"). The depth image is
     // undistorted with the camera's lens (TUM fr1's: the largest single gain on real Kinect
     // data; a no-op without a known lens), ICP is Huber-weighted at 3.5 mm with twice KFusion's
     // iteration caps (with the caps of exact, the small Huber scale converged too slowly on

@@ -6,6 +6,7 @@
 #include <array>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "backend/backend.hpp"
@@ -169,8 +170,11 @@ std::vector<std::string> preset_names();
 /// A preset's configuration; throws on an unknown name.
 PipelineConfig make_preset(const std::string& name);
 
-/// What preset `name` sets, as `key=value` in table order: every setting whose value differs
+/// What preset `name` sets, as (key, value) in table order: every setting whose value differs
 /// from exact's (empty for exact). Throws kfx::Error on an unknown name.
+std::vector<std::pair<std::string, std::string>> preset_values(const std::string& name);
+
+/// preset_values() as `key=value` strings (the form of --set and of the sweep's records).
 std::vector<std::string> preset_settings(const std::string& name);
 
 }  // namespace kfx

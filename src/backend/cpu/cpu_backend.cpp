@@ -43,8 +43,9 @@ void for_each_pixel(int width, int height, Body body) {
 
 /// One row of raycast blocks, with the whole kernel body (raycast_block down to the march)
 /// compiled into this loop. Since the volume render became raycast_ray's second caller, GCC
-/// no longer inlines the march here on its own, and out of line it ran 5-10 % slower on the
-/// 2-core AMD EPYC CI VM (bench/RESULTS.md). `flatten` asks for that on the host only, so the
+/// no longer inlines the march here on its own, and out of line it ran slower on the CPU
+/// (bench/RESULTS.md, "One commit, before and after the restructuring"). `flatten` asks for
+/// that on the host only, so the
 /// kernel body and the CUDA build stay as they are.
 KFX_CPU_FLATTEN void raycast_row(int block_y, int blocks_x, const RaycastArgs& a) {
   for (int x = 0; x < blocks_x; ++x) raycast_block(x, block_y, a);

@@ -77,8 +77,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaGetDeviceProperties(&properties_, device_));
     const char* sync = std::getenv("KFX_CUDA_SYNC");
     debug_sync_ = sync && std::string(sync) == "1";
-    // Programmatic dependent launch needs sm_90 (measured on an H200: −2.4 % per frame,
-    // bench/RESULTS.md); setting cuda_pdl=off turns it off.
+    // Programmatic dependent launch needs sm_90 (its gain on an H200: bench/RESULTS.md, "CUDA
+    // backend, exact preset, 320×240"); setting cuda_pdl=off turns it off.
     programmatic_launch_ = setup.cuda.pdl && properties_.major >= 9;
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     const size_t input_pixels = static_cast<size_t>(setup.input_width_px) * setup.input_height_px;
