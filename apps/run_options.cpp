@@ -113,7 +113,10 @@ PreparedRun prepare_run(const RunOptions& o) {
     run.settings_from_input.push_back(key);
   }
   // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
-  if (run.reader->has_colour() && !user_keys.count("colour")) run.config.colour.fuse = true;
+  if (run.reader->has_colour() && !user_keys.count("colour")) {
+    run.config.colour.fuse = true;
+    run.settings_from_input.push_back("colour");
+  }
   for (const auto& a : o.assignments) set_config_assignment(run.config, a);
   KFX_CHECK(
       !run.config.colour.fuse || run.reader->has_colour(),
