@@ -118,6 +118,7 @@ PreparedRun prepare_run(const RunOptions& o) {
   if (run.reader->has_colour() && !user_keys.count("colour") &&
       user.volume.kind == MapKind::kDense) {
     run.config.colour.fuse = true;
+    run.settings_from_input.push_back("colour");
   }
   for (const auto& a : o.assignments) set_config_assignment(run.config, a);
   KFX_CHECK(

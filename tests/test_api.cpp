@@ -140,11 +140,15 @@ TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   v.depth.units_per_m = 1000;
   v.depth.row_stride_bytes = 10;
   expect_error(v, "depth rows 10 bytes apart");
-  // colour the map cannot hold
-  std::vector<uint8_t> rgb(160 * 120 * 3);
+  // the synthetic room has colour, so the map fuses it: a frame without, or of another size
   v = frames[1].view();
+  v.colour = ColourView{};
+  expect_error(v, "frame 1: the map fuses colour (setting colour=on) but the frame has no colour");
+  std::vector<uint8_t> rgb(80 * 60 * 3);
   v.colour.data = rgb.data();
-  expect_error(v, "holds no colour");
+  v.colour.width_px = 80;
+  v.colour.height_px = 60;
+  expect_error(v, "frame 1: colour image is 80x60, the reconstruction was made for 160x120");
   // and the next good frame is frame 1
   EXPECT_EQ(r.process(frames[1]).index, 1);
 }
@@ -176,6 +180,30 @@ TEST(Api, SettingsAreCheckedByTheOneTable) {
   EXPECT_THROW(Reconstruction(Settings().backend("cpu"), Camera{160, 120}), Error);
 }
 
+TEST(Api, FrameResultsCarryTheVolumeAndDepthWarnings) {
+  // A wall 7.5 m away (a depth scale off by 5, say): beyond exact's 2 m volume and implausible
+  // for an RGB-D camera. The first frame says so, naming itself; the stretch's later frames and a
+  // good frame say nothing.
+  const Camera camera{160, 120, 100, 100, 79.5, 59.5};
+  Reconstruction r(cpu_settings(), camera);
+  std::vector<float> far_m(160 * 120, 7.5f), near_m(160 * 120, 1.0f);
+  FrameView v;
+  v.depth.data = far_m.data();
+  v.depth.width_px = 160;
+  v.depth.height_px = 120;
+  v.depth.type = DepthType::kFloat32;
+  const FrameResult first = r.process(v);
+  ASSERT_EQ(first.warnings.size(), 2u);
+  EXPECT_EQ(first.warnings[0].rfind("frame 0: 100 % of the depth lies outside the volume", 0), 0u)
+      << first.warnings[0];
+  EXPECT_EQ(first.warnings[1].rfind("frame 0: the depth is implausible", 0), 0u)
+      << first.warnings[1];
+  EXPECT_TRUE(r.process(v).warnings.empty());
+  Reconstruction good(cpu_settings(), camera);
+  v.depth.data = near_m.data();
+  for (int f = 0; f < 3; ++f) EXPECT_TRUE(good.process(v).warnings.empty()) << f;
+}
+
 TEST(Api, ResetRepeatsTheRun) {
   Sequence sequence(kInput);
   const auto frames = read_all(sequence);
@@ -200,7 +228,7 @@ TEST(Api, MapSavesLoadsAndRenders) {
   const TriangleMesh mesh = r.mesh();
   ASSERT_GT(mesh.triangle_count(), 100u);
   EXPECT_EQ(mesh.normals.size(), mesh.vertices_m.size());
-  EXPECT_TRUE(mesh.colours.empty());
+  EXPECT_EQ(mesh.colours.size(), mesh.vertices_m.size());  // the synthetic room has colour
   const PointCloud cloud = r.point_cloud();
   EXPECT_GT(cloud.point_count(), 1000u);
   ASSERT_TRUE(r.map_saveable());
@@ -236,6 +264,43 @@ TEST(Api, MapSavesLoadsAndRenders) {
   size_t seen_away = 0;
   for (float d : none.values) seen_away += d > 0.0f;
   EXPECT_LT(seen_away, seen);
+}
+
+}  // namespace
+}  // namespace kfx
+
+namespace kfx {
+namespace {
+
+TEST(Api, ColourFromASequenceColoursTheMeshAndCloud) {
+  Sequence sequence("synthetic:frames=8,width=160,height=120,noise=0");
+  Reconstruction r(cpu_settings(), sequence);
+  SequenceFrame frame;
+  while (sequence.next(frame) == ReadStatus::kOk) {
+    ASSERT_EQ(frame.colour.size(), 160u * 120u * 3u);
+    r.process(frame);
+  }
+  const TriangleMesh mesh = r.mesh();
+  ASSERT_GT(mesh.vertex_count(), 100u);
+  EXPECT_EQ(mesh.colours.size(), 3 * mesh.vertex_count());
+  const PointCloud cloud = r.point_cloud();
+  EXPECT_EQ(cloud.colours.size(), 3 * cloud.point_count());
+  // A frame without colour is an error naming the frame, and changes nothing.
+  FrameView depth_only = frame.view();
+  depth_only.colour = ColourView{};
+  try {
+    r.process(depth_only);
+    ADD_FAILURE() << "no error for a frame without colour";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 8: the map fuses colour"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(r.frame_count(), 8);
+  // colour=off: a grey map, colour images are not used.
+  Sequence again("synthetic:frames=8,width=160,height=120,noise=0");
+  Reconstruction grey(cpu_settings().set("colour", "off"), again);
+  while (again.next(frame) == ReadStatus::kOk) grey.process(frame);
+  EXPECT_TRUE(grey.mesh().colours.empty());
 }
 
 }  // namespace

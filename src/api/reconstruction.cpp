@@ -10,9 +10,11 @@
 #include "core/platform.hpp"
 #include "io/trajectory.hpp"
 #include "output/block_map_file.hpp"
+#include "output/mesh_colour.hpp"
 #include "output/mesh_ply.hpp"
 #include "output/run_trajectory.hpp"
 #include "output/volume_file.hpp"
+#include "pipeline/frame_diagnostics.hpp"
 
 namespace kfx {
 
@@ -42,7 +44,10 @@ struct Reconstruction::Impl {
   std::vector<FrameResult> trajectory;
   std::deque<double> stamps_in_flight;
   HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
+  HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, rows packed
   FrameReport last_report;
+  std::unique_ptr<FrameDiagnostics> diagnostics;  ///< warnings about the volume and the depth
+  std::deque<DepthSample> samples_in_flight;      ///< judged when their frames are collected
 
   Impl(const Settings& settings, const Camera& given) : config(api::make_config(settings)) {
     camera = given;
@@ -71,6 +76,37 @@ struct Reconstruction::Impl {
     const int ratio = config.input.compute_size_ratio;
     params = make_stage_params(config, pipeline->compute_intrinsics(), camera.width_px / ratio,
                                camera.height_px / ratio);
+    diagnostics = std::make_unique<FrameDiagnostics>(config, intrinsics);
+  }
+
+  /// The frame's colour, rows packed, when the map fuses colour (setting colour); none else
+  /// (a colour image given to a map without colour is not used).
+  ImageView<const Rgb8> colour_view(const ColourView& colour, const std::string& label) {
+    if (!config.colour.fuse) return {};
+    KFX_CHECK(colour.data != nullptr, label << ": the map fuses colour (setting colour=on) but "
+                                            << "the frame has no colour image");
+    KFX_CHECK(colour.width_px == camera.width_px && colour.height_px == camera.height_px,
+              label << ": colour image is " << colour.width_px << "x" << colour.height_px
+                    << ", the reconstruction was made for " << camera.width_px << "x"
+                    << camera.height_px);
+    const size_t row_bytes = 3 * static_cast<size_t>(colour.width_px);
+    const size_t stride = colour.row_stride_bytes ? colour.row_stride_bytes : row_bytes;
+    KFX_CHECK(stride >= row_bytes, label << ": colour rows are " << stride << " bytes apart, "
+                                         << "less than a row of " << row_bytes);
+    if (scratch_rgb.width() != colour.width_px || scratch_rgb.height() != colour.height_px) {
+      scratch_rgb = HostImage<Rgb8>(colour.width_px, colour.height_px);
+    }
+    for (int y = 0; y < colour.height_px; ++y) {
+      std::memcpy(&scratch_rgb(0, y), colour.data + y * stride, row_bytes);
+    }
+    return scratch_rgb.view();
+  }
+
+  /// The colour field as kernels read it, from a host copy in `field`; no data without colour.
+  ColourVolumeView colour_field(std::vector<ColourVoxel>& field) {
+    if (config.colour.fuse) field = pipeline->backend().read_colour_volume();
+    return ColourVolumeView{field.empty() ? nullptr : field.data(), config.volume.resolution_vox,
+                            config.volume.size_m};
   }
 
   std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
@@ -81,10 +117,9 @@ struct Reconstruction::Impl {
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
                     << ", the reconstruction was made for " << camera.width_px << "x"
                     << camera.height_px);
-    KFX_CHECK(frame.colour.data == nullptr,
-              label << ": this map holds no colour yet; pass frames without colour");
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
-    pipeline->submit(mm);
+    samples_in_flight.push_back(diagnostics->sample(mm));
+    pipeline->submit(mm, colour_view(frame.colour, label));
     stamps_in_flight.push_back(frame.stamp_s);
   }
 
@@ -101,6 +136,8 @@ struct Reconstruction::Impl {
     r.T_world_cam = api::to_pose(last_report.T_world_cam);
     r.computation_ms = last_report.computation_ms;
     r.icp_iterations = last_report.icp_iterations;
+    r.warnings = diagnostics->check(r.index, samples_in_flight.front(), last_report.T_world_cam);
+    samples_in_flight.pop_front();
     trajectory.push_back(r);
     return r;
   }
@@ -146,6 +183,9 @@ void Reconstruction::reset() {
   impl_->drain();
   impl_->pipeline->reset();
   impl_->trajectory.clear();
+  const Camera& c = impl_->camera;
+  impl_->diagnostics = std::make_unique<FrameDiagnostics>(
+      impl_->config, Intrinsics{c.fx_px, c.fy_px, c.cx_px, c.cy_px});
 }
 
 Pose Reconstruction::pose() const {
@@ -170,6 +210,13 @@ TriangleMesh Reconstruction::mesh() {
   if (view.triangle_count > 0) {
     std::memcpy(mesh.triangles.data(), view.triangles, sizeof(MeshTriangle) * view.triangle_count);
   }
+  std::vector<ColourVoxel> field;
+  const ColourVolumeView colour = impl_->colour_field(field);
+  if (colour.data) {
+    for (const Rgb8& c : output::vertex_colours(view.vertices, view.vertex_count, colour)) {
+      mesh.colours.insert(mesh.colours.end(), {c.r, c.g, c.b});
+    }
+  }
   return mesh;
 }
 
@@ -186,6 +233,16 @@ PointCloud Reconstruction::point_cloud() {
       cloud.points_m.insert(cloud.points_m.end(), {p.x, p.y, p.z});
       cloud.normals.insert(cloud.normals.end(), {n.x, n.y, n.z});
     }
+  }
+  std::vector<ColourVoxel> field;
+  const ColourVolumeView colour = impl_->colour_field(field);
+  for (size_t i = 0; colour.data && i < cloud.point_count(); ++i) {
+    Vec3f rgb;
+    const Vec3f p{cloud.points_m[3 * i], cloud.points_m[3 * i + 1], cloud.points_m[3 * i + 2]};
+    if (!sample_colour(colour, p, rgb)) rgb = Vec3f{128.0f, 128.0f, 128.0f};  // no colour there
+    cloud.colours.insert(cloud.colours.end(),
+                         {static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
+                          static_cast<uint8_t>(rgb.z + 0.5f)});
   }
   return cloud;
 }
@@ -229,7 +286,14 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
   impl_->drain();
-  const MeshView mesh = impl_->pipeline->backend().extract_mesh();
+  MeshView mesh = impl_->pipeline->backend().extract_mesh();
+  std::vector<ColourVoxel> field;
+  const ColourVolumeView colour = impl_->colour_field(field);
+  std::vector<Rgb8> colours;
+  if (colour.data) {
+    colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
+    mesh.colours = colours.data();
+  }
   output::write_mesh_ply(path, mesh,
                          "kfx " + std::string(KFX_VERSION) + " mesh of " + input +
                              ", volume frame (as trajectory.txt), metres");

@@ -19,6 +19,9 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
   for (const auto& [key, value] : sequence.recommended_settings()) {
     if (!user.is_set(key)) run.settings.set(key, value);
   }
+  // Colour is fused whenever the input has it, unless the user says otherwise (as `kfx run`).
+  const io::Reader& input = SequenceAccess::reader(sequence);
+  if (input.has_colour() && !user.is_set("colour")) run.settings.set("colour", "on");
   for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
   PipelineConfig config = api::make_config(run.settings);
   config.validate();

@@ -58,6 +58,10 @@ ReadStatus Sequence::next(SequenceFrame& out) {
   out.height_px = f.depth_mm.height();
   out.depth_mm.assign(f.depth_mm.pixels().begin(), f.depth_mm.pixels().end());
   out.colour.clear();
+  if (!f.rgb.empty()) {  // the reader's colour, r g b per pixel, the depth's size
+    const auto* bytes = reinterpret_cast<const uint8_t*>(f.rgb.data());
+    out.colour.assign(bytes, bytes + f.rgb.pixels().size() * sizeof(Rgb8));
+  }
   out.source = f.source;
   return ReadStatus::kOk;
 }

@@ -23,6 +23,7 @@ HostImage<Rgb8> subsample_mean(const HostImage<Rgb8>& image, int ratio);
 struct ConvertOptions {
   int max_frames = 0;                ///< convert at most this many frames; 0 = all
   int ratio = 1;                     ///< subsampling ratio: 1, 2, 4 or 8
+  bool colour = true;                ///< keep the input's colour (false: blank images)
   std::ostream* progress = nullptr;  ///< where to print a progress line every 100 frames
 };
 

@@ -35,9 +35,11 @@ def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
     metres = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
     scaled = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
     for f in frames:
-        a = packed.process(np.array(f.depth), stamp=f.stamp)
-        b = metres.process(f.depth.astype(np.float32) / 1000.0, stamp=f.stamp)
-        c = scaled.process(f.depth * np.uint16(5), stamp=f.stamp, depth_scale=5000.0)
+        # The sequence has colour, so these maps fuse it: each frame brings its colour too.
+        a = packed.process(np.array(f.depth), stamp=f.stamp, colour=f.colour)
+        b = metres.process(f.depth.astype(np.float32) / 1000.0, stamp=f.stamp, colour=f.colour)
+        c = scaled.process(f.depth * np.uint16(5), stamp=f.stamp, depth_scale=5000.0,
+                           colour=f.colour)
         assert np.array_equal(a.pose, b.pose), f.index
         assert np.array_equal(a.pose, c.pose), f.index
         assert a.stamp == f.stamp
@@ -53,7 +55,9 @@ def test_frame_depth_is_a_read_only_view(frames):
     f = frames[3]
     assert f.depth.dtype == np.uint16 and f.depth.shape == (120, 160)
     assert not f.depth.flags.writeable
-    assert f.colour is None
+    # The synthetic room has colour: a read-only (height, width, 3) uint8 view.
+    assert f.colour.dtype == np.uint8 and f.colour.shape == (120, 160, 3)
+    assert not f.colour.flags.writeable
 
 
 def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
@@ -66,9 +70,11 @@ def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
     assert mesh.triangles.shape[1] == 3 and mesh.triangles.dtype == np.int32
     assert len(mesh.triangles) > 100
     assert mesh.triangles.max() < len(mesh.vertices)
-    assert mesh.colours is None
+    # Colour is fused whenever the input has it (the synthetic room's exact colour).
+    assert mesh.colours.shape == mesh.vertices.shape and mesh.colours.dtype == np.uint8
     cloud = reconstruction.point_cloud()
     assert cloud.points.shape[0] > 1000
+    assert cloud.colours.shape == cloud.points.shape
     w, h = reconstruction.compute_size
     image = reconstruction.render()
     assert image.shape == (h, w, 4) and image.dtype == np.uint8
