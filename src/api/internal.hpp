@@ -18,6 +18,9 @@ namespace api {
 /// The configuration `settings` describes (preset, then overrides in order); not validated.
 PipelineConfig make_config(const Settings& settings);
 
+/// A view of a frame a reader read (its depth is packed millimetres: no copy when submitted).
+FrameView frame_view(const io::Frame& frame);
+
 /// A public pose from a matrix, and back.
 Pose to_pose(const Mat4f& m);
 Mat4f to_mat4f(const Pose& pose);

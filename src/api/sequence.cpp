@@ -32,6 +32,19 @@ FrameView SequenceFrame::view() const {
   return v;
 }
 
+namespace api {
+
+FrameView frame_view(const io::Frame& frame) {
+  FrameView v;
+  v.depth.data = frame.depth_mm.data();
+  v.depth.width_px = frame.depth_mm.width();
+  v.depth.height_px = frame.depth_mm.height();
+  v.stamp_s = frame.stamp_s;
+  return v;
+}
+
+}  // namespace api
+
 Sequence::Sequence(const std::string& input, double depth_scale_per_m,
                    const std::string& ground_truth_path)
     : impl_(std::make_unique<Impl>()) {
