@@ -279,6 +279,9 @@ NB_MODULE(_kfx, m) {
       .def_ro("stamp", &kfx::FrameResult::stamp_s)
       .def_ro("tracking_ran", &kfx::FrameResult::tracking_ran)
       .def_ro("tracked", &kfx::FrameResult::tracked, "Tracking held.")
+      .def_prop_ro(
+          "lost", [](const kfx::FrameResult& r) { return r.tracking_ran && !r.tracked; },
+          "Tracking ran and failed (the pose was kept, the frame not integrated).")
       .def_ro("integrated", &kfx::FrameResult::integrated)
       .def_ro("computation_ms", &kfx::FrameResult::computation_ms)
       .def_ro("icp_iterations", &kfx::FrameResult::icp_iterations)

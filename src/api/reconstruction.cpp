@@ -42,6 +42,7 @@ struct Reconstruction::Impl {
   std::deque<double> stamps_in_flight;
   HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
   FrameReport last_report;
+  std::string input;  ///< the sequence's name, when made for one (file headers name it)
 
   Impl(const Settings& settings, const Camera& given) : config(api::make_config(settings)) {
     camera = given;
@@ -125,6 +126,7 @@ Reconstruction::Reconstruction(const Settings& settings, const Camera& camera)
 Reconstruction::Reconstruction(const Settings& settings, const Sequence& sequence) {
   const ResolvedSetup setup = resolve_setup(settings, sequence);
   impl_ = std::make_unique<Impl>(setup.settings, setup.camera);
+  impl_->input = sequence.input();
 }
 
 Reconstruction::~Reconstruction() = default;
@@ -222,7 +224,8 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
   for (const FrameResult& r : impl_->trajectory) {
     poses.push_back(io::to_stamped_pose(r.stamp_s, api::to_mat4f(r.T_world_cam)));
   }
-  output::write_run_trajectory(path, poses, input, impl_->pipeline->initial_pose(),
+  output::write_run_trajectory(path, poses, input.empty() ? impl_->input : input,
+                               impl_->pipeline->initial_pose(),
                                impl_->pipeline->compute_intrinsics());
 }
 
@@ -230,7 +233,8 @@ void Reconstruction::save_mesh(const std::string& path, const std::string& input
   impl_->drain();
   const MeshView mesh = impl_->pipeline->backend().extract_mesh();
   output::write_mesh_ply(path, mesh,
-                         "kfx " + std::string(KFX_VERSION) + " mesh of " + input +
+                         "kfx " + std::string(KFX_VERSION) + " mesh of " +
+                             (input.empty() ? impl_->input : input) +
                              ", volume frame (as trajectory.txt), metres");
 }
 

@@ -24,7 +24,7 @@ def test_trajectory_is_the_cli_runs_byte_for_byte(tmp_path):
             r.collect()
     while r.frames_in_flight:
         r.collect()
-    r.save_trajectory(str(tmp_path / "py.txt"), INPUT)
+    r.save_trajectory(str(tmp_path / "py.txt"))  # names the sequence, as kfx run
     expected = (tmp_path / "cli" / "trajectory.txt").read_bytes()
     assert expected
     assert (tmp_path / "py.txt").read_bytes() == expected
@@ -47,6 +47,8 @@ def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
     # the camera moved and tracking held after the bootstrap frames
     assert not np.array_equal(poses[-1], packed.initial_pose)
     assert all(r.tracked for r in packed.results()[4:])
+    assert not any(r.lost for r in packed.results())
+    assert not any(r.tracking_ran for r in packed.results()[:4])  # the bootstrap frames
 
 
 def test_frame_depth_is_a_read_only_view(frames):
