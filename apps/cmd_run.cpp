@@ -29,6 +29,7 @@
 #include "output/slambench_log_writer.hpp"
 #include "output/stats_json.hpp"
 #include "output/volume_file.hpp"
+#include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
@@ -129,18 +130,34 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   RunSummary summary;
   std::vector<io::StampedPose> trajectory;  ///< for the evaluation; trajectory.txt is the API's
   int frames_with_depth = 0, skipped = 0;
+  std::vector<int> skipped_frames;  ///< input numbers of the bad frames skipped
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
   energy->start();  // the whole run, reading frames included
-  // How long each submitted frame took to read, until its result comes back.
-  std::deque<double> acquisition_s_in_flight;
+  // What the host knows of each submitted frame until its result comes back.
+  struct Submitted {
+    double acquisition_s;
+    int input_index;    ///< the frame's number in the input (differs after skipped bad frames)
+    DepthSample depth;  ///< for the diagnostics, judged once the pose is known
+  };
+  // Says when the camera or the scene leaves the volume, or the depth scale looks wrong.
+  FrameDiagnostics diagnostics(pipeline.config(), prepared.input_intrinsics);
+  std::deque<Submitted> submitted;
   int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameResult& result) {
-    const FrameReport& report = ReconstructionAccess::last_report(reconstruction);
-    log.add(report, acquisition_s_in_flight.front());
-    acquisition_s_in_flight.pop_front();
+    const Submitted s = std::move(submitted.front());
+    submitted.pop_front();
+    // One numbering everywhere the user looks (warnings, progress, slambench.log, renders,
+    // stats.json): the input's, so a skipped bad frame leaves a gap instead of renumbering.
+    FrameReport report = ReconstructionAccess::last_report(reconstruction);
+    report.index = s.input_index;
+    // Warnings, not progress: said with -q too, before the tracking loss they may explain.
+    for (const auto& line : diagnostics.check(report.index, s.depth, report.T_world_cam)) {
+      std::cerr << "kfx run: warning: " << line << "\n";
+    }
+    log.add(report, s.acquisition_s);
     trajectory.push_back(io::to_stamped_pose(result.stamp_s, report.T_world_cam));
     summary.add(report);
     if (report.rendered) {
@@ -177,12 +194,13 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                 result.message << " (use --skip-bad-frames to skip bad frames)");
       std::cerr << "kfx run: warning: skipping bad frame: " << result.message << "\n";
       ++skipped;
+      skipped_frames.push_back(frame.index);
       continue;
     }
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
-    acquisition_s_in_flight.push_back(acquisition_s);
+    submitted.push_back(Submitted{acquisition_s, frame.index, diagnostics.sample(frame.depth_mm)});
     const bool renders_now = pipeline.renders(pipeline.frame_count());
     reconstruction.submit(api::frame_view(frame));
     // A rendering frame is collected at once: its renders are read before the next submit.
@@ -204,6 +222,14 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   stats["input"] = options.input;
   stats["input_description"] = reader.description();
   stats["skipped_bad_frames"] = skipped;
+  stats["skipped_frames"] = skipped_frames;
+  for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
+    const FrameCauseCount& count = diagnostics.count(static_cast<FrameCause>(c));
+    stats["frame_warnings"][frame_cause_name(static_cast<FrameCause>(c))] = {
+        {"frames", count.frames},
+        {"first_frame",
+         count.first_frame >= 0 ? nlohmann::json(count.first_frame) : nlohmann::json(nullptr)}};
+  }
   stats["backend"] = pipeline.backend().name();
   stats["device"] = pipeline.backend().device_name();
   stats["preset"] = options.preset;
@@ -216,6 +242,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     config_json[field.section][field.key] = field.format(pipeline.config());
   }
   stats["config"] = config_json;
+  stats["settings_from_input"] = prepared.settings_from_input;
   stats["energy"] = energy->to_json();
   if (!prepared.ground_truth.empty()) {
     // Labels name files, so messages never read "ground truth ground truth".

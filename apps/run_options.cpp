@@ -107,8 +107,10 @@ PreparedRun prepare_run(const RunOptions& o) {
   run.config.input.distortion = LensDistortion{lens[0], lens[1], lens[2], lens[3], lens[4]};
   const Camera& camera = run.setup.camera;
   run.input_intrinsics = Intrinsics{camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
+  run.config.input.camera_px = {camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
   run.intrinsics_note = run.setup.camera_note;
   run.evaluate_flip_y = run.setup.flips_y;
+  run.settings_from_input = run.setup.settings_from_input;
   run.ground_truth = run.reader->ground_truth();
   check_ground_truth_stamps(run, o);
   return run;

@@ -41,6 +41,9 @@ struct PreparedRun {
   std::string intrinsics_note;         ///< one line: the intrinsics used, where from and why
   std::vector<io::StampedPose> ground_truth;
   bool evaluate_flip_y = false;  ///< intrinsics mirror the dataset's world in y
+  /// Setting keys whose values came from the input, not the preset or the user (the format's
+  /// camera and lens, the reader's recommended settings).
+  std::vector<std::string> settings_from_input;
   BackendKind backend = BackendKind::kAuto;
 };
 

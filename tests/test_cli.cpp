@@ -141,6 +141,73 @@ TEST_F(CliTest, UndistortionUsesTheFormatsLensOnlyWithTheFormatsCamera) {
   EXPECT_EQ(r.output.find("undistort"), std::string::npos) << r.output;
 }
 
+TEST_F(CliTest, SettingsSayWhatWasUsedAndWhoChoseIt) {
+  // A TUM fr1 folder under exact: the camera comes from the folder's name and is written as
+  // such (not 0,0,0,0); its lens is not used (undistortion off), so it is neither filled in
+  // nor reported as a setting the user changed.
+  const fs::path folder = dir_ / "rgbd_dataset_freiburg1_tiny";
+  fs::rename(make_tum_folder(3), folder);
+  const fs::path out = dir_ / "o";
+  const auto r =
+      run_kfx("run " + folder.string() + " -c 1 -y 2,2 -q --no-mesh --out " + out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto stats = nlohmann::json::parse(std::ifstream(out / "stats.json"));
+  const auto& k = stats["intrinsics_input_px"];
+  std::ostringstream camera;
+  camera << k[0].get<double>() << "," << k[1].get<double>() << "," << k[2].get<double>() << ","
+         << k[3].get<double>();
+  EXPECT_EQ(stats["config"]["input"]["camera"], camera.str());
+  EXPECT_EQ(stats["config"]["input"]["camera_distortion"], "0,0,0,0,0");
+  EXPECT_EQ(stats["settings_from_input"], nlohmann::json::array({"camera"}));
+  std::ifstream config(out / "config.txt");
+  const std::string text((std::istreambuf_iterator<char>(config)),
+                         std::istreambuf_iterator<char>());
+  EXPECT_NE(text.find("camera = " + camera.str() + "\n"), std::string::npos) << text;
+  // The report lists the user's changes (-c 1 -y 2,2) apart from what the input chose.
+  std::ifstream page(out / "report.html");
+  const std::string html((std::istreambuf_iterator<char>(page)), std::istreambuf_iterator<char>());
+  EXPECT_NE(html.find("\"settings_changed\":[\"compute_size_ratio=1\",\"pyramid_iterations=2,2\"]"),
+            std::string::npos);
+  EXPECT_NE(html.find("\"settings_from_input\":[\"camera=" + camera.str() + "\"]"),
+            std::string::npos);
+}
+
+TEST_F(CliTest, WarnsWhenTheCameraOrTheDepthLeavesTheVolume) {
+  // A wall 1.5 m away read with depth scale 1000 instead of the format's 5000: 7.5 m, implausible
+  // and beyond the volume from frame 0.
+  const fs::path folder = make_tum_folder(6);
+  auto r = run_kfx("run " + folder.string() + " --depth-scale 1000 --out " +
+                   (dir_ / "scale").string() + " " + small_run_args());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("warning: frame 0: the depth is implausible"), std::string::npos)
+      << r.output;
+  EXPECT_NE(r.output.find("warning: frame 0: 100 % of the depth lies outside the volume"),
+            std::string::npos)
+      << r.output;
+  auto stats = nlohmann::json::parse(std::ifstream(dir_ / "scale" / "stats.json"));
+  EXPECT_EQ(stats["frame_warnings"]["implausible_depth"]["first_frame"], 0);
+  EXPECT_EQ(stats["frame_warnings"]["implausible_depth"]["frames"], 6);
+  // The synthetic camera, started 1 % of the volume's side from its x face, crosses that face:
+  // the warning names the frame stats.json counts first.
+  r = run_kfx(
+      "run synthetic:frames=30,width=160,height=120 -p 0.99,0.5,0 --backend cpu -q "
+      "--no-mesh --no-report --out " +
+      (dir_ / "outside").string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  stats = nlohmann::json::parse(std::ifstream(dir_ / "outside" / "stats.json"));
+  const auto& outside = stats["frame_warnings"]["camera_outside_volume"];
+  ASSERT_GT(outside["frames"].get<int>(), 0) << r.output;
+  const std::string expected = "warning: frame " +
+                               std::to_string(outside["first_frame"].get<int>()) +
+                               ": the camera is outside the volume";
+  EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
+  // A good run says none of this.
+  r = run_kfx("run " + folder.string() + " --out " + (dir_ / "good").string() + " " +
+              small_run_args());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
+}
+
 TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
   const fs::path folder = make_tum_folder(8);
   const fs::path bad = folder / "depth" / "105.000000.png";
@@ -159,6 +226,40 @@ TEST_F(CliTest, CorruptPngStopsTheRunNamingFileAndFrame) {
   EXPECT_NE(skipped.output.find("warning"), std::string::npos);
   std::ifstream stats_file(out / "stats.json");
   EXPECT_EQ(nlohmann::json::parse(stats_file)["skipped_bad_frames"], 1);
+}
+
+TEST_F(CliTest, SkippedFramesKeepTheInputsNumbersEverywhere) {
+  // Frames 5 and 7 of 10 are bad: the warnings, slambench.log, the renders and stats.json all
+  // use the input's numbers (0-4, 6, 8, 9), not a renumbering 0-7.
+  const fs::path folder = make_tum_folder(10);
+  for (const char* name : {"105.000000.png", "107.000000.png"}) {
+    std::ofstream(folder / "depth" / name, std::ios::binary | std::ios::trunc)
+        << "\x89PNG\r\n\x1a\n garbage";
+  }
+  const fs::path out = dir_ / "out";
+  const auto r = run_kfx("run " + folder.string() + " --out " + out.string() + " " +
+                         small_run_args() + " --skip-bad-frames --renders -z 1");
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("frame 5"), std::string::npos) << r.output;
+  EXPECT_NE(r.output.find("frame 7"), std::string::npos) << r.output;
+  std::ifstream log(out / "slambench.log");
+  std::string line;
+  std::getline(log, line);  // header
+  std::vector<int> logged;
+  while (std::getline(log, line)) {
+    if (!line.empty()) logged.push_back(std::stoi(line));
+  }
+  const std::vector<int> expected = {0, 1, 2, 3, 4, 6, 8, 9};
+  EXPECT_EQ(logged, expected);
+  for (int f : expected) {
+    char name[32];
+    std::snprintf(name, sizeof(name), "depth_%06d.png", f);
+    EXPECT_TRUE(fs::exists(out / "renders" / name)) << name;
+  }
+  EXPECT_FALSE(fs::exists(out / "renders" / "depth_000005.png"));
+  const auto stats = nlohmann::json::parse(std::ifstream(out / "stats.json"));
+  EXPECT_EQ(stats["skipped_frames"], nlohmann::json::array({5, 7}));
+  EXPECT_EQ(stats["frames"], 8);
 }
 
 TEST_F(CliTest, MissingListedFileAndWrongSizeAreErrors) {

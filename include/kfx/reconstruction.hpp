@@ -24,6 +24,10 @@ struct ResolvedSetup {
   /// The intrinsics mirror the dataset's world in y (SLAMBench's ICL-NUIM convention), so a
   /// ground-truth comparison must flip y.
   bool flips_y = false;
+  /// Keys whose values came from the input rather than the preset or the user: the
+  /// recommendations applied, `camera` when the input's intrinsics are used, `camera_distortion`
+  /// when its lens is.
+  std::vector<std::string> settings_from_input;
 };
 
 /// Resolves `settings` for `sequence` as `kfx run` does: the preset, then the sequence's

@@ -53,6 +53,8 @@ struct Reconstruction::Impl {
       camera.cx_px = k[2];
       camera.cy_px = k[3];
     }
+    // The settings say which camera is used (settings_dump(), kfx run's config.txt).
+    config.input.camera_px = {camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
     KFX_CHECK(camera.width_px > 0 && camera.height_px > 0,
               "camera of " << camera.width_px << "x" << camera.height_px << " pixels");
     KFX_CHECK(camera.fx_px != 0 && camera.fy_px != 0,

@@ -8,6 +8,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <regex>
+#include <set>
 #include <sstream>
 
 #include "core/platform.hpp"
@@ -93,10 +94,21 @@ std::map<std::string, std::vector<double>> read_slambench_log(const std::string&
   return columns;
 }
 
-/// The settings that differ from the preset's, as "key=value".
-std::vector<std::string> changed_settings(const json& stats) {
+/// Keys of the settings whose values came from the input (stats.json's settings_from_input).
+std::set<std::string> settings_from_input(const json& stats) {
+  std::set<std::string> keys;
+  for (const auto& key : stats.value("settings_from_input", json::array())) {
+    keys.insert(key.get<std::string>());
+  }
+  return keys;
+}
+
+/// The settings as "key=value": those the input chose (`from_input` true) or the others that
+/// differ from the preset's (changed by the user).
+std::vector<std::string> changed_settings(const json& stats, bool from_input) {
   std::vector<std::string> changed;
   if (!stats.contains("config") || !stats.contains("preset")) return changed;
+  const std::set<std::string> input_keys = settings_from_input(stats);
   PipelineConfig preset;
   try {
     preset = make_preset(stats["preset"].get<std::string>());
@@ -107,7 +119,11 @@ std::vector<std::string> changed_settings(const json& stats) {
     const auto& section = stats["config"].value(field.section, json::object());
     if (!section.contains(field.key)) continue;
     const std::string value = section[field.key].get<std::string>();
-    if (value != field.format(preset)) changed.push_back(field.key + "=" + value);
+    if (input_keys.count(field.key) != 0) {
+      if (from_input) changed.push_back(field.key + "=" + value);
+    } else if (!from_input && value != field.format(preset)) {
+      changed.push_back(field.key + "=" + value);
+    }
   }
   return changed;
 }
@@ -145,8 +161,15 @@ json position(const Eigen::Vector3d& p) { return json::array({p.x(), p.y(), p.z(
 
 /// Trajectory plots and the translational error: aligned onto the ground truth when there is
 /// one (as the ATE does), else the estimate alone in the volume frame.
+/// `frame_numbers`: slambench.log's frame column, one per pose of `est` (the input's numbers,
+/// which skip bad frames); the pose's index where it does not match.
 json trajectory_data(const std::vector<io::StampedPose>& est, const std::string& gt_path,
-                     const json& stats, ReportResult& result) {
+                     const json& stats, const std::vector<double>& frame_numbers,
+                     ReportResult& result) {
+  const auto frame_number = [&](size_t i) {
+    return frame_numbers.size() == est.size() ? static_cast<int>(frame_numbers[i])
+                                              : static_cast<int>(i);
+  };
   json t;
   json path = json::array();
   for (const auto& p : est) path.push_back(json::array({p.t[0], p.t[1], p.t[2]}));
@@ -155,7 +178,7 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
     t["frame"] = "volume";
     t["est"] = path;
     t["est_frames"] = json::array();
-    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(i);
+    for (size_t i = 0; i < est.size(); ++i) t["est_frames"].push_back(frame_number(i));
     t["note"] = "no groundtruth.txt in the folder: the estimate alone, in the volume frame";
     return t;
   }
@@ -172,7 +195,7 @@ json trajectory_data(const std::vector<io::StampedPose>& est, const std::string&
   size_t gt_first = gt.size(), gt_last = 0;
   for (size_t i = 0; i < r.association.pairs.size(); ++i) {
     est_aligned.push_back(position(aligned.col(i)));
-    est_frames.push_back(r.association.pairs[i].est_index);
+    est_frames.push_back(frame_number(r.association.pairs[i].est_index));
     errors.push_back(r.ate.errors_m[i]);
     gt_first = std::min(gt_first, r.association.pairs[i].gt_index);
     gt_last = std::max(gt_last, r.association.pairs[i].gt_index);
@@ -244,7 +267,8 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["backend"] = stats.value("backend", "");
   s["device"] = stats.value("device", "");
   s["preset"] = stats.value("preset", "");
-  s["settings_changed"] = changed_settings(stats);
+  s["settings_changed"] = changed_settings(stats, false);
+  s["settings_from_input"] = changed_settings(stats, true);
   s["config"] = stats.value("config", json::object());
   s["frames"] = stats.value("frames", 0);
   s["tracked"] = stats.value("tracked", 0);
@@ -287,10 +311,14 @@ ReportResult write_report(const std::string& run_dir) {
   const auto log = read_slambench_log(run_dir + "/slambench.log");
 
   json data;
+  const auto frame_column = log.find("frame");
+  const std::vector<double> frame_numbers =
+      frame_column == log.end() ? std::vector<double>{} : frame_column->second;
   try {
-    data["trajectory"] = trajectory_data(est, run_dir + "/groundtruth.txt", stats, result);
+    data["trajectory"] =
+        trajectory_data(est, run_dir + "/groundtruth.txt", stats, frame_numbers, result);
   } catch (const Error& e) {
-    data["trajectory"] = trajectory_data(est, "", stats, result);
+    data["trajectory"] = trajectory_data(est, "", stats, frame_numbers, result);
     data["trajectory"]["note"] = std::string("ground truth not usable: ") + e.what();
   }
   data["log"] = log;

@@ -84,6 +84,7 @@ window.onerror = function (message, source, line) {
     ["Input", S.input_description || S.input],
     ["Preset", S.preset],
     ["Settings changed from the preset", S.settings_changed.length ? S.settings_changed.join(", ") : "none"],
+    ["Settings from the input", S.settings_from_input.length ? S.settings_from_input.join(", ") : "none"],
     ["Frames", S.frames],
     ["Tracked", S.tracked + " (" + fixed(100 * S.tracked / Math.max(1, S.frames), 1) + " %)"],
     ["Integrated", S.integrated],

@@ -1,0 +1,144 @@
+#include "pipeline/frame_diagnostics.hpp"
+
+#include <algorithm>
+#include <sstream>
+#include <string>
+
+namespace kfx {
+namespace {
+
+bool inside_cube(Vec3f p, float size_m) {
+  return p.x >= 0 && p.y >= 0 && p.z >= 0 && p.x <= size_m && p.y <= size_m && p.z <= size_m;
+}
+
+/// Whether the camera has left the volume through a face it did not start on. The first camera
+/// sits on a face (SLAMBench's start, z = 0) and looks in through it: moving back behind that
+/// face is normal (TUM fr1_xyz and ICL-NUIM kt0 go 12-16 cm behind it), crossing another is not.
+bool camera_left_volume(Vec3f c, float size_m, const std::array<float, 3>& start_factor) {
+  const float p[3] = {c.x, c.y, c.z};
+  for (int axis = 0; axis < 3; ++axis) {
+    if (p[axis] < 0 && start_factor[axis] > 0) return true;
+    if (p[axis] > size_m && start_factor[axis] < 1) return true;
+  }
+  return false;
+}
+
+}  // namespace
+
+const char* frame_cause_name(FrameCause cause) {
+  switch (cause) {
+    case FrameCause::kCameraOutsideVolume:
+      return "camera_outside_volume";
+    case FrameCause::kDepthOutsideVolume:
+      return "depth_outside_volume";
+    case FrameCause::kImplausibleDepth:
+      return "implausible_depth";
+    case FrameCause::kCount:
+      break;
+  }
+  return "?";
+}
+
+FrameDiagnostics::FrameDiagnostics(const PipelineConfig& config, const Intrinsics& input_intrinsics)
+    : k_(input_intrinsics),
+      volume_size_m_(config.volume.size_m),
+      start_factor_(config.volume.init_pose_factor),
+      far_m_(config.raycast.far_m),
+      depth_scale_per_m_(config.input.depth_scale_per_m) {}
+
+DepthSample FrameDiagnostics::sample(const HostImage<uint16_t>& depth_mm) const {
+  DepthSample s;
+  std::vector<float> depths_m;
+  for (int v = kSampleStridePx / 2; v < depth_mm.height(); v += kSampleStridePx) {
+    for (int u = kSampleStridePx / 2; u < depth_mm.width(); u += kSampleStridePx) {
+      const uint16_t d = depth_mm(u, v);
+      if (d == 0) continue;
+      const float z_m = d * 0.001f;
+      s.p_cam_m.push_back({(u - k_.cx) / k_.fx * z_m, (v - k_.cy) / k_.fy * z_m, z_m});
+      depths_m.push_back(z_m);
+    }
+  }
+  if (!depths_m.empty()) {
+    const auto mid = depths_m.begin() + depths_m.size() / 2;
+    std::nth_element(depths_m.begin(), mid, depths_m.end());
+    s.median_depth_m = *mid;
+  }
+  return s;
+}
+
+std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& depth,
+                                                 const Mat4f& T_world_cam) {
+  std::vector<std::string> warnings;
+  const float size = volume_size_m_;
+  // The camera: the volume spans [0, size] on each axis of the volume (world) frame.
+  const Vec3f c = T_world_cam.translation_part();
+  {
+    std::ostringstream m;
+    m.precision(3);
+    m << "the camera is outside the volume (at " << c.x << ", " << c.y << ", " << c.z
+      << " m; the volume spans 0 to " << size
+      << " m on each axis): what it sees there is neither tracked against nor integrated; a "
+         "larger volume (-s) or another start position (-p) keeps it inside";
+    note(FrameCause::kCameraOutsideVolume, camera_left_volume(c, size, start_factor_), frame,
+         m.str(), warnings);
+  }
+  // The depth: where its points land in the volume frame.
+  if (!depth.p_cam_m.empty()) {
+    int outside = 0;
+    for (const Vec3f& p : depth.p_cam_m) {
+      if (p.z > far_m_ || !inside_cube(T_world_cam * p, size)) ++outside;
+    }
+    const float fraction = static_cast<float>(outside) / depth.p_cam_m.size();
+    std::ostringstream m;
+    m.precision(3);
+    m << static_cast<int>(100 * fraction + 0.5f)
+      << " % of the depth lies outside the volume or beyond the far plane (median depth "
+      << depth.median_depth_m << " m; the volume spans 0 to " << size
+      << " m on each axis, far plane " << far_m_
+      << " m): little can be integrated or tracked; check the volume size (-s), the start "
+         "position (-p) and the depth scale";
+    note(FrameCause::kDepthOutsideVolume, fraction > kMostDepthFraction, frame, m.str(), warnings);
+    std::ostringstream scale;
+    scale.precision(3);
+    scale << "the depth is implausible for an RGB-D camera (median " << depth.median_depth_m
+          << " m; expected " << kPlausibleMedianDepthMin_m << " to " << kPlausibleMedianDepthMax_m
+          << " m) at the depth scale ";
+    if (depth_scale_per_m_ > 0) {
+      scale << std::to_string(static_cast<long long>(depth_scale_per_m_ + 0.5)) << " units/m";
+    } else {
+      scale << "of the format";
+    }
+    scale << ": is --depth-scale right? (TUM RGB-D and ICL-NUIM PNGs: 5000 units/m)";
+    const bool implausible = depth.median_depth_m < kPlausibleMedianDepthMin_m ||
+                             depth.median_depth_m > kPlausibleMedianDepthMax_m;
+    note(FrameCause::kImplausibleDepth, implausible, frame, scale.str(), warnings);
+  }
+  return warnings;
+}
+
+void FrameDiagnostics::note(FrameCause cause, bool present, int frame, const std::string& message,
+                            std::vector<std::string>& warnings) {
+  const int i = static_cast<int>(cause);
+  FrameCauseCount& count = counts_[i];
+  const bool begins = present && !active_[i];
+  // A stretch ends only after kFramesToEndStretch frames without the cause, so a figure
+  // hovering at its bound does not warn again every other frame.
+  if (present) {
+    active_[i] = true;
+    frames_without_[i] = 0;
+  } else if (active_[i] && ++frames_without_[i] >= kFramesToEndStretch) {
+    active_[i] = false;
+  }
+  if (!present) return;
+  ++count.frames;
+  if (count.first_frame < 0) count.first_frame = frame;
+  if (!begins || count.warnings >= kMaxWarningsPerCause) return;
+  ++count.warnings;
+  std::string line = "frame " + std::to_string(frame) + ": " + message;
+  if (count.warnings == kMaxWarningsPerCause) {
+    line += " (further stretches of this are not shown; stats.json counts them)";
+  }
+  warnings.push_back(line);
+}
+
+}  // namespace kfx

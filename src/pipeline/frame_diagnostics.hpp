@@ -1,0 +1,86 @@
+#pragma once
+/// Warnings a user needs when a run goes wrong for a reason the tracker cannot name: the camera
+/// outside the volume (through a face other than the one it started on), most of the depth outside
+/// the volume or beyond the far plane, depth values implausible for the depth scale. They only
+/// observe (input depth and finished poses): nothing here changes what the pipeline computes.
+
+#include <array>
+#include <string>
+#include <vector>
+
+#include "core/camera.hpp"
+#include "core/image.hpp"
+#include "core/math.hpp"
+#include "pipeline/config.hpp"
+
+namespace kfx {
+
+/// The causes FrameDiagnostics recognises.
+enum class FrameCause { kCameraOutsideVolume, kDepthOutsideVolume, kImplausibleDepth, kCount };
+
+/// The cause's name in stats.json ("camera_outside_volume", ...).
+const char* frame_cause_name(FrameCause cause);
+
+/// A frame's depth, sampled on a coarse grid and back-projected into the camera frame: taken
+/// when the frame is submitted, judged when its pose is known.
+struct DepthSample {
+  std::vector<Vec3f> p_cam_m;  ///< sampled valid pixels, camera frame, metres
+  float median_depth_m = 0;    ///< median depth of the samples (0 when there are none)
+};
+
+/// How often each cause was seen over a run.
+struct FrameCauseCount {
+  int frames = 0;        ///< frames with this cause
+  int first_frame = -1;  ///< the first of them (−1: none)
+  int warnings = 0;      ///< warnings given (at most kMaxWarningsPerCause)
+};
+
+/// Watches a run's frames for the causes above and says when one begins, naming the frame:
+/// one warning per stretch of frames with the cause (a stretch ends after kFramesToEndStretch
+/// frames without it), at most kMaxWarningsPerCause per cause, so
+/// a long loss does not flood the output.
+class FrameDiagnostics {
+ public:
+  /// Warnings per cause and run; later stretches are counted, not shown.
+  static constexpr int kMaxWarningsPerCause = 3;
+  /// Median depth outside this range (metres) is implausible for an RGB-D camera (Kinect-type
+  /// sensors measure to about 4-5 m; the shared TUM and ICL-NUIM sequences' medians stay below
+  /// 3.7 m): most likely the depth scale is wrong (TUM's 5000 units/m read as 1000 gives 5×).
+  static constexpr float kPlausibleMedianDepthMin_m = 0.2f;
+  static constexpr float kPlausibleMedianDepthMax_m = 5.0f;
+  /// "Most" of the depth: more than this fraction of the valid samples.
+  static constexpr float kMostDepthFraction = 0.75f;
+  /// A stretch of frames with a cause ends after this many frames without it.
+  static constexpr int kFramesToEndStretch = 10;
+  /// Every this many pixels in x and y are sampled (a few thousand points at 640×480).
+  static constexpr int kSampleStridePx = 8;
+
+  /// `input_intrinsics` at input size, as the frames' depth images are.
+  FrameDiagnostics(const PipelineConfig& config, const Intrinsics& input_intrinsics);
+
+  /// Samples a frame's input depth (millimetres, input size).
+  DepthSample sample(const HostImage<uint16_t>& depth_mm) const;
+
+  /// Judges frame `frame` (the input's number) from its depth sample and the camera pose after
+  /// it (volume frame); returns the warnings to show now, one line each, naming the frame.
+  std::vector<std::string> check(int frame, const DepthSample& depth, const Mat4f& T_world_cam);
+
+  /// Per cause, how often it was seen.
+  const FrameCauseCount& count(FrameCause cause) const { return counts_[static_cast<int>(cause)]; }
+
+ private:
+  /// Records that `cause` is (or is not) present at `frame`; a warning when a stretch begins.
+  void note(FrameCause cause, bool present, int frame, const std::string& message,
+            std::vector<std::string>& warnings);
+
+  Intrinsics k_;
+  float volume_size_m_;
+  std::array<float, 3> start_factor_;  ///< the first camera at start_factor_ · volume size
+  float far_m_;
+  double depth_scale_per_m_;  ///< 0: the format's
+  std::array<FrameCauseCount, static_cast<int>(FrameCause::kCount)> counts_{};
+  std::array<bool, static_cast<int>(FrameCause::kCount)> active_{};         ///< in a stretch
+  std::array<int, static_cast<int>(FrameCause::kCount)> frames_without_{};  ///< since the last
+};
+
+}  // namespace kfx
