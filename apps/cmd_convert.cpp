@@ -36,7 +36,8 @@ void add_convert_command(CLI::App& app) {
   auto args = std::make_shared<ConvertArgs>();
   CLI::App* sub = app.add_subcommand(
       "convert",
-      "Convert any input to a SLAMBench .raw (depth in mm, zero colour) plus a JSON sidecar "
+      "Convert any input to a SLAMBench .raw (depth in mm; the colour image where the input has "
+      "one, else zero colour) plus a JSON sidecar "
       "OUT.raw.json holding stamps, intrinsics and ground truth. With --ratio R the frames are "
       "subsampled as KFusion does (output (x,y) = input (x*R, y*R)) and the intrinsics divided "
       "by R, so running the result at ratio 1 equals running the input at ratio R");

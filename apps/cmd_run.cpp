@@ -21,6 +21,7 @@
 #include "kfx/reconstruction.hpp"
 #include "output/cloud_ply.hpp"
 #include "output/host_memory.hpp"
+#include "output/mesh_colour.hpp"
 #include "output/mesh_output.hpp"
 #include "output/renders.hpp"
 #include "output/report_html.hpp"
@@ -202,7 +203,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     // pose comes back asynchronously.
     submitted.push_back(Submitted{acquisition_s, frame.index, diagnostics.sample(frame.depth_mm)});
     const bool renders_now = pipeline.renders(pipeline.frame_count());
-    reconstruction.submit(api::frame_view(frame));
+    ReconstructionAccess::submit(reconstruction, frame);
     // A rendering frame is collected at once: its renders are read before the next submit.
     while (reconstruction.frames_in_flight() > (renders_now ? 0 : 1)) {
       finish(reconstruction.collect());
@@ -230,6 +231,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
         {"first_frame",
          count.first_frame >= 0 ? nlohmann::json(count.first_frame) : nlohmann::json(nullptr)}};
   }
+  stats["colour"] = {{"fused", pipeline.config().colour.fuse},
+                     {"memory_bytes", pipeline.colour_bytes()}};
   stats["backend"] = pipeline.backend().name();
   stats["device"] = pipeline.backend().device_name();
   stats["preset"] = options.preset;
@@ -265,9 +268,22 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
 
   // Outputs become visible only now, stats.json last: it marks a complete run.
   std::string written = "trajectory.txt slambench.log stats.json config.txt";
+  // The colour field, when fused, colours the mesh and the cloud.
+  std::vector<ColourVoxel> colour_field;
+  if (pipeline.config().colour.fuse && (outputs.mesh || outputs.cloud)) {
+    colour_field = pipeline.backend().read_colour_volume();
+  }
+  const ColourVolumeView colour{colour_field.empty() ? nullptr : colour_field.data(),
+                                pipeline.config().volume.resolution_vox,
+                                pipeline.config().volume.size_m};
   if (outputs.mesh) {
     const auto start = Clock::now();
-    const MeshView mesh = pipeline.backend().extract_mesh();
+    MeshView mesh = pipeline.backend().extract_mesh();
+    std::vector<Rgb8> mesh_colours;
+    if (colour.data) {
+      mesh_colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
+      mesh.colours = mesh_colours.data();
+    }
     stats["mesh_extraction_s"] = seconds_since(start);
     stats["mesh_vertices"] = mesh.vertex_count;
     stats["mesh_triangles"] = mesh.triangle_count;
@@ -279,7 +295,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     stats["cloud_points"] =
         output::write_cloud_ply(out_dir + "/cloud.ply", maps.ref_vertex, maps.ref_normal,
                                 "kfx " + std::string(KFX_VERSION) + " last raycast of " +
-                                    options.input + ", volume frame (as trajectory.txt), metres");
+                                    options.input + ", volume frame (as trajectory.txt), metres",
+                                colour);
     written += " cloud.ply";
   }
   if (outputs.save_volume) {

@@ -23,5 +23,7 @@ void add_mesh_command(CLI::App& app);
 void add_report_command(CLI::App& app);
 /// `kfx convert INPUT OUT.raw`: any input to SLAMBench `.raw` (plus a JSON sidecar).
 void add_convert_command(CLI::App& app);
+/// `kfx colour-eval INPUT`: PSNR and SSIM of the model's colour at frames held out of it.
+void add_colour_eval_command(CLI::App& app);
 
 }  // namespace kfx::cli

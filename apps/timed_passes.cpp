@@ -25,7 +25,8 @@ TimedPasses run_timed_passes(Reconstruction& reconstruction, const std::vector<i
                              const std::function<void(int, double, const RunSummary&)>& on_pass,
                              energy::RunEnergy* energy, const std::function<void()>& after_warmup) {
   for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
-    reconstruction.process(api::frame_view(frames[i]));
+    ReconstructionAccess::submit(reconstruction, frames[i]);
+    reconstruction.collect();
   }
   if (after_warmup) after_warmup();
   TimedPasses result;
@@ -42,7 +43,7 @@ TimedPasses run_timed_passes(Reconstruction& reconstruction, const std::vector<i
     const auto start = std::chrono::steady_clock::now();
     // One frame in flight: the host prepares frame f+1 while the device computes frame f.
     for (const auto& frame : frames) {
-      reconstruction.submit(api::frame_view(frame));
+      ReconstructionAccess::submit(reconstruction, frame);
       if (reconstruction.frames_in_flight() > 1) take(reconstruction.collect());
     }
     while (reconstruction.frames_in_flight() > 0) take(reconstruction.collect());

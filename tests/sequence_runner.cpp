@@ -43,7 +43,7 @@ SequenceRun run_sequence(const std::string& input, const PipelineConfig& config,
     const io::ReadResult result = reader->next(frame);
     if (result.status == io::ReadStatus::kEnd) break;
     KFX_CHECK(result.status == io::ReadStatus::kOk, result.message);
-    const FrameReport report = pipeline.process(frame.depth_mm);
+    const FrameReport report = pipeline.process(frame.depth_mm, &frame.rgb);
     run.trajectory.push_back(io::to_stamped_pose(frame.stamp_s, report.T_world_cam));
     run.tracked += report.tracked ? 1 : 0;
     ++run.frames;

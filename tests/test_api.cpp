@@ -97,7 +97,8 @@ TEST(Api, EveryDepthLayoutGivesTheSamePoses) {
 TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   Sequence sequence(kInput);
   const auto frames = read_all(sequence);
-  Reconstruction r(cpu_settings(), sequence);
+  // Depth only (the synthetic scene's colour is fused by default): bare depth images below.
+  Reconstruction r(cpu_settings().set("colour", "off"), sequence);
   r.process(frames[0]);
   auto expect_error = [&](const FrameView& v, const std::string& words) {
     try {
@@ -140,13 +141,38 @@ TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   v.depth.units_per_m = 1000;
   v.depth.row_stride_bytes = 10;
   expect_error(v, "depth rows 10 bytes apart");
-  // colour the map cannot hold
-  std::vector<uint8_t> rgb(160 * 120 * 3);
+  // colour of another size than the depth's
+  std::vector<uint8_t> rgb(80 * 60 * 3);
   v = frames[1].view();
   v.colour.data = rgb.data();
-  expect_error(v, "holds no colour");
+  v.colour.width_px = 80;
+  v.colour.height_px = 60;
+  expect_error(v, "colour image is 80x60, the depth image 160x120");
   // and the next good frame is frame 1
   EXPECT_EQ(r.process(frames[1]).index, 1);
+}
+
+TEST(Api, ColourIsFusedWhereTheInputHasIt) {
+  Sequence sequence(kInput);
+  ASSERT_TRUE(sequence.has_colour());
+  const auto frames = read_all(sequence);
+  Reconstruction r(cpu_settings(), sequence);
+  for (const auto& f : frames) r.process(f);
+  const TriangleMesh mesh = r.mesh();
+  ASSERT_EQ(mesh.colours.size(), mesh.vertices_m.size());
+  EXPECT_EQ(r.point_cloud().colours.size(), r.point_cloud().points_m.size());
+  // A frame without colour while colour is on is an error that changes nothing.
+  FrameView v = frames[0].view();
+  v.colour = ColourView{};
+  EXPECT_THROW(r.process(v), Error);
+  EXPECT_EQ(r.frame_count(), static_cast<int>(frames.size()));
+  // The same mesh as kfx run writes, colours included.
+  const auto dir = test::fresh_test_dir("kfx_api_");
+  const auto cli = test::run_kfx(std::string("run '") + kInput + "' --backend cpu -q --no-report " +
+                                 "--set volume_resolution=64 --out " + (dir / "cli").string());
+  ASSERT_EQ(cli.exit_code, 0) << cli.output;
+  r.save_mesh((dir / "api.ply").string());
+  EXPECT_EQ(read_file((dir / "api.ply").string()), read_file((dir / "cli" / "mesh.ply").string()));
 }
 
 TEST(Api, SettingsAreCheckedByTheOneTable) {
@@ -200,7 +226,7 @@ TEST(Api, MapSavesLoadsAndRenders) {
   const TriangleMesh mesh = r.mesh();
   ASSERT_GT(mesh.triangle_count(), 100u);
   EXPECT_EQ(mesh.normals.size(), mesh.vertices_m.size());
-  EXPECT_TRUE(mesh.colours.empty());
+  EXPECT_EQ(mesh.colours.size(), mesh.vertices_m.size());  // the synthetic scene has colour
   const PointCloud cloud = r.point_cloud();
   EXPECT_GT(cloud.point_count(), 1000u);
   ASSERT_TRUE(r.map_saveable());

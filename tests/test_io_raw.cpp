@@ -67,9 +67,9 @@ void write_raw(const std::string& path, int frames) {
 TEST(IoRaw, RoundTripWithSidecar) {
   TempDir dir;
   const std::string path = dir.file("seq.raw");
-  HostImage<Rgba8> rgb(kW, kH);
+  HostImage<Rgb8> rgb(kW, kH);
   for (int i = 0; i < kW * kH; ++i) {
-    rgb.data()[i] = Rgba8{static_cast<uint8_t>(i), static_cast<uint8_t>(2 * i), 9, 255};
+    rgb.data()[i] = Rgb8{static_cast<uint8_t>(i), static_cast<uint8_t>(2 * i), 9};
   }
   {
     RawWriter writer(path);

@@ -51,7 +51,9 @@ class Reconstruction {
 
   /// Processes the next frame and returns its result. Throws kfx::Error, and changes nothing,
   /// when the frame is not the camera's size, is not a valid depth image (NaN, negative or
-  /// infinite metres, a non-positive scale), or carries colour the map cannot hold.
+  /// infinite metres, a non-positive scale), or has no colour image while the setting colour is
+  /// on. Colour (the depth image's size, registered to it) is fused when colour is on, else
+  /// ignored.
   FrameResult process(const FrameView& frame);
   /// The same for a frame a Sequence read.
   FrameResult process(const SequenceFrame& frame) { return process(frame.view()); }

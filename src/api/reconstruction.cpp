@@ -9,6 +9,7 @@
 #include "api/render_view.hpp"
 #include "core/platform.hpp"
 #include "io/trajectory.hpp"
+#include "output/mesh_colour.hpp"
 #include "output/mesh_ply.hpp"
 #include "output/run_trajectory.hpp"
 #include "output/volume_file.hpp"
@@ -41,6 +42,7 @@ struct Reconstruction::Impl {
   std::vector<FrameResult> trajectory;
   std::deque<double> stamps_in_flight;
   HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
+  HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, copied for the upload
   FrameReport last_report;
   std::string input;  ///< the sequence's name, when made for one (file headers name it)
 
@@ -77,17 +79,52 @@ struct Reconstruction::Impl {
 
   std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
 
-  void submit(const FrameView& frame) {
+  /// Checks `frame` and submits it; `rgb`: its colour as an image already (the CLI's readers),
+  /// else the colour of `frame` (copied) is used. Throws, changing nothing, on a bad frame.
+  void submit(const FrameView& frame, const HostImage<Rgb8>* rgb = nullptr) {
     const std::string label = frame_label();
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
                     << ", the reconstruction was made for " << camera.width_px << "x"
                     << camera.height_px);
-    KFX_CHECK(frame.colour.data == nullptr,
-              label << ": this map holds no colour yet; pass frames without colour");
+    const ColourView& c = frame.colour;
+    if (rgb == nullptr && c.data != nullptr) {
+      KFX_CHECK(c.width_px == camera.width_px && c.height_px == camera.height_px,
+                label << ": colour image is " << c.width_px << "x" << c.height_px
+                      << ", the depth image " << camera.width_px << "x" << camera.height_px);
+      const size_t packed = 3 * static_cast<size_t>(c.width_px);
+      const size_t stride = c.row_stride_bytes == 0 ? packed : c.row_stride_bytes;
+      KFX_CHECK(stride >= packed, label << ": colour rows " << stride << " bytes apart for "
+                                        << c.width_px << " pixels of 3 bytes");
+      if (config.colour.fuse) {
+        if (scratch_rgb.width() != c.width_px || scratch_rgb.height() != c.height_px) {
+          scratch_rgb = HostImage<Rgb8>(c.width_px, c.height_px);
+        }
+        for (int y = 0; y < c.height_px; ++y) {
+          std::memcpy(&scratch_rgb(0, y), c.data + stride * y, packed);
+        }
+        rgb = &scratch_rgb;
+      }
+    }
+    if (rgb != nullptr && rgb->empty()) rgb = nullptr;
+    KFX_CHECK(!config.colour.fuse || rgb != nullptr,
+              label << ": the setting colour is on but the frame has no colour image (set "
+                       "colour=off for depth-only input)");
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
-    pipeline->submit(mm);
+    pipeline->submit(mm, config.colour.fuse ? rgb : nullptr);
     stamps_in_flight.push_back(frame.stamp_s);
+  }
+
+  /// The colour field's colour at each point (empty when colour is not fused).
+  std::vector<uint8_t> colours_at(const MeshVertex* vertices, size_t count) {
+    std::vector<uint8_t> bytes;
+    if (!config.colour.fuse) return bytes;
+    std::vector<ColourVoxel> field = pipeline->backend().read_colour_volume();
+    const ColourVolumeView view{field.data(), config.volume.resolution_vox, config.volume.size_m};
+    const std::vector<Rgb8> colours = output::vertex_colours(vertices, count, view);
+    bytes.resize(colours.size() * 3);
+    if (!colours.empty()) std::memcpy(bytes.data(), colours.data(), bytes.size());
+    return bytes;
   }
 
   FrameResult collect() {
@@ -173,6 +210,7 @@ TriangleMesh Reconstruction::mesh() {
   if (view.triangle_count > 0) {
     std::memcpy(mesh.triangles.data(), view.triangles, sizeof(MeshTriangle) * view.triangle_count);
   }
+  mesh.colours = impl_->colours_at(view.vertices, view.vertex_count);
   return mesh;
 }
 
@@ -182,14 +220,17 @@ PointCloud Reconstruction::point_cloud() {
   PointCloud cloud;
   const auto& vertex = maps.ref_vertex;
   const auto& normal = maps.ref_normal;
+  std::vector<MeshVertex> points;
   for (int y = 0; y < vertex.height(); ++y) {
     for (int x = 0; x < vertex.width(); ++x) {
       if (normal(x, y).x == kInvalidNormal) continue;  // no surface at this pixel
       const Vec3f p = vertex(x, y), n = normal(x, y);
       cloud.points_m.insert(cloud.points_m.end(), {p.x, p.y, p.z});
       cloud.normals.insert(cloud.normals.end(), {n.x, n.y, n.z});
+      points.push_back(MeshVertex{p, n});
     }
   }
+  cloud.colours = impl_->colours_at(points.data(), points.size());
   return cloud;
 }
 
@@ -233,7 +274,9 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
   impl_->drain();
-  const MeshView mesh = impl_->pipeline->backend().extract_mesh();
+  MeshView mesh = impl_->pipeline->backend().extract_mesh();
+  const std::vector<uint8_t> colours = impl_->colours_at(mesh.vertices, mesh.vertex_count);
+  if (!colours.empty()) mesh.colours = reinterpret_cast<const Rgb8*>(colours.data());
   output::write_mesh_ply(path, mesh,
                          "kfx " + std::string(KFX_VERSION) + " mesh of " +
                              (input.empty() ? impl_->input : input) +
@@ -273,6 +316,9 @@ std::string Reconstruction::device_name() const { return impl_->pipeline->backen
 Pipeline& ReconstructionAccess::pipeline(Reconstruction& r) { return *r.impl_->pipeline; }
 const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
   return r.impl_->last_report;
+}
+void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
+  r.impl_->submit(api::frame_view(frame), &frame.rgb);
 }
 void ReconstructionAccess::set_rendering(Reconstruction& r, bool on) {
   r.impl_->pipeline->set_rendering(on);

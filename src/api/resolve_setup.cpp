@@ -21,8 +21,13 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
     run.settings.set(key, value);
     run.settings_from_input.push_back(key);
   }
+  // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
+  if (sequence.has_colour() && !user.is_set("colour")) run.settings.set("colour", "on");
   for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
   PipelineConfig config = api::make_config(run.settings);
+  KFX_CHECK(!config.colour.fuse || sequence.has_colour(),
+            sequence.input() << ": colour=on but this input has no colour ("
+                             << sequence.description() << ")");
   config.validate();
 
   const io::Reader& reader = SequenceAccess::reader(sequence);

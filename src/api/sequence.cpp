@@ -3,6 +3,7 @@
 #include "kfx/sequence.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include "api/internal.hpp"
 #include "core/platform.hpp"
@@ -70,7 +71,8 @@ ReadStatus Sequence::next(SequenceFrame& out) {
   out.width_px = f.depth_mm.width();
   out.height_px = f.depth_mm.height();
   out.depth_mm.assign(f.depth_mm.pixels().begin(), f.depth_mm.pixels().end());
-  out.colour.clear();
+  out.colour.resize(f.rgb.pixels().size() * 3);
+  if (!out.colour.empty()) std::memcpy(out.colour.data(), f.rgb.data(), out.colour.size());
   out.source = f.source;
   return ReadStatus::kOk;
 }
@@ -80,6 +82,7 @@ const std::string& Sequence::input() const { return impl_->input; }
 int Sequence::width_px() const { return impl_->reader->width_px(); }
 int Sequence::height_px() const { return impl_->reader->height_px(); }
 int Sequence::frame_count() const { return impl_->reader->frame_count(); }
+bool Sequence::has_colour() const { return impl_->reader->has_colour(); }
 
 std::optional<Camera> Sequence::camera() const {
   const auto k = impl_->reader->default_intrinsics();

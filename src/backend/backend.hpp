@@ -55,6 +55,9 @@ struct BackendSetup {
   int pipelines_on_device = 1;
   /// CUDA launch tuning (settings cuda_*; the CPU backend ignores them).
   CudaTuning cuda;
+  /// Colour fusion (setting colour): a colour field beside the TSDF, a colour input image of
+  /// the input size per frame (upload_colour) and a colour render.
+  bool colour = false;
   /// The undistortion table (pipeline/depth_undistortion.hpp), compute size: the input pixel
   /// each compute pixel reads. Empty: input (x·ratio, y·ratio), as KFusion.
   HostImage<SourcePixel> depth_source_px;
@@ -68,11 +71,12 @@ enum class Stage : int { kPreprocess = 0, kTrack, kIntegrate, kRaycast, kRender,
 /// Stage names as reported ("preprocess", "track", ...).
 const char* stage_name(Stage stage);
 
-/// Host copies of the three renders (compute size, opaque RGBA).
+/// Host copies of the renders (compute size, opaque RGBA).
 struct Renders {
   HostImage<Rgba8> depth;
   HostImage<Rgba8> track;
   HostImage<Rgba8> volume;
+  HostImage<Rgba8> colour;  ///< the model's colour from the camera; empty without colour
 };
 
 /// Host copies of the maps a renderer or a test wants to look at.
@@ -112,6 +116,9 @@ class Backend {
   /// Copies the next input depth frame (input size, millimetres, rows packed: pitch == width) to
   /// the backend; the caller's memory is read during the call only.
   virtual void upload_depth(ImageView<const uint16_t> depth_mm) = 0;
+  /// Copies the next frame's colour image (input size) to the backend; with colour on, call it
+  /// after upload_depth() for every frame. Throws kfx::Error on a wrong size or with colour off.
+  virtual void upload_colour(const HostImage<Rgb8>& rgb) = 0;
   /// Brackets one frame's stage calls. `shape` identifies which stages the frame runs (the
   /// pipeline derives it from the frame number alone), so the GPU can record the sequence once
   /// per shape as a graph and replay it. end_frame() submits the frame; read_state() waits.
@@ -158,6 +165,8 @@ class Backend {
   virtual Renders read_renders() = 0;
   /// Host copy of the whole volume (slow; tests and mesh export).
   virtual std::vector<Voxel> read_volume() = 0;
+  /// Host copy of the colour field (res³, x fastest); empty with colour off.
+  virtual std::vector<ColourVoxel> read_colour_volume() = 0;
 
   /// Allocates what extract_mesh() needs beyond the mesh itself (mesh_scratch_bytes()), so a
   /// volume too large to mesh fails before a run rather than after it; throws kfx::Error

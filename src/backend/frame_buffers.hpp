@@ -4,7 +4,8 @@
 /// DeviceBuffer). Every buffer is allocated here, once, from the BackendSetup; what differs per
 /// backend (input staging, reduction partials, streams) stays in the backend.
 ///
-/// A reset (Backend::reset) returns them to: an empty volume (every voxel tsdf +1, weight 0),
+/// A reset (Backend::reset) returns them to: an empty volume (every voxel tsdf +1, weight 0,
+/// and with colour every colour voxel 0 with weight 0),
 /// no brick or super-brick touched, reference vertices 0, and the state
 /// initial_tracking_state(pose).
 
@@ -13,6 +14,7 @@
 #include <cstdint>
 
 #include "backend/backend.hpp"
+#include "core/colour_volume.hpp"
 #include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/track.hpp"
@@ -34,6 +36,10 @@ struct FrameBuffers {
         volume(voxel_count(setup)),
         brick_touched(brick_count(setup)),
         super_brick_touched(super_brick_count(setup)),
+        colour_volume(setup.colour ? voxel_count(setup) : 0),
+        render_colour(setup.colour ? setup.compute_width_px() : 0,
+                      setup.colour ? setup.compute_height_px() : 0),
+        colour(setup.colour),
         volume_res_vox(setup.volume_res_vox),
         volume_size_m(setup.volume_size_m) {
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
@@ -63,6 +69,11 @@ struct FrameBuffers {
                       super_brick_touched.data()};
   }
 
+  /// The colour field as the kernels see it; null data when colour is off.
+  ColourVolumeView colour_volume_view() {
+    return ColourVolumeView{colour ? colour_volume.data() : nullptr, volume_res_vox, volume_size_m};
+  }
+
   /// The arguments of one ICP iteration at pyramid `level` against the raycast reference; only
   /// level 0 writes its per-pixel outcome (kept for read_maps() and the track render).
   TrackArgs track_args(int level, const IcpParams& p, const TrackingState* state) {
@@ -89,11 +100,19 @@ struct FrameBuffers {
   Array<Voxel> volume;                 ///< res³ voxels, x fastest
   Array<uint8_t> brick_touched;        ///< one flag per 8³ brick (VolumeView::brick_touched)
   Array<uint8_t> super_brick_touched;  ///< one flag per 16³ (VolumeView::super_brick_touched)
+  /// Colour (BackendSetup::colour): res³ colour voxels beside the TSDF and the colour render;
+  /// empty when off.
+  Array<ColourVoxel> colour_volume;
+  Image<Rgba8> render_colour;
+  bool colour = false;
   int volume_res_vox = 0;
   float volume_size_m = 0.0f;
 };
 
 /// Throws kfx::Error unless `depth_mm` has the input size the backend was set up for.
 void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& setup);
+
+/// Throws kfx::Error unless colour is on and `rgb` has the input size.
+void check_colour_frame(const HostImage<Rgb8>& rgb, const BackendSetup& setup);
 
 }  // namespace kfx

@@ -4,6 +4,7 @@
 #include <iomanip>
 #include <sstream>
 
+#include "core/colour_volume.hpp"
 #include "core/volume.hpp"
 
 namespace kfx {
@@ -31,11 +32,23 @@ uint64_t volume_bytes(const BackendSetup& setup) {
 
 }  // namespace
 
+uint64_t colour_bytes(const BackendSetup& setup) {
+  if (!setup.colour) return 0;
+  const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
+  const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
+  const uint64_t compute_px =
+      static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
+  // The colour field, the double-buffered colour input and its staging, the colour render.
+  return res * res * res * sizeof(ColourVoxel) + 4 * input_px * sizeof(Rgb8) +
+         compute_px * sizeof(Rgba8);
+}
+
 uint64_t backend_bytes_needed(const BackendSetup& setup) {
   const uint64_t compute_px =
       static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
   const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
-  return volume_bytes(setup) + compute_px * kBytesPerComputePixel + input_px * kBytesPerInputPixel;
+  return volume_bytes(setup) + compute_px * kBytesPerComputePixel + input_px * kBytesPerInputPixel +
+         colour_bytes(setup);
 }
 
 uint64_t host_bytes_available() {

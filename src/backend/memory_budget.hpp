@@ -13,6 +13,10 @@ namespace kfx {
 /// map and the pyramid (counted per pixel, slightly generously).
 uint64_t backend_bytes_needed(const BackendSetup& setup);
 
+/// Bytes a backend allocates for colour (BackendSetup::colour): the colour field (8 bytes per
+/// voxel), the colour input buffers and the colour render; 0 with colour off.
+uint64_t colour_bytes(const BackendSetup& setup);
+
 /// Bytes the host can still allocate without swapping (MemAvailable in /proc/meminfo); 0 when
 /// unknown.
 uint64_t host_bytes_available();

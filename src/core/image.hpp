@@ -64,4 +64,9 @@ struct Rgba8 {
   uint8_t r, g, b, a;
 };
 
+/// 8-bit RGB pixel of an input colour image (sRGB as the camera stores it).
+struct Rgb8 {
+  uint8_t r, g, b;
+};
+
 }  // namespace kfx

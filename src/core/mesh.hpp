@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <vector>
 
+#include "core/image.hpp"
 #include "core/math.hpp"
 
 namespace kfx {
@@ -31,21 +32,27 @@ struct MeshView {
   size_t vertex_count = 0;
   const MeshTriangle* triangles = nullptr;
   size_t triangle_count = 0;
+  const Rgb8* colours = nullptr;  ///< one colour per vertex, or null (a grey mesh)
 };
 
 /// An indexed triangle mesh on the host.
 struct Mesh {
   std::vector<MeshVertex> vertices;
   std::vector<MeshTriangle> triangles;
+  std::vector<Rgb8> colours;  ///< one per vertex, or empty (a grey mesh)
 
   Mesh() = default;
   /// An owning copy of `view`.
   explicit Mesh(const MeshView& view)
       : vertices(view.vertices, view.vertices + view.vertex_count),
-        triangles(view.triangles, view.triangles + view.triangle_count) {}
+        triangles(view.triangles, view.triangles + view.triangle_count) {
+    if (view.colours) colours.assign(view.colours, view.colours + view.vertex_count);
+  }
   /// A view of this mesh (valid while it is neither changed nor destroyed).
   operator MeshView() const {
-    return MeshView{vertices.data(), vertices.size(), triangles.data(), triangles.size()};
+    return MeshView{
+        vertices.data(), vertices.size(), triangles.data(), triangles.size(),
+        colours.size() == vertices.size() && !colours.empty() ? colours.data() : nullptr};
   }
 };
 

@@ -31,8 +31,9 @@ constexpr int kBrickShift = 3;
 KFX_HD inline int bricks_per_side(int res) { return (res + (1 << kBrickShift) - 1) >> kBrickShift; }
 
 /// Voxels per super-brick side (log2): 2³ bricks = 16³ voxels carry a coarse "touched" flag, so
-/// the raycast can cross large empty regions in few tests. (32³ tested about as many samples
-/// on icl_office_kt0 and 11 % more on tum_fr1_xyz, whose noisy depth touches more space.)
+/// the raycast can cross large empty regions in few tests. (32³ tested more samples on
+/// tum_fr1_xyz, whose noisy depth touches more space: bench/RESULTS.md, "Raycast empty-space
+/// skipping".)
 constexpr int kSuperBrickShift = kBrickShift + 1;
 
 /// Super-bricks per volume side for a resolution.

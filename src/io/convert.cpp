@@ -23,6 +23,29 @@ HostImage<uint16_t> subsample_nearest(const HostImage<uint16_t>& image, int rati
   return out;
 }
 
+HostImage<Rgb8> subsample_mean(const HostImage<Rgb8>& image, int ratio) {
+  KFX_CHECK(ratio >= 1, "subsampling ratio must be >= 1, got " << ratio);
+  if (ratio == 1) return image;
+  HostImage<Rgb8> out(image.width() / ratio, image.height() / ratio);
+  const int n = ratio * ratio;
+  for (int y = 0; y < out.height(); ++y) {
+    for (int x = 0; x < out.width(); ++x) {
+      int r = 0, g = 0, b = 0;
+      for (int j = 0; j < ratio; ++j) {
+        for (int i = 0; i < ratio; ++i) {
+          const Rgb8 c = image(x * ratio + i, y * ratio + j);
+          r += c.r;
+          g += c.g;
+          b += c.b;
+        }
+      }
+      out(x, y) = Rgb8{static_cast<uint8_t>((r + n / 2) / n), static_cast<uint8_t>((g + n / 2) / n),
+                       static_cast<uint8_t>((b + n / 2) / n)};
+    }
+  }
+  return out;
+}
+
 ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
                               const ConvertOptions& options) {
   const int ratio = options.ratio;
@@ -44,7 +67,12 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
     if (result.status == ReadStatus::kEnd) break;
     KFX_CHECK(result.status == ReadStatus::kOk,
               "conversion to '" << raw_path << "' stopped: " << result.message);
-    writer.write_frame(subsample_nearest(frame.depth_mm, ratio));
+    if (reader.has_colour()) {
+      const HostImage<Rgb8> rgb = subsample_mean(frame.rgb, ratio);
+      writer.write_frame(subsample_nearest(frame.depth_mm, ratio), &rgb);
+    } else {
+      writer.write_frame(subsample_nearest(frame.depth_mm, ratio));
+    }
     sidecar.stamps_s.push_back(frame.stamp_s);
     if (options.progress != nullptr && writer.frames_written() % kProgressEvery == 0) {
       *options.progress << "kfx convert: " << writer.frames_written() << "/"
@@ -58,6 +86,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
     sidecar.distortion = reader.default_distortion();  // the same lens at any image size
   }
   sidecar.ground_truth = reader.ground_truth();
+  sidecar.has_colour = reader.has_colour();
   sidecar.recommended_settings = reader.recommended_settings();
   sidecar.source = reader.description();
   if (ratio != 1) sidecar.source += ", subsampled by " + std::to_string(ratio);

@@ -15,6 +15,10 @@ namespace kfx::io {
 /// preprocessing step picks at that compute-size ratio.
 HostImage<uint16_t> subsample_nearest(const HostImage<uint16_t>& image, int ratio);
 
+/// Box-filter subsampling of a colour image by an integer `ratio`: each output pixel is the
+/// rounded mean of its ratio × ratio input block (less aliasing than picking one pixel).
+HostImage<Rgb8> subsample_mean(const HostImage<Rgb8>& image, int ratio);
+
 /// Options of convert_to_raw().
 struct ConvertOptions {
   int max_frames = 0;                ///< convert at most this many frames; 0 = all
@@ -33,7 +37,8 @@ struct ConvertSummary {
   std::string sidecar_path;
 };
 
-/// Reads every frame of `reader` (up to `options.max_frames`), subsamples it and writes a `.raw`
+/// Reads every frame of `reader` (up to `options.max_frames`), subsamples it (colour too, when
+/// the reader has it; else the sidecar says the colour images are blank) and writes a `.raw`
 /// at `raw_path` with its sidecar (stamps, the reader's intrinsics divided by the ratio, ground
 /// truth, the reader's description as source, its recommended settings). A bad frame stops the
 /// conversion with kfx::Error carrying the reader's message; then no `.raw` is left at `raw_path`

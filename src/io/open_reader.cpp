@@ -40,6 +40,7 @@ class GroundTruthOverride : public Reader {
     return inner_->default_intrinsics();
   }
   std::string intrinsics_source() const override { return inner_->intrinsics_source(); }
+  bool has_colour() const override { return inner_->has_colour(); }
   std::vector<StampedPose> ground_truth() const override { return ground_truth_; }
   std::string description() const override {
     return inner_->description() + " with ground truth from '" + path_ + "' (" +

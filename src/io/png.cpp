@@ -80,6 +80,31 @@ bool png_read_header_steps(png_structp png, png_infop info, PngHeader* header) {
   return true;
 }
 
+/// Reads the header and sets the transforms that yield 8-bit RGB from any PNG (palette and gray
+/// expanded, alpha dropped, 16-bit samples reduced). Returns false after a libpng error.
+bool png_read_header_rgb_steps(png_structp png, png_infop info, PngHeader* header) {
+  if (setjmp(png_jmpbuf(png))) return false;
+  png_set_user_limits(png, kMaxPngSide, kMaxPngSide);
+  png_read_info(png, info);
+  header->width_px = static_cast<int>(png_get_image_width(png, info));
+  header->height_px = static_cast<int>(png_get_image_height(png, info));
+  header->bit_depth = png_get_bit_depth(png, info);
+  const int color_type = png_get_color_type(png, info);
+  header->channels = color_type == PNG_COLOR_TYPE_PALETTE ? 3 : png_get_channels(png, info);
+  if (color_type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+  if (color_type == PNG_COLOR_TYPE_GRAY && header->bit_depth < 8) {
+    png_set_expand_gray_1_2_4_to_8(png);
+  }
+  if (color_type == PNG_COLOR_TYPE_GRAY || color_type == PNG_COLOR_TYPE_GRAY_ALPHA) {
+    png_set_gray_to_rgb(png);
+  }
+  png_set_strip_alpha(png);  // also drops the alpha a palette's tRNS chunk expands to
+  if (header->bit_depth == 16) png_set_strip_16(png);
+  png_set_interlace_handling(png);
+  png_read_update_info(png, info);
+  return png_get_rowbytes(png, info) == 3 * static_cast<size_t>(header->width_px);
+}
+
 /// Decodes all rows into `rows` and reads to the end of the file, so that truncation after the
 /// image data is detected too. Returns false after a libpng error.
 bool png_read_rows_steps(png_structp png, png_infop info, png_bytepp rows) {
@@ -220,6 +245,28 @@ HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth) {
   return image;
 }
 
+HostImage<Rgb8> read_png_rgb8(const std::string& path) {
+  static_assert(sizeof(Rgb8) == 3, "Rgb8 must be 3 packed bytes");
+  const std::vector<unsigned char> bytes = read_whole_file(path);
+  PngErrorState state{};
+  PngReadHandle handle(&state, path);
+  PngMemorySource source{bytes.data(), bytes.size(), 0};
+  KFX_CHECK(source.size >= 8 && png_sig_cmp(source.data, 0, 8) == 0,
+            "cannot read PNG '" << path << "': not a PNG file ("
+                                << (source.size < 8 ? "too short" : "bad signature") << ")");
+  png_set_read_fn(handle.png(), &source, read_from_memory);
+  PngHeader header;
+  KFX_CHECK(png_read_header_rgb_steps(handle.png(), handle.info(), &header),
+            "cannot read PNG '" << path << "' as RGB: "
+                                << (state.message[0] ? state.message : "unsupported pixel layout"));
+  HostImage<Rgb8> image(header.width_px, header.height_px);
+  std::vector<png_bytep> rows(static_cast<size_t>(header.height_px));
+  for (int y = 0; y < header.height_px; ++y) rows[y] = reinterpret_cast<png_bytep>(&image(0, y));
+  KFX_CHECK(png_read_rows_steps(handle.png(), handle.info(), rows.data()),
+            "cannot read PNG '" << path << "': " << state.message);
+  return image;
+}
+
 namespace {
 
 void check_png_size(const std::string& path, int width, int height) {
@@ -252,6 +299,15 @@ void write_png_gray16(const std::string& path, const HostImage<uint16_t>& image)
     rows[y] = reinterpret_cast<png_bytep>(const_cast<uint16_t*>(&image(0, y)));
   }
   write_png(path, image.width(), image.height(), 16, PNG_COLOR_TYPE_GRAY, rows);
+}
+
+void write_png_rgb8(const std::string& path, const HostImage<Rgb8>& image) {
+  check_png_size(path, image.width(), image.height());
+  std::vector<png_bytep> rows(static_cast<size_t>(image.height()));
+  for (int y = 0; y < image.height(); ++y) {
+    rows[y] = reinterpret_cast<png_bytep>(const_cast<Rgb8*>(&image(0, y)));
+  }
+  write_png(path, image.width(), image.height(), 8, PNG_COLOR_TYPE_RGB, rows);
 }
 
 void write_png_rgba8(const std::string& path, const HostImage<Rgba8>& image) {

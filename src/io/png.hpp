@@ -27,6 +27,13 @@ PngHeader read_png_header(const std::string& path);
 /// When `bit_depth` is given it receives the bits per sample as stored (1, 2, 4, 8 or 16).
 HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth = nullptr);
 
+/// Reads any PNG as 8-bit RGB (gray and palette expanded, alpha dropped, 16-bit samples reduced
+/// to 8). Throws kfx::Error naming the file for a missing, truncated or corrupt file.
+HostImage<Rgb8> read_png_rgb8(const std::string& path);
+
+/// Writes `image` as an 8-bit RGB PNG, atomically. Throws kfx::Error naming the file.
+void write_png_rgb8(const std::string& path, const HostImage<Rgb8>& image);
+
 /// Writes `image` as a 16-bit grayscale PNG, atomically. Throws kfx::Error naming the file.
 void write_png_gray16(const std::string& path, const HostImage<uint16_t>& image);
 

@@ -2,12 +2,14 @@
 
 #include "io/png_sequence_reader.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <sstream>
 #include <utility>
 
 #include "core/platform.hpp"
+#include "io/colour_image.hpp"
 #include "io/png.hpp"
 #include "io/text_listing.hpp"
 
@@ -53,6 +55,7 @@ std::vector<DepthListEntry> read_depth_listing(const std::string& listing_path,
     }
     entry.stamp_s = parse_double_field(line, stamp_field, listing_path, "timestamp");
     entry.depth_path = join(folder, line.fields[stamp_field + 1]);
+    if (line.fields.size() == 4) entry.colour_path = join(folder, line.fields[3 - stamp_field]);
     // Frames run in listing order, so stamps must increase: a repeated or earlier stamp is a
     // duplicated or shuffled line that would feed the tracker frames out of order.
     if (!entries.empty() && !(entry.stamp_s > entries.back().stamp_s)) {
@@ -74,6 +77,37 @@ std::vector<DepthListEntry> read_depth_listing(const std::string& listing_path,
   return entries;
 }
 
+void associate_colour_listing(std::vector<DepthListEntry>& entries,
+                              const std::string& colour_listing_path, const std::string& folder,
+                              double max_difference_s) {
+  const std::vector<TextLine> lines = read_text_lines(colour_listing_path, "colour listing");
+  std::vector<std::pair<double, std::string>> colour;  // (stamp, path), sorted by stamp
+  for (const TextLine& line : lines) {
+    KFX_CHECK(line.fields.size() == 2,
+              "malformed line " << line.line_number << " of colour listing '" << colour_listing_path
+                                << "': expected 'stamp path', found " << line.fields.size()
+                                << " fields");
+    colour.emplace_back(parse_double_field(line, 0, colour_listing_path, "timestamp"),
+                        join(folder, line.fields[1]));
+  }
+  std::sort(colour.begin(), colour.end());
+  for (DepthListEntry& entry : entries) {
+    entry.colour_path.clear();
+    const auto after = std::lower_bound(
+        colour.begin(), colour.end(), entry.stamp_s,
+        [](const std::pair<double, std::string>& c, double stamp) { return c.first < stamp; });
+    double best = max_difference_s;
+    for (auto it : {after, after == colour.begin() ? colour.end() : after - 1}) {
+      if (it == colour.end()) continue;
+      const double difference = std::fabs(it->first - entry.stamp_s);
+      if (difference <= best) {
+        best = difference;
+        entry.colour_path = it->second;
+      }
+    }
+  }
+}
+
 double resolve_depth_scale(double options_scale, double format_default) {
   if (options_scale == 0.0) return format_default;
   KFX_CHECK(std::isfinite(options_scale) && options_scale > 0.0,
@@ -92,6 +126,34 @@ PngSequenceReader::PngSequenceReader(PngSequenceSpec spec) : spec_(std::move(spe
   for (int v = 0; v < 65536; ++v) {
     const double mm = std::round(v * 1000.0 / spec_.depth_scale_per_m);
     to_mm_[v] = mm <= 65535.0 ? static_cast<uint16_t>(mm) : 0;
+  }
+  // Colour: listed for every frame and present for at least one, or the sequence is depth-only.
+  size_t listed = 0, present = 0;
+  std::string first_missing;
+  for (const DepthListEntry& entry : spec_.entries) {
+    if (entry.colour_path.empty()) continue;
+    ++listed;
+    std::error_code error;
+    if (fs::is_regular_file(entry.colour_path, error)) {
+      ++present;
+    } else if (first_missing.empty()) {
+      first_missing = entry.colour_path;
+    }
+  }
+  const std::string listing =
+      spec_.colour_listing.empty() ? spec_.listing_path : spec_.colour_listing;
+  if (listed == 0) {
+    colour_note_ = "colour: none listed";
+  } else if (present == 0) {
+    colour_note_ = "colour: none, depth only: '" + listing + "' lists " + std::to_string(listed) +
+                   " colour images but none exists (e.g. '" + first_missing + "')";
+  } else if (listed < spec_.entries.size()) {
+    colour_note_ = "colour: none, depth only: '" + listing + "' has a colour image for only " +
+                   std::to_string(listed) + " of the " + std::to_string(spec_.entries.size()) +
+                   " depth images";
+  } else {
+    has_colour_ = true;
+    colour_note_ = "colour from '" + listing + "'";
   }
   // The frame size is the first readable image's; frames before it will report their problem.
   std::string first_problem;
@@ -156,6 +218,23 @@ ReadResult PngSequenceReader::next(Frame& frame) {
   uint16_t* out = frame.depth_mm.data();
   const size_t count = static_cast<size_t>(width_px_) * height_px_;
   for (size_t i = 0; i < count; ++i) out[i] = to_mm_[in[i]];
+  frame.rgb = HostImage<Rgb8>();
+  if (!has_colour_) return {ReadStatus::kOk, ""};
+  if (!fs::is_regular_file(entry.colour_path, error)) {
+    return bad("colour image '" + entry.colour_path + "' is missing");
+  }
+  try {
+    frame.rgb = read_colour_image(entry.colour_path);
+  } catch (const Error& e) {
+    return bad(e.what());
+  }
+  if (frame.rgb.width() != width_px_ || frame.rgb.height() != height_px_) {
+    std::ostringstream problem;
+    problem << "colour image '" << entry.colour_path << "' is " << frame.rgb.width() << "x"
+            << frame.rgb.height() << " but the depth images are " << width_px_ << "x" << height_px_;
+    frame.rgb = HostImage<Rgb8>();
+    return bad(problem.str());
+  }
   return {ReadStatus::kOk, ""};
 }
 
@@ -174,7 +253,7 @@ std::string PngSequenceReader::description() const {
       << (spec_.ground_truth_path.empty() ? std::string("none")
                                           : std::to_string(spec_.ground_truth.size()) +
                                                 " poses from '" + spec_.ground_truth_path + "'")
-      << ")";
+      << "; " << colour_note_ << ")";
   return out.str();
 }
 

@@ -55,6 +55,9 @@ class Reader {
   /// The lens distortion of the camera default_intrinsics() describe (TUM fr1 and fr2: their
   /// published calibration); none when the format's images have none or it is unknown.
   virtual LensDistortion default_distortion() const { return {}; }
+  /// True when every frame carries a colour image (Frame::rgb); false for depth-only inputs and
+  /// for listings whose colour images are all absent (description() then says so).
+  virtual bool has_colour() const { return false; }
   /// Ground-truth poses (camera to world), empty when there are none.
   virtual std::vector<StampedPose> ground_truth() const = 0;
   /// Every frame's stamp in seconds, in order, where the format lists them up front (so a

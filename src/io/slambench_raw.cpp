@@ -147,14 +147,30 @@ class RawReader : public Reader {
     }
     const uint64_t rgb_bytes = 3ull * header[0] * header[1];
     if (offset_ + rgb_bytes > file_size_) return truncated("colour image", offset_, rgb_bytes);
-    offset_ += rgb_bytes;
-    if (std::fseek(file_, static_cast<long>(rgb_bytes), SEEK_CUR) != 0) {
+    const bool colour_size_ok =
+        static_cast<int>(header[0]) == w && static_cast<int>(header[1]) == h;
+    frame.rgb = HostImage<Rgb8>();
+    if (has_colour() && colour_size_ok) {
+      static_assert(sizeof(Rgb8) == 3, "Rgb8 must be 3 packed bytes");
+      frame.rgb = HostImage<Rgb8>(w, h);
+      if (std::fread(frame.rgb.data(), 3, static_cast<size_t>(w) * h, file_) !=
+          static_cast<size_t>(w) * h) {
+        return truncated("colour image", offset_, rgb_bytes);
+      }
+    } else if (std::fseek(file_, static_cast<long>(rgb_bytes), SEEK_CUR) != 0) {
       return bad("seek failed: " + std::string(std::strerror(errno)), true);
     }
+    offset_ += rgb_bytes;
     if (w != width_px_ || h != height_px_) {
       std::ostringstream problem;
       problem << "frame is " << w << "x" << h << " but the first frame is " << width_px_ << "x"
               << height_px_;
+      return bad(problem.str(), false);
+    }
+    if (has_colour() && !colour_size_ok) {
+      std::ostringstream problem;
+      problem << "colour image is " << header[0] << "x" << header[1] << " but the depth image is "
+              << w << "x" << h;
       return bad(problem.str(), false);
     }
     return {ReadStatus::kOk, ""};
@@ -163,6 +179,8 @@ class RawReader : public Reader {
   int width_px() const override { return width_px_; }
   int height_px() const override { return height_px_; }
   int frame_count() const override { return frame_count_; }
+  /// A SLAMBench `.raw` always stores a colour image; only a kfx sidecar can say it is blank.
+  bool has_colour() const override { return !sidecar_ || sidecar_->has_colour; }
   std::optional<Intrinsics> default_intrinsics() const override {
     return sidecar_ ? sidecar_->intrinsics : std::nullopt;
   }
@@ -193,7 +211,8 @@ class RawReader : public Reader {
     } else {
       out << "no sidecar";
     }
-    out << ")";
+    out << (has_colour() ? ", colour" : ", no colour (the sidecar says the images are blank)")
+        << ")";
     return out.str();
   }
 
@@ -293,6 +312,11 @@ std::optional<RawSidecar> read_raw_sidecar(const std::string& raw_path) {
                                                 item[1].get<std::string>());
     }
   }
+  if (root.contains("colour")) {
+    KFX_CHECK(root["colour"].is_boolean(),
+              "malformed sidecar '" << path << "': 'colour' is not true or false");
+    sidecar.has_colour = root["colour"].get<bool>();
+  }
   if (root.contains("source")) {
     KFX_CHECK(root["source"].is_string(),
               "malformed sidecar '" << path << "': 'source' is not a string");
@@ -306,6 +330,7 @@ void write_raw_sidecar(const std::string& raw_path, const RawSidecar& sidecar) {
   AtomicFile file(raw_sidecar_path(raw_path));
   std::ostream& out = file.stream();
   out << "{\n \"source\": " << json(sidecar.source).dump() << ",\n";
+  out << " \"colour\": " << (sidecar.has_colour ? "true" : "false") << ",\n";
   if (sidecar.intrinsics) {
     const Intrinsics& k = *sidecar.intrinsics;
     const json intrinsics = {float_for_json(k.fx), float_for_json(k.fy), float_for_json(k.cx),
@@ -342,7 +367,7 @@ RawWriter::~RawWriter() = default;
 
 const std::string& RawWriter::path() const { return output_->path(); }
 
-void RawWriter::write_frame(const HostImage<uint16_t>& depth_mm, const HostImage<Rgba8>* rgb) {
+void RawWriter::write_frame(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb) {
   const std::string& path = output_->path();
   KFX_CHECK(output_->file() != nullptr, "SLAMBench raw '" << path << "': write after close");
   const int w = depth_mm.width();
@@ -365,7 +390,7 @@ void RawWriter::write_frame(const HostImage<uint16_t>& depth_mm, const HostImage
   const size_t pixels = static_cast<size_t>(w) * h;
   rgb_bytes_.assign(3 * pixels, 0);
   if (rgb != nullptr) {
-    const Rgba8* in = rgb->data();
+    const Rgb8* in = rgb->data();
     for (size_t i = 0; i < pixels; ++i) {
       rgb_bytes_[3 * i + 0] = in[i].r;
       rgb_bytes_[3 * i + 1] = in[i].g;

@@ -1,7 +1,8 @@
 #pragma once
 /// SLAMBench `.raw` sequences: per frame uint32 w, uint32 h, w·h uint16 depth (mm), uint32 w,
 /// uint32 h, w·h·3 uint8 RGB, all little-endian, frames back to back. kfx adds an optional JSON
-/// sidecar `<file>.json` with what the format lacks: {"stamps": [...], "intrinsics": [fx, fy, cx,
+/// sidecar `<file>.json` with what the format lacks: {"stamps": [...], "colour": false when the
+/// colour images are blank, "intrinsics": [fx, fy, cx,
 /// cy] (at the raw's resolution), "ground_truth": [[stamp, tx, ty, tz, qx, qy, qz, qw], ...],
 /// "source": "...", "recommended_settings": [["key", "value"], ...]}; every key is optional.
 
@@ -29,6 +30,9 @@ struct RawSidecar {
   LensDistortion distortion;  ///< the lens of that camera (normalised coordinates: any size)
   std::vector<StampedPose> ground_truth;  ///< camera to world
   std::string source;                     ///< free text: where the frames came from
+  /// False when the colour images are blank (written from a depth-only input); a `.raw` without
+  /// a sidecar, or a sidecar without the key, has colour (SLAMBench's always do).
+  bool has_colour = true;
   /// The source reader's recommended pipeline settings (config key, value), passed on.
   std::vector<std::pair<std::string, std::string>> recommended_settings;
 };
@@ -60,11 +64,11 @@ class RawWriter {
   RawWriter(const RawWriter&) = delete;
   RawWriter& operator=(const RawWriter&) = delete;
 
-  /// Appends one frame: depth in millimetres and, optionally, colour of the same size (alpha is
-  /// dropped; zeros are written without one). All frames must share the first frame's size.
+  /// Appends one frame: depth in millimetres and, optionally, colour of the same size (zeros
+  /// are written without one). All frames must share the first frame's size.
   /// Throws kfx::Error naming the file and frame on a size mismatch or a write error (the
   /// temporary file is then removed).
-  void write_frame(const HostImage<uint16_t>& depth_mm, const HostImage<Rgba8>* rgb = nullptr);
+  void write_frame(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb = nullptr);
 
   /// Flushes and renames the file into place. Throws kfx::Error naming it on failure.
   void close();

@@ -344,13 +344,29 @@ Mat4f SyntheticScene::pose_matrix(int frame) const {
   return m;
 }
 
+Rgb8 SyntheticScene::true_colour(double x_m, double y_m, double z_m) {
+  // A smooth solid texture: each channel a sinusoid along one scene axis, periods of 1.6 to
+  // 2.4 m, so every surface is coloured and varies across it, and the colour of any surface
+  // point is known exactly.
+  constexpr double kTwoPi = 6.283185307179586;
+  const auto channel = [](double wave) {
+    return static_cast<uint8_t>(std::lround(128.0 + 80.0 * wave));
+  };
+  return Rgb8{channel(std::sin(kTwoPi * x_m / 2.0)), channel(std::sin(kTwoPi * y_m / 1.6 + 1.0)),
+              channel(std::sin(kTwoPi * z_m / 2.4 + 2.0))};
+}
+
 void SyntheticScene::render(int frame, HostImage<uint16_t>& depth_mm) const {
+  render(frame, depth_mm, nullptr);
+}
+
+void SyntheticScene::render(int frame, HostImage<uint16_t>& depth_mm, HostImage<Rgb8>* rgb) const {
   const int w = options_.width_px, h = options_.height_px;
   if (depth_mm.width() != w || depth_mm.height() != h) depth_mm = HostImage<uint16_t>(w, h);
-  if (options_.blank(frame)) {
-    std::fill(depth_mm.pixels().begin(), depth_mm.pixels().end(), uint16_t{0});
-    return;
-  }
+  if (rgb != nullptr && (rgb->width() != w || rgb->height() != h)) *rgb = HostImage<Rgb8>(w, h);
+  const bool blank = options_.blank(frame);
+  if (blank) std::fill(depth_mm.pixels().begin(), depth_mm.pixels().end(), uint16_t{0});
+  if (blank && rgb == nullptr) return;
   double R[3][3], t[3];
   pose(frame, R, t);
   const double f = 525.0 * w / 640.0, cx = (w - 1) / 2.0, cy = (h - 1) / 2.0;
@@ -362,6 +378,22 @@ void SyntheticScene::render(int frame, HostImage<uint16_t>& depth_mm) const {
   room_.render(R, t, f, cx, cy, w, h, depth_buffer.data(), cos_buffer.data());
   const double* const depth_m = depth_buffer.data();
   const float* const cos_incidence = cos_buffer.data();
+
+  // The colour camera is the depth camera (registered, no noise): each pixel sees the true
+  // colour of the exact surface point its ray hits (a blank frame's colour too: only its depth
+  // is missing).
+  if (rgb != nullptr) {
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) {
+        const double z = depth_m[static_cast<size_t>(y) * w + x];
+        const double c[3] = {(x - cx) / f * z, (y - cy) / f * z, z};
+        double p[3];
+        for (int i = 0; i < 3; ++i) p[i] = R[i][0] * c[0] + R[i][1] * c[1] + R[i][2] * c[2] + t[i];
+        (*rgb)(x, y) = true_colour(p[0], p[1], p[2]);
+      }
+    }
+  }
+  if (blank) return;
 
   if (!options_.noise) {
     for (size_t i = 0; i < n_px; ++i) depth_mm.pixels()[i] = to_mm(depth_m[i]);
@@ -413,7 +445,7 @@ class SyntheticReader final : public Reader {
 
   ReadResult next(Frame& frame) override {
     if (next_frame_ >= scene_.options().frames) return {ReadStatus::kEnd, ""};
-    scene_.render(next_frame_, frame.depth_mm);
+    scene_.render(next_frame_, frame.depth_mm, &frame.rgb);
     frame.stamp_s = SyntheticScene::stamp_s(next_frame_);
     frame.index = next_frame_;
     frame.source = "synthetic frame " + std::to_string(next_frame_);
@@ -423,6 +455,7 @@ class SyntheticReader final : public Reader {
   int width_px() const override { return scene_.options().width_px; }
   int height_px() const override { return scene_.options().height_px; }
   int frame_count() const override { return scene_.options().frames; }
+  bool has_colour() const override { return true; }
   std::optional<Intrinsics> default_intrinsics() const override { return scene_.intrinsics(); }
   std::string intrinsics_source() const override {
     return "the synthetic scene's own camera (exact)";

@@ -122,6 +122,12 @@ class SyntheticScene {
   /// width × height when needed. Uses OpenMP over rows when enabled; the result does not
   /// depend on the thread count.
   void render(int frame, HostImage<uint16_t>& depth_mm) const;
+  /// The same, and the frame's colour image into `rgb` when it is not null (the depth camera's
+  /// view, registered pixel for pixel, each pixel true_colour() of the surface point it sees).
+  void render(int frame, HostImage<uint16_t>& depth_mm, HostImage<Rgb8>* rgb) const;
+  /// The exact colour of the scene's surfaces at scene point (x, y, z), metres: a smooth solid
+  /// texture (one sinusoid per channel along one axis, periods 1.6–2.4 m, 48..208 per channel).
+  static Rgb8 true_colour(double x_m, double y_m, double z_m);
 
   /// Side of a cubic TSDF volume that holds the WHOLE room, metres (so it holds everything the
   /// camera sees at any resolution or aspect ratio); the reader recommends it.

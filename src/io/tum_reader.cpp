@@ -94,6 +94,14 @@ std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOpt
                                    << "(associations.txt, associate.txt or assoc.txt)");
   }
   spec.entries = read_depth_listing(spec.listing_path, spec.folder);
+  // depth.txt lists no colour: take it from rgb.txt, nearest in time, as TUM's associate.py.
+  const fs::path rgb_listing = fs::path(spec.folder) / "rgb.txt";
+  const bool listed = std::all_of(spec.entries.begin(), spec.entries.end(),
+                                  [](const DepthListEntry& e) { return !e.colour_path.empty(); });
+  if (!listed && fs::is_regular_file(rgb_listing, error)) {
+    spec.colour_listing = rgb_listing.string();
+    associate_colour_listing(spec.entries, spec.colour_listing, spec.folder);
+  }
   spec.depth_scale_per_m = resolve_depth_scale(options.depth_scale_per_m, kPngDepthScalePerM);
   spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal(),
                                        &spec.intrinsics_source, &spec.distortion);

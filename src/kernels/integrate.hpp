@@ -5,6 +5,7 @@
 /// per-voxel tests below are the exact ones, so the bound only skips work.
 
 #include "core/camera.hpp"
+#include "core/colour_volume.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "core/volume.hpp"
@@ -42,6 +43,13 @@ enum class IntegrationWeight : int {
 /// one does in the constant mode.
 constexpr int kWeightUnits = 16;
 
+/// Colour fusion's camera (settings colour_camera, colour_extrinsic): where the colour image's
+/// pixel for a depth-camera point lies.
+struct ColourCamera {
+  Intrinsics k;  ///< colour camera, pixels of the colour image (input size)
+  Mat4f T_colour_cam = Mat4f::identity();  ///< depth camera frame → colour camera frame
+};
+
 /// Settings of integration, derived from the configuration.
 struct IntegrateParams {
   Intrinsics k;          ///< compute-size intrinsics
@@ -55,6 +63,7 @@ struct IntegrateParams {
   IntegrationPattern pattern = IntegrationPattern::kSlices;
   RayFactor ray_factor = RayFactor::kExact;
   bool zero_depth_test = true;  ///< skip pixels without depth
+  ColourCamera colour_camera;   ///< used only when IntegrateArgs::colour_volume has data
 };
 
 /// Arguments of integrate_column and integrate_row: the settings and the buffers.
@@ -65,6 +74,10 @@ struct IntegrateArgs : IntegrateParams {
   /// Compute-size normals of this frame (camera frame) for IntegrationWeight::kDepthAngle; may
   /// be empty (the angle term is then left out).
   ImageView<const Vec3f> normal;
+  /// Colour fusion (setting colour): the colour field and this frame's colour image (input
+  /// size). Null colour_volume.data: no colour, and integration is exactly the depth-only one.
+  ColourVolumeView colour_volume;
+  ImageView<const Rgb8> colour_image;
 };
 
 /// Smallest camera z at which a voxel is considered (SLAMBench's 0.0001 m).
@@ -196,6 +209,27 @@ KFX_HD inline bool truncated_sdf(Vec3f p, float depth_minus_z_m, const Integrate
   return true;
 }
 
+/// Fuses the colour the colour camera sees at the voxel's camera-frame point p into its running
+/// mean (each measurement counts 1, up to max_weight, like the constant TSDF weight). Called
+/// for voxels inside the truncation band only (sdf < 1): free space has no colour.
+KFX_HD inline void fuse_colour(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
+  const Vec3f q = a.colour_camera.T_colour_cam * p;
+  if (q.z < kIntegrateMinZ_m) return;
+  const ColourCamera& c = a.colour_camera;
+  // Nearest pixel, as the depth lookup (+0.5, truncation, of a non-negative coordinate).
+  const float u = (c.k.fx * q.x + c.k.cx * q.z) / q.z + 0.5f;
+  const float v = (c.k.fy * q.y + c.k.cy * q.z) / q.z + 0.5f;
+  if (!(u >= 0.0f && v >= 0.0f && u < a.colour_image.width && v < a.colour_image.height)) return;
+  const Rgb8 m = a.colour_image(static_cast<int>(u), static_cast<int>(v));
+  ColourVoxel& voxel = a.colour_volume.at(x, y, z);
+  const float w = voxel.weight;
+  const float inv = 1.0f / (w + 1.0f);
+  voxel.r = static_cast<uint16_t>((voxel.r * w + m.r * kColourScale) * inv + 0.5f);
+  voxel.g = static_cast<uint16_t>((voxel.g * w + m.g * kColourScale) * inv + 0.5f);
+  voxel.b = static_cast<uint16_t>((voxel.b * w + m.b * kColourScale) * inv + 0.5f);
+  if (voxel.weight < a.max_weight) ++voxel.weight;
+}
+
 /// integrate_voxel with a weighted measurement (IntegrationWeight other than kConstant): the same
 /// tests and sdf, then a running average with weight measurement_weight() in kWeightUnits.
 KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
@@ -216,13 +250,15 @@ KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z, const 
     voxel.weight = static_cast<int16_t>(
         min_f(weight + w, static_cast<float>(a.max_weight) * static_cast<float>(kWeightUnits)));
     if (voxel.tsdf < kMarkBelowTsdfStored) a.volume.mark_touched(x, y, z);
+    if (a.colour_volume.data && sdf < 1.0f) fuse_colour(p, x, y, z, a);
   }
 }
 
 /// Updates voxel (x, y, z), whose centre is at camera-frame point p (docs/algorithm.md §2.3), and
 /// marks its brick when its tsdf falls below kMarkBelowTsdfStored.
-/// NOTE: the divisions are SLAMBench's, on purpose: replacing them by one reciprocal of p.z made
-/// the GPU pass 18 % faster but moved icl_office_kt0's ATE from 0.84 to 0.93 cm (measured).
+/// NOTE: the divisions are SLAMBench's, on purpose: one reciprocal of p.z made the GPU pass
+/// faster but moved icl_office_kt0's ATE (bench/RESULTS.md, "CUDA backend, exact preset,
+/// 320×240").
 KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const IntegrateArgs& a) {
   if (a.weight_mode != IntegrationWeight::kConstant) {
     integrate_voxel_weighted(p, x, y, z, a);
@@ -243,6 +279,7 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
     voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
     voxel.weight = static_cast<int16_t>(min_f(weight + 1.0f, static_cast<float>(a.max_weight)));
     if (voxel.tsdf < kMarkBelowTsdfStored) a.volume.mark_touched(x, y, z);
+    if (a.colour_volume.data && sdf < 1.0f) fuse_colour(p, x, y, z, a);
   }
 }
 

@@ -4,6 +4,7 @@
 /// raycast from the current camera and shaded by a point light (renderVolume). One pixel per call.
 
 #include "core/camera.hpp"
+#include "core/colour_volume.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "kernels/raycast.hpp"
@@ -130,6 +131,31 @@ KFX_HD inline void render_volume_pixel(int x, int y, const RenderVolumeArgs& a) 
   a.out(x, y) = c;
 }
 
+/// Arguments of render_colour_pixel.
+struct RenderColourArgs {
+  RaycastArgs ray;  ///< volume and march settings (vertex/normal views unused)
+  Intrinsics k;     ///< compute-size intrinsics
+  ColourVolumeView colour;
+  ImageView<Rgba8> out;
+};
+
+/// The model's colour seen from the current camera: the ray's first surface point coloured by
+/// the colour field there (sample_colour); transparent black (alpha 0) where the ray misses or
+/// no colour was fused, so a comparison can tell "not covered" from a black surface.
+KFX_HD inline void render_colour_pixel(int x, int y, const RenderColourArgs& a) {
+  const Mat4f view = a.ray.state->T_world_cam * a.k.inverse_matrix();
+  const Vec3f origin = view.translation_part();
+  const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
+  Vec3f hit{0.0f, 0.0f, 0.0f};
+  Rgba8 c{0, 0, 0, 0};
+  Vec3f rgb;
+  if (raycast_ray(a.ray, origin, direction, hit) > 0.0f && sample_colour(a.colour, hit, rgb)) {
+    c = Rgba8{static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
+              static_cast<uint8_t>(rgb.z + 0.5f), 255};
+  }
+  a.out(x, y) = c;
+}
+
 /// Settings of the three renders (SLAMBench's renderDepth, renderTrack, renderVolume).
 struct RenderParams {
   float depth_near_m = 0.4f;         ///< depth colour map: white below
@@ -165,6 +191,18 @@ inline RenderVolumeArgs make_render_volume_args(VolumeView volume, ImageView<Rgb
   a.out = out;
   a.light_m = p.light_m;
   a.ambient = p.ambient;
+  return a;
+}
+
+/// The colour render from the current pose into `out`.
+inline RenderColourArgs make_render_colour_args(VolumeView volume, ColourVolumeView colour,
+                                                ImageView<Rgba8> out, const TrackingState* state,
+                                                const RenderParams& p) {
+  RenderColourArgs a;
+  a.ray = RaycastArgs{p.volume_ray, volume, ImageView<Vec3f>{}, ImageView<Vec3f>{}, state};
+  a.k = p.volume_ray.k;
+  a.colour = colour;
+  a.out = out;
   return a;
 }
 

@@ -22,6 +22,7 @@ ViewMesh read_view_mesh(const std::string& path) {
   for (const MeshVertex& v : mesh.vertices) {
     view.positions_m.insert(view.positions_m.end(), {v.p_m.x, v.p_m.y, v.p_m.z});
   }
+  for (const Rgb8& c : mesh.colours) view.colours.insert(view.colours.end(), {c.r, c.g, c.b});
   view.triangles.reserve(mesh.triangles.size() * 3);
   for (const MeshTriangle& t : mesh.triangles) {
     for (int k = 0; k < 3; ++k) view.triangles.push_back(static_cast<uint32_t>(t.v[k]));
@@ -38,8 +39,9 @@ ViewMesh cluster(const ViewMesh& mesh, const float origin[3], float cell_m) {
   out.source_triangles = mesh.source_triangles;
   out.cell_m = cell_m;
   std::unordered_map<uint64_t, uint32_t> cell_vertex;
-  std::vector<double> sums;
+  std::vector<double> sums, colour_sums;
   std::vector<uint32_t> counts;
+  const bool colour = !mesh.colours.empty();
   std::vector<uint32_t> remap(mesh.vertex_count());
   for (size_t i = 0; i < mesh.vertex_count(); ++i) {
     uint64_t key = 0;
@@ -50,16 +52,25 @@ ViewMesh cluster(const ViewMesh& mesh, const float origin[3], float cell_m) {
     const auto [it, added] = cell_vertex.emplace(key, static_cast<uint32_t>(counts.size()));
     if (added) {
       sums.insert(sums.end(), {0.0, 0.0, 0.0});
+      if (colour) colour_sums.insert(colour_sums.end(), {0.0, 0.0, 0.0});
       counts.push_back(0);
     }
     for (int a = 0; a < 3; ++a) sums[3 * it->second + a] += mesh.positions_m[3 * i + a];
+    if (colour) {
+      for (int a = 0; a < 3; ++a) colour_sums[3 * it->second + a] += mesh.colours[3 * i + a];
+    }
     ++counts[it->second];
     remap[i] = it->second;
   }
   out.positions_m.resize(sums.size());
+  out.colours.resize(colour_sums.size());
   for (size_t v = 0; v < counts.size(); ++v) {
     for (int a = 0; a < 3; ++a)
       out.positions_m[3 * v + a] = static_cast<float>(sums[3 * v + a] / counts[v]);
+    for (int a = 0; a < 3 && colour; ++a) {
+      out.colours[3 * v + a] =
+          static_cast<uint8_t>(std::lround(colour_sums[3 * v + a] / counts[v]));
+    }
   }
   for (size_t t = 0; t < mesh.triangle_count(); ++t) {
     const uint32_t a = remap[mesh.triangles[3 * t]], b = remap[mesh.triangles[3 * t + 1]],

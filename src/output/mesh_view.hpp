@@ -1,7 +1,8 @@
 #pragma once
 /// The mesh as the report's 3D view shows it: read from a run's mesh.ply (binary little-endian,
-/// `float x y z nx ny nz`, faces `list uchar int vertex_indices`) and, when large, thinned by
-/// vertex clustering. mesh.ply itself is never changed.
+/// `float x y z nx ny nz`, optionally `uchar red green blue`, faces `list uchar int
+/// vertex_indices`) and, when large, thinned by vertex clustering (colours averaged with the
+/// positions). mesh.ply itself is never changed.
 
 #include <cstdint>
 #include <string>
@@ -13,6 +14,7 @@ namespace kfx::output {
 struct ViewMesh {
   std::vector<float> positions_m;   ///< x y z per vertex, metres, volume frame
   std::vector<uint32_t> triangles;  ///< three vertex indices per triangle
+  std::vector<uint8_t> colours;     ///< r g b per vertex; empty for a grey mesh
   size_t source_vertices = 0;       ///< counts in mesh.ply, before thinning
   size_t source_triangles = 0;
   float cell_m = 0.0f;  ///< clustering cell size; 0 when not thinned

@@ -22,6 +22,9 @@ void write_renders(const std::string& out_dir, int frame, const Renders& renders
   io::write_png_rgba8(render_path(out_dir, "depth", frame), renders.depth);
   io::write_png_rgba8(render_path(out_dir, "track", frame), renders.track);
   io::write_png_rgba8(render_path(out_dir, "volume", frame), renders.volume);
+  if (!renders.colour.empty()) {
+    io::write_png_rgba8(render_path(out_dir, "colour", frame), renders.colour);
+  }
 }
 
 }  // namespace kfx::output

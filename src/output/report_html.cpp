@@ -220,7 +220,7 @@ json renders_data(const std::string& run_dir, ReportResult& result) {
   const fs::path folder = fs::path(run_dir) / "renders";
   if (!fs::is_directory(folder)) return out;
   std::map<int, std::map<std::string, std::string>> frames;  // frame → kind → path
-  const std::regex name(R"((depth|track|volume)_(\d{6})\.png)");
+  const std::regex name(R"((depth|track|volume|colour)_(\d{6})\.png)");
   for (const auto& entry : fs::directory_iterator(folder)) {
     std::smatch m;
     const std::string file = entry.path().filename().string();
@@ -250,14 +250,15 @@ json mesh_data(const std::string& run_dir, ReportResult& result) {
   const ViewMesh source = read_view_mesh(path);
   const ViewMesh mesh = thin_for_view(source, kMaxViewTriangles);
   result.has_mesh = true;
-  return json{
-      {"positions", base64(mesh.positions_m.data(), mesh.positions_m.size() * sizeof(float))},
-      {"indices", base64(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t))},
-      {"vertices", mesh.vertex_count()},
-      {"triangles", mesh.triangle_count()},
-      {"source_vertices", mesh.source_vertices},
-      {"source_triangles", mesh.source_triangles},
-      {"thinning_cell_m", mesh.cell_m}};
+  json data{{"positions", base64(mesh.positions_m.data(), mesh.positions_m.size() * sizeof(float))},
+            {"indices", base64(mesh.triangles.data(), mesh.triangles.size() * sizeof(uint32_t))},
+            {"vertices", mesh.vertex_count()},
+            {"triangles", mesh.triangle_count()},
+            {"source_vertices", mesh.source_vertices},
+            {"source_triangles", mesh.source_triangles},
+            {"thinning_cell_m", mesh.cell_m}};
+  if (!mesh.colours.empty()) data["colours"] = base64(mesh.colours.data(), mesh.colours.size());
+  return data;
 }
 
 json summary_data(const json& stats, const ReportResult& result) {

@@ -228,9 +228,10 @@ window.onerror = function (message, source, line) {
   if (!KFX.renders.length) {
     el("renders").innerHTML = '<div class="note">No renders in this run (kfx run --renders writes them).</div>';
   } else {
-    var html = ['<table class="renders"><tr><td>depth</td><td>tracking (grey inlier, red outside, green no reference normal, blue too far, yellow normal mismatch, black no input, pink not tracked)</td><td>model</td></tr>'];
+    var colour = KFX.renders.some(function (r) { return r.colour; });
+    var html = ['<table class="renders"><tr><td>depth</td><td>tracking (grey inlier, red outside, green no reference normal, blue too far, yellow normal mismatch, black no input, pink not tracked)</td><td>model</td>' + (colour ? "<td>model colour</td>" : "") + "</tr>"];
     KFX.renders.forEach(function (r) {
-      html.push("<tr>" + ["depth", "track", "volume"].map(function (k) {
+      html.push("<tr>" + ["depth", "track", "volume"].concat(colour ? ["colour"] : []).map(function (k) {
         return "<td>" + (r[k] ? '<img alt="' + k + " " + r.frame + '" src="' + r[k] + '"><br>' : "") + "frame " + r.frame + "</td>";
       }).join("") + "</tr>");
     });
@@ -272,7 +273,13 @@ window.onerror = function (message, source, line) {
       geometry.setAttribute("position", new THREE.BufferAttribute(decode(mesh.positions, Float32Array), 3));
       geometry.setIndex(new THREE.BufferAttribute(decode(mesh.indices, Uint32Array), 1));
       geometry.computeVertexNormals();
-      var model = new THREE.Mesh(geometry, new THREE.MeshLambertMaterial({ color: 0xd8d2c4, side: THREE.DoubleSide }));
+      var material = { color: 0xd8d2c4, side: THREE.DoubleSide };
+      if (mesh.colours) {  // per-vertex colour (uchar red green blue in mesh.ply)
+        geometry.setAttribute("color", new THREE.BufferAttribute(decode(mesh.colours, Uint8Array), 3, true));
+        material = { color: 0xffffff, side: THREE.DoubleSide,
+                     vertexColors: THREE.VertexColors !== undefined ? THREE.VertexColors : true };
+      }
+      var model = new THREE.Mesh(geometry, new THREE.MeshLambertMaterial(material));
       scene.add(model);
       geometry.computeBoundingBox();
       bounds.union(geometry.boundingBox);

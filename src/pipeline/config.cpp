@@ -8,6 +8,7 @@
 #include <utility>
 
 #include "core/platform.hpp"
+#include "core/se3.hpp"
 
 namespace kfx {
 namespace {
@@ -247,6 +248,10 @@ std::vector<ConfigField> build_fields() {
   integer("integration_rate", "integration", "r", "integration-rate",
           "integrate every N-th tracked frame (>= 1)",
           [](C& c) -> int& { return c.integration.rate; });
+  integer("integration_holdout", "integration", "", "",
+          "evaluation: never integrate frames f >= bootstrap_frames with f % N == 0, so renders "
+          "there show the model from views it has not seen (0 = off)",
+          [](C& c) -> int& { return c.integration.holdout; });
   num("near_m", "raycast", "", "", "raycast near plane, metres",
       [](C& c) -> float& { return c.raycast.near_m; });
   num("far_m", "raycast", "", "", "raycast far plane, metres",
@@ -255,6 +260,42 @@ std::vector<ConfigField> build_fields() {
       [](C& c) -> float& { return c.raycast.large_step_mu; });
   integer("render_rate", "render", "z", "rendering-rate", "render every N-th frame (>= 1)",
           [](C& c) -> int& { return c.render.rate; });
+  // Colour.
+  {
+    ConfigField f;
+    f.key = "colour";
+    f.section = "colour";
+    f.help =
+        "fuse the input's colour beside the TSDF: coloured mesh, cloud and renders (on|off; kfx "
+        "turns it on when the input has colour; never changes the trajectory)";
+    f.parse = [](C& c, const std::string& text) { c.colour.fuse = parse_bool("colour", text); };
+    f.format = [](const C& c) { return std::string(c.colour.fuse ? "on" : "off"); };
+    t.push_back(f);
+  }
+  {
+    ConfigField f;
+    f.key = "colour_camera";
+    f.section = "colour";
+    f.help = "colour camera fx,fy,cx,cy in pixels of the colour image (all 0 = the depth camera's)";
+    f.parse = [](C& c, const std::string& text) {
+      c.colour.camera_px = parse_floats<4>("colour_camera", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.colour.camera_px); };
+    t.push_back(f);
+  }
+  {
+    ConfigField f;
+    f.key = "colour_extrinsic";
+    f.section = "colour";
+    f.help =
+        "depth camera pose in the colour camera's frame: tx,ty,tz (m),rx,ry,rz (rotation vector, "
+        "rad); all 0 = registered images (TUM, ICL-NUIM)";
+    f.parse = [](C& c, const std::string& text) {
+      c.colour.extrinsic = parse_floats<6>("colour_extrinsic", text, false);
+    };
+    f.format = [](const C& c) { return format_list(c.colour.extrinsic); };
+    t.push_back(f);
+  }
   // Approximations (the seed thesis's techniques and more), each exact by default.
   // A choice setting: its text names one value of an enum, parsed here once.
   auto choice = [&](std::string key, std::string help, auto choices,
@@ -511,6 +552,8 @@ void PipelineConfig::validate() const {
             "min_inlier_fraction must be in [0, 1]");
   KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
   KFX_CHECK(integration.rate >= 1, "integration_rate must be >= 1, got " << integration.rate);
+  KFX_CHECK(integration.holdout >= 0,
+            "integration_holdout must be >= 0 (0 = off), got " << integration.holdout);
   KFX_CHECK(raycast.near_m > 0 && raycast.far_m > raycast.near_m,
             "raycast planes must satisfy 0 < near_m < far_m, got " << raycast.near_m << ", "
                                                                    << raycast.far_m);
@@ -545,6 +588,13 @@ void PipelineConfig::validate() const {
   }
   KFX_CHECK(quality.bootstrap_frames >= 1 && quality.bootstrap_frames <= 4,
             "bootstrap_frames must be in 1..4, got " << quality.bootstrap_frames);
+  const auto& ck = colour.camera_px;
+  KFX_CHECK((ck[0] == 0 && ck[1] == 0 && ck[2] == 0 && ck[3] == 0) || (ck[0] != 0 && ck[1] != 0),
+            "colour_camera: fx and fy must be non-zero, got " << ck[0] << "," << ck[1]);
+  for (float e : colour.extrinsic) {
+    KFX_CHECK(std::isfinite(e) && std::fabs(e) <= 10.0f,
+              "colour_extrinsic: each entry must be a finite number within +-10, got " << e);
+  }
   KFX_CHECK(cuda.reduce_blocks >= 0 && cuda.reduce_blocks <= 65535,
             "cuda_reduce_blocks must be in 0..65535, got " << cuda.reduce_blocks);
   KFX_CHECK(cuda.z_chunks >= 0 && cuda.z_chunks <= 1024,
@@ -562,6 +612,17 @@ std::string PipelineConfig::dump() const {
     out << field.key << " = " << field.format(*this) << "\n";
   }
   return out.str();
+}
+
+ColourCamera make_colour_camera(const PipelineConfig& config, const Intrinsics& input_k) {
+  ColourCamera camera;
+  const auto& k = config.colour.camera_px;
+  camera.k = (k[0] == 0 && k[1] == 0) ? input_k : Intrinsics{k[0], k[1], k[2], k[3]};
+  const auto& e = config.colour.extrinsic;
+  const double rotation_only[6] = {0, 0, 0, e[3], e[4], e[5]};
+  camera.T_colour_cam = se3_exp(rotation_only);
+  for (int i = 0; i < 3; ++i) camera.T_colour_cam.m[i][3] = e[i];
+  return camera;
 }
 
 StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& compute_k,
@@ -619,13 +680,19 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   return p;
 }
 
-std::vector<std::string> preset_settings(const std::string& name) {
+std::vector<std::pair<std::string, std::string>> preset_values(const std::string& name) {
   const PipelineConfig preset = make_preset(name), exact;
-  std::vector<std::string> settings;
+  std::vector<std::pair<std::string, std::string>> values;
   for (const auto& field : config_fields()) {
     const std::string value = field.format(preset);
-    if (value != field.format(exact)) settings.push_back(field.key + "=" + value);
+    if (value != field.format(exact)) values.emplace_back(field.key, value);
   }
+  return values;
+}
+
+std::vector<std::string> preset_settings(const std::string& name) {
+  std::vector<std::string> settings;
+  for (const auto& [key, value] : preset_values(name)) settings.push_back(key + "=" + value);
   return settings;
 }
 
@@ -656,8 +723,8 @@ PipelineConfig make_preset(const std::string& name) {
     // with seeds no plan had used, on the GPU and the CPU. A constant 5 cm raycast step, the
     // cheaper ray factor, no depth-0 test and every 2nd z slice integrated per frame. No robust
     // ICP weight: Huber at 1 cm lowered the TUM ATE but converged too slowly after blank
-    // stretches and fast motion (up to 1.31x exact's ATE on unseen synthetic cases). It misses
-    // from some start frames (tum_fr1_rpy from frame 100: 1.11x).
+    // stretches and fast motion (on unseen synthetic cases). It misses from some start frames
+    // (tum_fr1_rpy from frame 100; figures: bench/RESULTS.md, "`fast` chosen again").
     for (const char* a : {"raycast_constant_step_m=0.05", "ray_factor=approx",
                           "integrate_zero_depth_test=off", "integration_z_stride=2"}) {
       set_config_assignment(c, a);
@@ -665,8 +732,8 @@ PipelineConfig make_preset(const std::string& name) {
     return c;
   }
   if (name == "quality") {
-    // Chosen by the quality_s7 plan on an H200 (issue 9, docs/presets.md, bench/RESULTS.md):
-    // ATE 30-36 % below exact's on every shared sequence at ~2,800 frames/s. The depth image is
+    // Chosen by the quality_s7 plan on an H200 (issue 9, docs/presets.md; its ATE and speed:
+    // bench/RESULTS.md, "`quality` chosen again"). The depth image is
     // undistorted with the camera's lens (TUM fr1's: the largest single gain on real Kinect
     // data; a no-op without a known lens), ICP is Huber-weighted at 3.5 mm with twice KFusion's
     // iteration caps (with the caps of exact, the small Huber scale converged too slowly on

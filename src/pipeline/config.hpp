@@ -6,6 +6,7 @@
 #include <array>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "backend/backend.hpp"
@@ -53,6 +54,9 @@ struct PipelineConfig {
   } tracking;
   struct Integration {
     int rate = 2;  ///< integrate tracked frames f with f % rate == 0 (and frames 0–3)
+    /// Evaluation: frames f ≥ bootstrap with f % holdout == 0 are tracked but never integrated,
+    /// so the model can be compared with frames it has not seen (0 = none held out).
+    int holdout = 0;
   } integration;
   struct Raycast {
     float near_m = 0.4f;          ///< near plane
@@ -97,6 +101,18 @@ struct PipelineConfig {
     bool depth_undistortion = false;
   } quality;
 
+  /// Colour fused beside the TSDF (docs/colour.md). Never read by tracking: the trajectory is
+  /// the same with it on or off.
+  struct Colour {
+    /// Fuse the frames' colour images into a colour field (memory: 8 bytes per voxel). Off in
+    /// the library; `kfx` turns it on whenever the input has colour unless the user sets it.
+    bool fuse = false;
+    std::array<float, 4> camera_px{};  ///< colour fx, fy, cx, cy at input size; 0 = depth's
+    /// The depth camera's pose in the colour camera's frame, T_colour_depth, as a translation
+    /// (metres) and a rotation vector (radians): tx, ty, tz, rx, ry, rz; 0 = registered.
+    std::array<float, 6> extrinsic{};
+  } colour;
+
   /// CUDA launch tuning: speed only, never results (the CPU backend ignores it).
   CudaTuning cuda;
 
@@ -118,6 +134,10 @@ struct StageParams {
   RaycastParams raycast;
   RenderParams render;  ///< the pictures of --renders (visual only)
 };
+
+/// The colour camera of `config` (colour_camera, colour_extrinsic) for a depth camera with
+/// intrinsics `input_k` at input size.
+ColourCamera make_colour_camera(const PipelineConfig& config, const Intrinsics& input_k);
 
 /// The stage settings of `config` for compute-size intrinsics `compute_k` and a compute image
 /// of `compute_width_px` × `compute_height_px`.
@@ -150,8 +170,11 @@ std::vector<std::string> preset_names();
 /// A preset's configuration; throws on an unknown name.
 PipelineConfig make_preset(const std::string& name);
 
-/// What preset `name` sets, as `key=value` in table order: every setting whose value differs
+/// What preset `name` sets, as (key, value) in table order: every setting whose value differs
 /// from exact's (empty for exact). Throws kfx::Error on an unknown name.
+std::vector<std::pair<std::string, std::string>> preset_values(const std::string& name);
+
+/// preset_values() as `key=value` strings (the form of --set and of the sweep's records).
 std::vector<std::string> preset_settings(const std::string& name);
 
 }  // namespace kfx

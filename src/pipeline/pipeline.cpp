@@ -2,6 +2,7 @@
 
 #include "pipeline/pipeline.hpp"
 
+#include "backend/memory_budget.hpp"
 #include "pipeline/depth_undistortion.hpp"
 
 namespace kfx {
@@ -29,6 +30,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.cuda = config_.cuda;
   setup_.device_index = device_index;
   setup_.pipelines_on_device = pipelines_on_device;
+  setup_.colour = config_.colour.fuse;
   const LensDistortion& distortion = config_.input.distortion;
   if (config_.quality.depth_undistortion && !distortion.none()) {
     setup_.depth_source_px =
@@ -41,10 +43,13 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   initial_pose_ = Mat4f::translation(Vec3f{f[0] * size, f[1] * size, f[2] * size});
 
   params_ = make_stage_params(config_, compute_k_, cw, ch);
+  params_.integrate.colour_camera = make_colour_camera(config_, input_intrinsics);
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
 }
+
+uint64_t Pipeline::colour_bytes() const { return kfx::colour_bytes(setup_); }
 
 void Pipeline::reset() {
   while (!in_flight_.empty()) collect();
@@ -53,23 +58,31 @@ void Pipeline::reset() {
   have_reference_ = false;
 }
 
-FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm) {
-  submit(depth_mm);
+FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb) {
+  submit(depth_mm, rgb);
   return collect();
 }
 
-void Pipeline::submit(ImageView<const uint16_t> depth_mm) {
+void Pipeline::submit(ImageView<const uint16_t> depth_mm, const HostImage<Rgb8>* rgb) {
   const int f = frame_;
   FrameReport report;
   report.index = f;
   Backend& b = *backend_;
   b.upload_depth(depth_mm);
+  if (config_.colour.fuse) {
+    KFX_CHECK(rgb != nullptr && !rgb->empty(),
+              "frame " << f << " has no colour image but setting colour is on (set colour=off "
+                       << "for depth-only input)");
+    b.upload_colour(*rgb);
+  }
   // The reference view exists only after the first raycast (end of frame 3 when exact: the
   // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).
   const int bootstrap = config_.quality.bootstrap_frames;
   const bool track = have_reference_ && f % config_.tracking.rate == 0;
   const bool always = f < bootstrap;
-  const bool may_integrate = always || f % config_.integration.rate == 0;
+  const int holdout = config_.integration.holdout;
+  const bool held_out = !always && holdout > 0 && f % holdout == 0;
+  const bool may_integrate = always || (f % config_.integration.rate == 0 && !held_out);
   report.raycast = f >= bootstrap - 1 && f % config_.approx.raycast_rate == 0;
   if (report.raycast) have_reference_ = true;
   // Which stages run depends on the frame number only: the shape names the sequence.

@@ -40,14 +40,19 @@ class Pipeline {
            int input_height_px, BackendKind backend_kind, int device_index = -1,
            int pipelines_on_device = 1);
 
-  /// Processes the next depth frame (input size, millimetres) and waits for its report.
-  FrameReport process(const HostImage<uint16_t>& depth_mm);
+  /// Processes the next depth frame (input size, millimetres) and waits for its report. With
+  /// config colour.fuse on, `rgb` must be the frame's colour image (input size); with it off,
+  /// `rgb` is ignored.
+  FrameReport process(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb = nullptr);
   /// Starts over: empty volume, initial pose, frame 0 (buffers and recorded graphs are kept).
   void reset();
   /// Submits the next frame without waiting (the GPU computes while the host reads on).
-  void submit(const HostImage<uint16_t>& depth_mm) { submit(depth_mm.view()); }
+  /// `rgb` as in process().
+  void submit(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb = nullptr) {
+    submit(depth_mm.view(), rgb);
+  }
   /// The same from pixels someone else owns (rows packed), read during the call only.
-  void submit(ImageView<const uint16_t> depth_mm);
+  void submit(ImageView<const uint16_t> depth_mm, const HostImage<Rgb8>* rgb = nullptr);
   /// Waits for the oldest submitted frame and returns its report.
   FrameReport collect();
   /// Turns the renders on or off: when on, every frame f with f % render.rate == 0 renders
@@ -65,6 +70,8 @@ class Pipeline {
   const Intrinsics& compute_intrinsics() const { return compute_k_; }
   Backend& backend() { return *backend_; }
   const PipelineConfig& config() const { return config_; }
+  /// Bytes the colour field and its buffers take on the backend (0 with colour off).
+  uint64_t colour_bytes() const;
   /// Frames submitted so far.
   int frame_count() const { return frame_; }
 

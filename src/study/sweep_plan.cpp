@@ -567,11 +567,8 @@ std::vector<std::string> validate_sweep(const std::vector<const SweepRun*>& runs
   std::set<std::string> warned;
   for (const SweepRun* run : runs) {
     // What the preset sets, by key (empty for exact).
-    std::map<std::string, std::string> preset_values;
-    for (const std::string& assignment : preset_settings(run->preset)) {
-      const size_t eq = assignment.find('=');
-      preset_values[assignment.substr(0, eq)] = assignment.substr(eq + 1);
-    }
+    const auto values = kfx::preset_values(run->preset);
+    const std::map<std::string, std::string> preset_values(values.begin(), values.end());
     for (const auto& sequence : sequences) {
       build_config(*run, sequence, overrides);
       // A sequence setting silently undoing a preset's choice would mislabel the result.

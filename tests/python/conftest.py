@@ -19,7 +19,8 @@ def frames():
 
 @pytest.fixture()
 def reconstruction():
-    return kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    # Depth only: the tests that feed bare depth arrays (test_colour covers colour).
+    return kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64, colour=False)
 
 
 def kfx_cli():

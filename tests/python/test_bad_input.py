@@ -66,8 +66,10 @@ def test_bad_colour(reconstruction, frames):
         reconstruction.process(depth, colour=np.zeros((120, 160), np.uint8))
     with pytest.raises(ValueError, match="does not match the depth"):
         reconstruction.process(depth, colour=np.zeros((60, 80, 3), np.uint8))
-    with pytest.raises(kfx.Error, match="holds no colour"):
-        reconstruction.process(depth, colour=np.zeros((120, 160, 3), np.uint8))
+    assert reconstruction.frame_count == 0
+    # With colour off (this fixture), a colour image is accepted and not fused.
+    reconstruction.process(depth, colour=np.zeros((120, 160, 3), np.uint8))
+    assert reconstruction.frame_count == 1
 
 
 def test_unknown_setting():

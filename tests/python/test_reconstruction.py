@@ -31,13 +31,13 @@ def test_trajectory_is_the_cli_runs_byte_for_byte(tmp_path):
 
 
 def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
-    packed = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
-    metres = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
-    scaled = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    packed, metres, scaled = (kfx.Reconstruction(kfx.open(INPUT), backend="cpu",
+                                                 volume_resolution=64) for _ in range(3))
     for f in frames:
-        a = packed.process(np.array(f.depth), stamp=f.stamp)
-        b = metres.process(f.depth.astype(np.float32) / 1000.0, stamp=f.stamp)
-        c = scaled.process(f.depth * np.uint16(5), stamp=f.stamp, depth_scale=5000.0)
+        a = packed.process(np.array(f.depth), stamp=f.stamp, colour=f.colour)
+        b = metres.process(f.depth.astype(np.float32) / 1000.0, stamp=f.stamp, colour=f.colour)
+        c = scaled.process(f.depth * np.uint16(5), stamp=f.stamp, depth_scale=5000.0,
+                           colour=np.array(f.colour))
         assert np.array_equal(a.pose, b.pose), f.index
         assert np.array_equal(a.pose, c.pose), f.index
         assert a.stamp == f.stamp
@@ -55,7 +55,7 @@ def test_frame_depth_is_a_read_only_view(frames):
     f = frames[3]
     assert f.depth.dtype == np.uint16 and f.depth.shape == (120, 160)
     assert not f.depth.flags.writeable
-    assert f.colour is None
+    assert f.colour.dtype == np.uint8 and f.colour.shape == (120, 160, 3)  # synthetic has colour
 
 
 def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
@@ -68,7 +68,6 @@ def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
     assert mesh.triangles.shape[1] == 3 and mesh.triangles.dtype == np.int32
     assert len(mesh.triangles) > 100
     assert mesh.triangles.max() < len(mesh.vertices)
-    assert mesh.colours is None
     cloud = reconstruction.point_cloud()
     assert cloud.points.shape[0] > 1000
     w, h = reconstruction.compute_size
@@ -86,6 +85,24 @@ def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
     again = loaded.mesh()
     assert np.array_equal(again.vertices, mesh.vertices)
     assert np.array_equal(again.triangles, mesh.triangles)
+
+
+def test_colour(frames, tmp_path):
+    """The synthetic scene has colour: fused by default, the mesh and cloud coloured."""
+    r = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    assert "colour = on" in r.settings_dump()
+    for f in frames:
+        r.process(f)
+    mesh = r.mesh()
+    assert mesh.colours.shape == mesh.vertices.shape and mesh.colours.dtype == np.uint8
+    assert len(np.unique(mesh.colours, axis=0)) > 10
+    assert r.point_cloud().colours.shape[1] == 3
+    with pytest.raises(kfx.Error, match="colour is on but the frame has no colour image"):
+        r.process(np.array(frames[0].depth))
+    # Colour of another size than the depth's is refused before anything runs.
+    with pytest.raises(ValueError, match="does not match the depth"):
+        r.process(np.array(frames[0].depth), colour=np.zeros((60, 80, 3), np.uint8))
+    assert r.frame_count == len(frames)
 
 
 def test_reset_repeats_the_run(reconstruction, frames):

@@ -43,8 +43,9 @@ void for_each_pixel(int width, int height, Body body) {
 
 /// One row of raycast blocks, with the whole kernel body (raycast_block down to the march)
 /// compiled into this loop. Since the volume render became raycast_ray's second caller, GCC
-/// no longer inlines the march here on its own, and out of line it ran 5-10 % slower on the
-/// 2-core AMD EPYC CI VM (bench/RESULTS.md). `flatten` asks for that on the host only, so the
+/// no longer inlines the march here on its own, and out of line it ran slower on the CPU
+/// (bench/RESULTS.md, "One commit, before and after the restructuring"). `flatten` asks for
+/// that on the host only, so the
 /// kernel body and the CUDA build stay as they are.
 KFX_CPU_FLATTEN void raycast_row(int block_y, int blocks_x, const RaycastArgs& a) {
   for (int x = 0; x < blocks_x; ++x) raycast_block(x, block_y, a);
@@ -83,6 +84,8 @@ class CpuBackend final : public Backend {
     std::fill(buffers_.volume.begin(), buffers_.volume.end(), empty);
     std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 0);
     std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 0);
+    std::fill(buffers_.colour_volume.begin(), buffers_.colour_volume.end(),
+              ColourVoxel{0, 0, 0, 0});
     auto& vertices = buffers_.ref_vertex.pixels();
     std::fill(vertices.begin(), vertices.end(), Vec3f{0, 0, 0});
     state_ = initial_tracking_state(T_world_cam);
@@ -92,6 +95,11 @@ class CpuBackend final : public Backend {
   void upload_depth(ImageView<const uint16_t> depth_mm) override {
     check_depth_frame(depth_mm, setup_);
     std::copy(depth_mm.data, depth_mm.data + depth_mm.size(), input_mm_.data());
+  }
+
+  void upload_colour(const HostImage<Rgb8>& rgb) override {
+    check_colour_frame(rgb, setup_);
+    input_rgb_ = rgb;
   }
 
   // The CPU runs each stage as it is called; end_frame() keeps the frame's result until read,
@@ -163,8 +171,13 @@ class CpuBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), &state_,
-                          buffers_.level_normal[0].view()};
+    const IntegrateArgs a{p,
+                          buffers_.volume_view(),
+                          buffers_.depth_m.view(),
+                          &state_,
+                          buffers_.level_normal[0].view(),
+                          buffers_.colour_volume_view(),
+                          input_rgb_.view()};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag (super-brick flags are shared:
     // VolumeView::mark_touched sets them atomically).
@@ -201,6 +214,14 @@ class CpuBackend final : public Backend {
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) render_volume_pixel(x, y, v);
+    }
+    if (!setup_.colour) return;
+    const RenderColourArgs c =
+        make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
+                                buffers_.render_colour.view(), &state_, p);
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) render_colour_pixel(x, y, c);
     }
   }
 
@@ -240,9 +261,11 @@ class CpuBackend final : public Backend {
     return maps;
   }
   Renders read_renders() override {
-    return Renders{buffers_.render_depth, buffers_.render_track, buffers_.render_volume};
+    return Renders{buffers_.render_depth, buffers_.render_track, buffers_.render_volume,
+                   buffers_.render_colour};
   }
   std::vector<Voxel> read_volume() override { return buffers_.volume; }
+  std::vector<ColourVoxel> read_colour_volume() override { return buffers_.colour_volume; }
 
   void reserve_mesh_extraction() override {
     if (!mesh_run_offset_.empty()) return;
@@ -361,6 +384,7 @@ class CpuBackend final : public Backend {
 
   BackendSetup setup_;
   HostImage<uint16_t> input_mm_;
+  HostImage<Rgb8> input_rgb_;  ///< this frame's colour image (setup_.colour), input size
   FrameBuffers<HostImage, HostArray> buffers_;
   std::vector<double> row_partials_;
   // Mesh extraction (MarchingCubesArgs), allocated on first use.

@@ -77,8 +77,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaGetDeviceProperties(&properties_, device_));
     const char* sync = std::getenv("KFX_CUDA_SYNC");
     debug_sync_ = sync && std::string(sync) == "1";
-    // Programmatic dependent launch needs sm_90 (measured on an H200: −2.4 % per frame,
-    // bench/RESULTS.md); setting cuda_pdl=off turns it off.
+    // Programmatic dependent launch needs sm_90 (its gain on an H200: bench/RESULTS.md, "CUDA
+    // backend, exact preset, 320×240"); setting cuda_pdl=off turns it off.
     programmatic_launch_ = setup.cuda.pdl && properties_.major >= 9;
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     const size_t input_pixels = static_cast<size_t>(setup.input_width_px) * setup.input_height_px;
@@ -86,6 +86,10 @@ class CudaBackend final : public Backend {
       input_mm_[p] = DeviceBuffer<uint16_t>(input_pixels);
       staging_mm_[p] = PinnedBuffer<uint16_t>(input_pixels);
       state_readback_[p] = PinnedBuffer<TrackingState>(1);
+      if (setup.colour) {
+        input_rgb_[p] = DeviceBuffer<Rgb8>(input_pixels);
+        staging_rgb_[p] = PinnedBuffer<Rgb8>(input_pixels);
+      }
     }
     // Tuning (settings cuda_reduce_blocks, cuda_z_chunks): the cap on the ICP reduction grid
     // (0: one block per SM) and the z-ranges per integration column (0: 4096 / resolution, the
@@ -168,6 +172,10 @@ class CudaBackend final : public Backend {
                                    stream_.get()));
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.super_brick_touched.data(), 0,
                                    buffers_.super_brick_touched.bytes(), stream_.get()));
+    if (setup_.colour) {  // all zero bytes: colour 0, weight 0
+      KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.colour_volume.data(), 0,
+                                     buffers_.colour_volume.bytes(), stream_.get()));
+    }
     *state_readback_[0].data() = initial_tracking_state(T_world_cam);
     KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(), sizeof(TrackingState),
                                    cudaMemcpyHostToDevice, stream_.get()));
@@ -188,6 +196,16 @@ class CudaBackend final : public Backend {
     std::memcpy(staging_mm_[parity_].data(), depth_mm.data, depth_mm.size() * sizeof(uint16_t));
     KFX_CUDA_CHECK(cudaMemcpyAsync(input_mm_[parity_].data(), staging_mm_[parity_].data(),
                                    depth_mm.size() * sizeof(uint16_t), cudaMemcpyHostToDevice,
+                                   copy_stream_.get()));
+    KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
+  }
+
+  void upload_colour(const HostImage<Rgb8>& rgb) override {
+    check_colour_frame(rgb, setup_);
+    // After upload_depth(), which waited for the frame two back: these buffers are free.
+    std::memcpy(staging_rgb_[parity_].data(), rgb.data(), rgb.pixels().size() * sizeof(Rgb8));
+    KFX_CUDA_CHECK(cudaMemcpyAsync(input_rgb_[parity_].data(), staging_rgb_[parity_].data(),
+                                   rgb.pixels().size() * sizeof(Rgb8), cudaMemcpyHostToDevice,
                                    copy_stream_.get()));
     KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
   }
@@ -322,8 +340,16 @@ class CudaBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
-    const IntegrateArgs a{p, buffers_.volume_view(), buffers_.depth_m.view(), state_.data(),
-                          buffers_.level_normal[0].view()};
+    const ImageView<const Rgb8> colour_image{
+        input_rgb_[parity_].data(), setup_.colour ? setup_.input_width_px : 0,
+        setup_.colour ? setup_.input_height_px : 0, setup_.input_width_px};
+    const IntegrateArgs a{p,
+                          buffers_.volume_view(),
+                          buffers_.depth_m.view(),
+                          state_.data(),
+                          buffers_.level_normal[0].view(),
+                          buffers_.colour_volume_view(),
+                          colour_image};
     const int res = setup_.volume_res_vox;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
@@ -357,6 +383,12 @@ class CudaBackend final : public Backend {
     const dim3 ray_block(16, 8);
     launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
            v, w, h);
+    if (!setup_.colour) return;
+    const RenderColourArgs c =
+        make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
+                                buffers_.render_colour.view(), state_.data(), p);
+    launch(pixel_kernel<RenderColourBody, RenderColourArgs>, grid_for(w, h, ray_block), ray_block,
+           c, w, h);
   }
 
   TrackingState read_state() override {
@@ -397,8 +429,22 @@ class CudaBackend final : public Backend {
 
   Renders read_renders() override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    return Renders{download(buffers_.render_depth), download(buffers_.render_track),
-                   download(buffers_.render_volume)};
+    Renders renders{download(buffers_.render_depth),
+                    download(buffers_.render_track),
+                    download(buffers_.render_volume),
+                    {}};
+    if (setup_.colour) renders.colour = download(buffers_.render_colour);
+    return renders;
+  }
+
+  std::vector<ColourVoxel> read_colour_volume() override {
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    std::vector<ColourVoxel> voxels(buffers_.colour_volume.size());
+    if (!voxels.empty()) {
+      KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), buffers_.colour_volume.data(),
+                                buffers_.colour_volume.bytes(), cudaMemcpyDeviceToHost));
+    }
+    return voxels;
   }
 
   std::vector<Voxel> read_volume() override {
@@ -488,6 +534,8 @@ class CudaBackend final : public Backend {
   Stream copy_stream_;
   std::array<DeviceBuffer<uint16_t>, 2> input_mm_;
   std::array<PinnedBuffer<uint16_t>, 2> staging_mm_;
+  std::array<DeviceBuffer<Rgb8>, 2> input_rgb_;  ///< colour input (setup_.colour), by parity
+  std::array<PinnedBuffer<Rgb8>, 2> staging_rgb_;
   std::array<PinnedBuffer<TrackingState>, 2> state_readback_;
   std::array<Event, 2> upload_done_{Event(false), Event(false)};
   std::array<Event, 2> frame_done_{Event(false), Event(false)};

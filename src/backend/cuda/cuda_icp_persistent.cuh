@@ -19,7 +19,8 @@ namespace kfx::cuda {
 
 /// Grid-wide barrier on a counter of block arrivals that only grows: each block adds its arrival
 /// without waiting for the old value (cooperative_groups' grid.sync waits for it before it
-/// starts polling: a round trip to L2 more; measured 1.4 µs a frame slower at 320×240) and
+/// starts polling: a round trip to L2 more; bench/RESULTS.md, "Figures moved out of code
+/// comments") and
 /// polls until the counter reaches `target`. Release/acquire at device scope: what a block wrote
 /// before the barrier is visible to every block after it. The signed difference keeps the test
 /// right when the counter wraps.
@@ -116,9 +117,9 @@ inline int persistent_icp_max_blocks(int device, std::string* why_not) {
 /// Blocks the persistent ICP launch uses on a GPU of `sms` multiprocessors shared by `pipelines`
 /// pipelines at once: all of them for one or two pipelines, about 2·sms / pipelines for more,
 /// at least sms / 6. Alone, a block per multiprocessor is fastest; with many pipelines, each
-/// level's launch on every multiprocessor makes the others' kernels wait for its blocks (one
-/// H200, icl_office_kt0 320×240, 16 pipelines: 9,400 frames/s with 132 blocks, 11,835 with 22;
-/// bench/RESULTS.md). The sums do not depend on it: each block runs its share of the same
+/// level's launch on every multiprocessor makes the others' kernels wait for its blocks
+/// (bench/RESULTS.md, "Issue 8 at `1f9b586`", persistent ICP blocks against pipelines). The
+/// sums do not depend on it: each block runs its share of the same
 /// reduction blocks.
 inline int persistent_icp_grid(int sms, int pipelines) {
   const int share = (2 * sms + pipelines - 1) / std::max(1, pipelines);

@@ -68,6 +68,11 @@ struct RenderTrackBody {
     render_track_pixel(x, y, a);
   }
 };
+struct RenderColourBody {
+  __device__ void operator()(int x, int y, const RenderColourArgs& a) const {
+    render_colour_pixel(x, y, a);
+  }
+};
 struct RenderVolumeBody {
   __device__ void operator()(int x, int y, const RenderVolumeArgs& a) const {
     render_volume_pixel(x, y, a);
