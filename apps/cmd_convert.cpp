@@ -24,6 +24,7 @@ struct ConvertArgs {
   int ratio = 1;
   double depth_scale_per_m = 0.0;
   std::string ground_truth_path;
+  bool keep_colour = true;
 };
 
 bool ends_with_raw(const std::string& path) {
@@ -57,6 +58,8 @@ void add_convert_command(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--gt", args->ground_truth_path,
                   "Ground-truth trajectory (TUM format) to store instead of the input's");
+  sub->add_flag("!--no-colour", args->keep_colour,
+                "write zero colour even where the input has colour images (a depth-only file)");
   sub->callback([args]() {
     KFX_CHECK(ends_with_raw(args->output), "output '" << args->output << "' must end in .raw");
     io::ReaderOptions reader_options;
@@ -68,6 +71,7 @@ void add_convert_command(CLI::App& app) {
     options.max_frames = args->frames;
     options.ratio = args->ratio;
     options.progress = &std::cerr;
+    options.keep_colour = args->keep_colour;
     const io::ConvertSummary summary = io::convert_to_raw(*reader, args->output, options);
     std::cout << "wrote " << summary.raw_path << ": " << summary.frames << " frames of "
               << summary.width_px << "x" << summary.height_px << " (ratio " << args->ratio

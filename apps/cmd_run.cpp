@@ -201,7 +201,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
-    submitted.push_back(Submitted{acquisition_s, frame.index, diagnostics.sample(frame.depth_mm)});
+    submitted.push_back(
+        Submitted{acquisition_s, frame.index, diagnostics.sample(frame.depth_mm.view())});
     const bool renders_now = pipeline.renders(pipeline.frame_count());
     ReconstructionAccess::submit(reconstruction, frame);
     // A rendering frame is collected at once: its renders are read before the next submit.

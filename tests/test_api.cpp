@@ -202,6 +202,30 @@ TEST(Api, SettingsAreCheckedByTheOneTable) {
   EXPECT_THROW(Reconstruction(Settings().backend("cpu"), Camera{160, 120}), Error);
 }
 
+TEST(Api, FrameResultsCarryTheVolumeAndDepthWarnings) {
+  // A wall 7.5 m away (a depth scale off by 5, say): beyond exact's 2 m volume and implausible
+  // for an RGB-D camera. The first frame says so, naming itself; the stretch's later frames and a
+  // good frame say nothing.
+  const Camera camera{160, 120, 100, 100, 79.5, 59.5};
+  Reconstruction r(cpu_settings(), camera);
+  std::vector<float> far_m(160 * 120, 7.5f), near_m(160 * 120, 1.0f);
+  FrameView v;
+  v.depth.data = far_m.data();
+  v.depth.width_px = 160;
+  v.depth.height_px = 120;
+  v.depth.type = DepthType::kFloat32;
+  const FrameResult first = r.process(v);
+  ASSERT_EQ(first.warnings.size(), 2u);
+  EXPECT_EQ(first.warnings[0].rfind("frame 0: 100 % of the depth lies outside the volume", 0), 0u)
+      << first.warnings[0];
+  EXPECT_EQ(first.warnings[1].rfind("frame 0: the depth is implausible", 0), 0u)
+      << first.warnings[1];
+  EXPECT_TRUE(r.process(v).warnings.empty());
+  Reconstruction good(cpu_settings(), camera);
+  v.depth.data = near_m.data();
+  for (int f = 0; f < 3; ++f) EXPECT_TRUE(good.process(v).warnings.empty()) << f;
+}
+
 TEST(Api, ResetRepeatsTheRun) {
   Sequence sequence(kInput);
   const auto frames = read_all(sequence);

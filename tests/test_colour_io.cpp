@@ -153,6 +153,21 @@ TEST(ColourIo, RawCarriesColourAndConvertKeepsIt) {
   EXPECT_TRUE(expect_ok_frame(*blank).rgb.empty());
 }
 
+TEST(ColourIo, ConvertWithoutColourWritesADepthOnlyFile) {
+  TempDir dir("kfx_colour");
+  const std::string folder = write_tum_folder(dir, 2);
+  auto reader = open_reader(folder);
+  ASSERT_TRUE(reader->has_colour());
+  ConvertOptions options;
+  options.keep_colour = false;
+  convert_to_raw(*reader, dir.file("nc.raw"), options);
+  auto raw = open_reader(dir.file("nc.raw"));
+  EXPECT_FALSE(raw->has_colour());
+  const Frame frame = expect_ok_frame(*raw);
+  EXPECT_TRUE(frame.rgb.empty());
+  EXPECT_EQ(frame.depth_mm.width(), 8);
+}
+
 TEST(ColourIo, SubsampleMeanAveragesBlocks) {
   HostImage<Rgb8> image(2, 2);
   image(0, 0) = Rgb8{0, 10, 255};

@@ -19,8 +19,11 @@ class FrameDiagnosticsTest : public ::testing::Test {
   PipelineConfig config_;
   Intrinsics k_{60, 60, 31.5f, 23.5f};
   /// A wall facing the camera `depth_m` away.
-  static HostImage<uint16_t> wall(float depth_m) {
-    return HostImage<uint16_t>(64, 48, static_cast<uint16_t>(depth_m * 1000 + 0.5f));
+  HostImage<uint16_t> image_;
+  /// A wall facing the camera `depth_m` away (a view of image_, valid until the next call).
+  ImageView<const uint16_t> wall(float depth_m) {
+    image_ = HostImage<uint16_t>(64, 48, static_cast<uint16_t>(depth_m * 1000 + 0.5f));
+    return image_.view();
   }
   static Mat4f at(float x, float y, float z) { return Mat4f::translation(Vec3f{x, y, z}); }
   static bool says(const std::vector<std::string>& lines, const std::string& text) {

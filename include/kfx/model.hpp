@@ -23,6 +23,10 @@ struct FrameResult {
   Pose T_world_cam{};       ///< the camera's pose after the frame, in the map (volume) frame
   double computation_ms = 0;  ///< the frame's computation time (GPU time on CUDA)
   int icp_iterations = 0;     ///< ICP iterations run, all pyramid levels
+  /// Warnings that begin at this frame, one line each naming the frame and the cause: the
+  /// camera outside the map's volume, most depth outside it or beyond the far plane, depth
+  /// implausible for the depth scale (once per stretch, a few per cause and run). Usually empty.
+  std::vector<std::string> warnings;
 };
 
 /// An indexed triangle mesh in the map frame (metres).

@@ -285,6 +285,9 @@ NB_MODULE(_kfx, m) {
       .def_ro("integrated", &kfx::FrameResult::integrated)
       .def_ro("computation_ms", &kfx::FrameResult::computation_ms)
       .def_ro("icp_iterations", &kfx::FrameResult::icp_iterations)
+      .def_ro("warnings", &kfx::FrameResult::warnings,
+              "Warnings that begin at this frame (camera or depth outside the volume, depth "
+              "implausible for the depth scale); usually empty.")
       .def_prop_ro(
           "pose", [](const kfx::FrameResult& r) { return pose_array(r.T_world_cam); },
           "The camera's pose after the frame, 4x4 float32 (camera to map frame, metres).")

@@ -13,6 +13,7 @@
 #include "output/mesh_ply.hpp"
 #include "output/run_trajectory.hpp"
 #include "output/volume_file.hpp"
+#include "pipeline/frame_diagnostics.hpp"
 
 namespace kfx {
 
@@ -45,6 +46,8 @@ struct Reconstruction::Impl {
   HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, copied for the upload
   FrameReport last_report;
   std::string input;  ///< the sequence's name, when made for one (file headers name it)
+  std::unique_ptr<FrameDiagnostics> diagnostics;  ///< warnings about the volume and the depth
+  std::deque<DepthSample> samples_in_flight;      ///< judged when their frames are collected
 
   Impl(const Settings& settings, const Camera& given) : config(api::make_config(settings)) {
     camera = given;
@@ -75,6 +78,7 @@ struct Reconstruction::Impl {
     const int ratio = config.input.compute_size_ratio;
     params = make_stage_params(config, pipeline->compute_intrinsics(), camera.width_px / ratio,
                                camera.height_px / ratio);
+    diagnostics = std::make_unique<FrameDiagnostics>(config, intrinsics);
   }
 
   std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
@@ -111,6 +115,7 @@ struct Reconstruction::Impl {
               label << ": the setting colour is on but the frame has no colour image (set "
                        "colour=off for depth-only input)");
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
+    samples_in_flight.push_back(diagnostics->sample(mm));
     pipeline->submit(mm, config.colour.fuse ? rgb : nullptr);
     stamps_in_flight.push_back(frame.stamp_s);
   }
@@ -140,6 +145,8 @@ struct Reconstruction::Impl {
     r.T_world_cam = api::to_pose(last_report.T_world_cam);
     r.computation_ms = last_report.computation_ms;
     r.icp_iterations = last_report.icp_iterations;
+    r.warnings = diagnostics->check(r.index, samples_in_flight.front(), last_report.T_world_cam);
+    samples_in_flight.pop_front();
     trajectory.push_back(r);
     return r;
   }
@@ -186,6 +193,9 @@ void Reconstruction::reset() {
   impl_->drain();
   impl_->pipeline->reset();
   impl_->trajectory.clear();
+  const Camera& c = impl_->camera;
+  impl_->diagnostics = std::make_unique<FrameDiagnostics>(
+      impl_->config, Intrinsics{c.fx_px, c.fy_px, c.cx_px, c.cy_px});
 }
 
 Pose Reconstruction::pose() const {

@@ -59,6 +59,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
                             (reader.frame_count() < 0 || reader.frame_count() > options.max_frames)
                         ? options.max_frames
                         : reader.frame_count();
+  const bool colour = reader.has_colour() && options.keep_colour;
   RawWriter writer(raw_path);
   RawSidecar sidecar;
   Frame frame;
@@ -67,7 +68,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
     if (result.status == ReadStatus::kEnd) break;
     KFX_CHECK(result.status == ReadStatus::kOk,
               "conversion to '" << raw_path << "' stopped: " << result.message);
-    if (reader.has_colour()) {
+    if (colour) {
       const HostImage<Rgb8> rgb = subsample_mean(frame.rgb, ratio);
       writer.write_frame(subsample_nearest(frame.depth_mm, ratio), &rgb);
     } else {
@@ -86,7 +87,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
     sidecar.distortion = reader.default_distortion();  // the same lens at any image size
   }
   sidecar.ground_truth = reader.ground_truth();
-  sidecar.has_colour = reader.has_colour();
+  sidecar.has_colour = colour;
   sidecar.recommended_settings = reader.recommended_settings();
   sidecar.source = reader.description();
   if (ratio != 1) sidecar.source += ", subsampled by " + std::to_string(ratio);

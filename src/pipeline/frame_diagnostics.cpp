@@ -46,11 +46,11 @@ FrameDiagnostics::FrameDiagnostics(const PipelineConfig& config, const Intrinsic
       far_m_(config.raycast.far_m),
       depth_scale_per_m_(config.input.depth_scale_per_m) {}
 
-DepthSample FrameDiagnostics::sample(const HostImage<uint16_t>& depth_mm) const {
+DepthSample FrameDiagnostics::sample(ImageView<const uint16_t> depth_mm) const {
   DepthSample s;
   std::vector<float> depths_m;
-  for (int v = kSampleStridePx / 2; v < depth_mm.height(); v += kSampleStridePx) {
-    for (int u = kSampleStridePx / 2; u < depth_mm.width(); u += kSampleStridePx) {
+  for (int v = kSampleStridePx / 2; v < depth_mm.height; v += kSampleStridePx) {
+    for (int u = kSampleStridePx / 2; u < depth_mm.width; u += kSampleStridePx) {
       const uint16_t d = depth_mm(u, v);
       if (d == 0) continue;
       const float z_m = d * 0.001f;

@@ -59,7 +59,7 @@ class FrameDiagnostics {
   FrameDiagnostics(const PipelineConfig& config, const Intrinsics& input_intrinsics);
 
   /// Samples a frame's input depth (millimetres, input size).
-  DepthSample sample(const HostImage<uint16_t>& depth_mm) const;
+  DepthSample sample(ImageView<const uint16_t> depth_mm) const;
 
   /// Judges frame `frame` (the input's number) from its depth sample and the camera pose after
   /// it (volume frame); returns the warnings to show now, one line each, naming the frame.
