@@ -24,7 +24,7 @@ struct ConvertArgs {
   int ratio = 1;
   double depth_scale_per_m = 0.0;
   std::string ground_truth_path;
-  bool keep_colour = true;
+  bool no_colour = false;  ///< --no-colour: blank colour images
 };
 
 bool ends_with_raw(const std::string& path) {
@@ -37,8 +37,8 @@ void add_convert_command(CLI::App& app) {
   auto args = std::make_shared<ConvertArgs>();
   CLI::App* sub = app.add_subcommand(
       "convert",
-      "Convert any input to a SLAMBench .raw (depth in mm; the colour image where the input has "
-      "one, else zero colour) plus a JSON sidecar "
+      "Convert any input to a SLAMBench .raw (depth in mm, the input's colour box-averaged by "
+      "the ratio, or zeros without colour) plus a JSON sidecar "
       "OUT.raw.json holding stamps, intrinsics and ground truth. With --ratio R the frames are "
       "subsampled as KFusion does (output (x,y) = input (x*R, y*R)) and the intrinsics divided "
       "by R, so running the result at ratio 1 equals running the input at ratio R");
@@ -58,8 +58,9 @@ void add_convert_command(CLI::App& app) {
       ->capture_default_str();
   sub->add_option("--gt", args->ground_truth_path,
                   "Ground-truth trajectory (TUM format) to store instead of the input's");
-  sub->add_flag("!--no-colour", args->keep_colour,
-                "write zero colour even where the input has colour images (a depth-only file)");
+  sub->add_flag("--no-colour", args->no_colour,
+                "write blank colour images (and say so in the sidecar) even when the input has "
+                "colour: smaller files, depth-only runs");
   sub->callback([args]() {
     KFX_CHECK(ends_with_raw(args->output), "output '" << args->output << "' must end in .raw");
     io::ReaderOptions reader_options;
@@ -70,8 +71,8 @@ void add_convert_command(CLI::App& app) {
     io::ConvertOptions options;
     options.max_frames = args->frames;
     options.ratio = args->ratio;
+    options.colour = !args->no_colour;
     options.progress = &std::cerr;
-    options.keep_colour = args->keep_colour;
     const io::ConvertSummary summary = io::convert_to_raw(*reader, args->output, options);
     std::cout << "wrote " << summary.raw_path << ": " << summary.frames << " frames of "
               << summary.width_px << "x" << summary.height_px << " (ratio " << args->ratio

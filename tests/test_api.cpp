@@ -97,8 +97,8 @@ TEST(Api, EveryDepthLayoutGivesTheSamePoses) {
 TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   Sequence sequence(kInput);
   const auto frames = read_all(sequence);
-  // Depth only (the synthetic scene's colour is fused by default): bare depth images below.
-  Reconstruction r(cpu_settings().set("colour", "off"), sequence);
+  // The synthetic scene's colour is fused by default: depth problems are found before colour.
+  Reconstruction r(cpu_settings(), sequence);
   r.process(frames[0]);
   auto expect_error = [&](const FrameView& v, const std::string& words) {
     try {
@@ -141,13 +141,15 @@ TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   v.depth.units_per_m = 1000;
   v.depth.row_stride_bytes = 10;
   expect_error(v, "depth rows 10 bytes apart");
-  // colour of another size than the depth's
-  std::vector<uint8_t> rgb(80 * 60 * 3);
+  // the synthetic room has colour, so the map fuses it: a frame without, or of another size
   v = frames[1].view();
+  v.colour = ColourView{};
+  expect_error(v, "frame 1: the map fuses colour (setting colour=on) but the frame has no colour");
+  std::vector<uint8_t> rgb(80 * 60 * 3);
   v.colour.data = rgb.data();
   v.colour.width_px = 80;
   v.colour.height_px = 60;
-  expect_error(v, "colour image is 80x60, the depth image 160x120");
+  expect_error(v, "frame 1: colour image is 80x60, the reconstruction was made for 160x120");
   // and the next good frame is frame 1
   EXPECT_EQ(r.process(frames[1]).index, 1);
 }
@@ -250,7 +252,7 @@ TEST(Api, MapSavesLoadsAndRenders) {
   const TriangleMesh mesh = r.mesh();
   ASSERT_GT(mesh.triangle_count(), 100u);
   EXPECT_EQ(mesh.normals.size(), mesh.vertices_m.size());
-  EXPECT_EQ(mesh.colours.size(), mesh.vertices_m.size());  // the synthetic scene has colour
+  EXPECT_EQ(mesh.colours.size(), mesh.vertices_m.size());  // the synthetic room has colour
   const PointCloud cloud = r.point_cloud();
   EXPECT_GT(cloud.point_count(), 1000u);
   ASSERT_TRUE(r.map_saveable());
@@ -286,6 +288,43 @@ TEST(Api, MapSavesLoadsAndRenders) {
   size_t seen_away = 0;
   for (float d : none.values) seen_away += d > 0.0f;
   EXPECT_LT(seen_away, seen);
+}
+
+}  // namespace
+}  // namespace kfx
+
+namespace kfx {
+namespace {
+
+TEST(Api, ColourFromASequenceColoursTheMeshAndCloud) {
+  Sequence sequence("synthetic:frames=8,width=160,height=120,noise=0");
+  Reconstruction r(cpu_settings(), sequence);
+  SequenceFrame frame;
+  while (sequence.next(frame) == ReadStatus::kOk) {
+    ASSERT_EQ(frame.colour.size(), 160u * 120u * 3u);
+    r.process(frame);
+  }
+  const TriangleMesh mesh = r.mesh();
+  ASSERT_GT(mesh.vertex_count(), 100u);
+  EXPECT_EQ(mesh.colours.size(), 3 * mesh.vertex_count());
+  const PointCloud cloud = r.point_cloud();
+  EXPECT_EQ(cloud.colours.size(), 3 * cloud.point_count());
+  // A frame without colour is an error naming the frame, and changes nothing.
+  FrameView depth_only = frame.view();
+  depth_only.colour = ColourView{};
+  try {
+    r.process(depth_only);
+    ADD_FAILURE() << "no error for a frame without colour";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 8: the map fuses colour"), std::string::npos)
+        << e.what();
+  }
+  EXPECT_EQ(r.frame_count(), 8);
+  // colour=off: a grey map, colour images are not used.
+  Sequence again("synthetic:frames=8,width=160,height=120,noise=0");
+  Reconstruction grey(cpu_settings().set("colour", "off"), again);
+  while (again.next(frame) == ReadStatus::kOk) grey.process(frame);
+  EXPECT_TRUE(grey.mesh().colours.empty());
 }
 
 }  // namespace

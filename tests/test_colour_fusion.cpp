@@ -245,3 +245,66 @@ TEST(ColourFusion, CpuAndGpuAgree) {
 
 }  // namespace
 }  // namespace kfx
+
+namespace kfx {
+namespace {
+
+/// fuse_colour for the voxel at camera point p against a 4×1 colour image whose pixels are
+/// 0, 80, 160, 240 in red, with `camera` as the colour camera.
+ColourVoxel fused_at(Vec3f p, const ColourCamera& camera) {
+  HostImage<Rgb8> image(4, 1);
+  for (int x = 0; x < 4; ++x) image(x, 0) = Rgb8{static_cast<uint8_t>(80 * x), 0, 0};
+  std::vector<ColourVoxel> voxels(1, ColourVoxel{0, 0, 0, 0});
+  IntegrateArgs a;
+  a.max_weight = 100;
+  a.colour_camera = camera;
+  a.colour_volume = ColourVolumeView{voxels.data(), 1, 1.0f};
+  a.colour_image = image.view();
+  fuse_colour(p, 0, 0, 0, a);
+  return voxels[0];
+}
+
+TEST(ColourFusion, ColourCameraAndExtrinsicChooseThePixel) {
+  ColourCamera camera;
+  camera.k = Intrinsics{10.0f, 10.0f, 1.0f, 0.0f};  // u = 10 x / z + 1
+  const Vec3f p{0.1f, 0.0f, 1.0f};                  // u = 2: red 160
+  EXPECT_EQ(fused_at(p, camera).r, 160 * 256);
+  EXPECT_EQ(fused_at(p, camera).weight, 1);
+  // The depth camera 0.1 m to the colour camera's right: q.x = p.x + 0.1, u = 3.
+  PipelineConfig config;
+  set_config_value(config, "colour_camera", "10,10,1,0");
+  set_config_value(config, "colour_extrinsic", "0.1,0,0,0,0,0");
+  const ColourCamera moved = make_colour_camera(config, Intrinsics{1, 1, 0, 0});
+  EXPECT_EQ(moved.k.fx, 10.0f);
+  EXPECT_EQ(fused_at(p, moved).r, 240 * 256);
+  // A half turn about y puts the point behind the colour camera: no colour.
+  set_config_value(config, "colour_extrinsic", "0,0,0,0,3.14159265,0");
+  EXPECT_EQ(fused_at(p, make_colour_camera(config, Intrinsics{1, 1, 0, 0})).weight, 0);
+  // Defaults: the depth camera's intrinsics, identity extrinsic.
+  const ColourCamera registered = make_colour_camera(PipelineConfig{}, camera.k);
+  EXPECT_EQ(registered.k.cx, 1.0f);
+  EXPECT_EQ(fused_at(p, registered).r, 160 * 256);
+  io::test::expect_error([&] { set_config_value(config, "colour_extrinsic", "1,2,3"); },
+                         {"colour_extrinsic", "6"});
+}
+
+TEST(ColourFusion, RunningMeanKeepsMovingAtHighWeight) {
+  // 16-bit channels: at weight 99 a new value 40 units away still moves the mean by ~0.4.
+  ColourCamera camera;
+  camera.k = Intrinsics{10.0f, 10.0f, 1.0f, 0.0f};
+  HostImage<Rgb8> image(4, 1, Rgb8{140, 0, 0});
+  std::vector<ColourVoxel> voxels(1, ColourVoxel{100 * 256, 0, 0, 99});
+  IntegrateArgs a;
+  a.max_weight = 100;
+  a.colour_camera = camera;
+  a.colour_volume = ColourVolumeView{voxels.data(), 1, 1.0f};
+  a.colour_image = image.view();
+  fuse_colour(Vec3f{0.0f, 0.0f, 1.0f}, 0, 0, 0, a);
+  EXPECT_EQ(voxels[0].weight, 100);
+  EXPECT_NEAR(voxels[0].r / kColourScale, 100.0f + 40.0f / 100.0f, 1.0f / kColourScale);
+  fuse_colour(Vec3f{0.0f, 0.0f, 1.0f}, 0, 0, 0, a);
+  EXPECT_EQ(voxels[0].weight, 100);  // capped
+}
+
+}  // namespace
+}  // namespace kfx

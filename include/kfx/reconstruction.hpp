@@ -31,7 +31,8 @@ struct ResolvedSetup {
 };
 
 /// Resolves `settings` for `sequence` as `kfx run` does: the preset, then the sequence's
-/// recommended settings unless `settings` overrides those keys, then the overrides; the camera
+/// recommended settings unless `settings` overrides those keys (and colour=on when the sequence
+/// has colour, unless `settings` sets colour), then the overrides; the camera
 /// from the setting `camera` when given, else the sequence's (with its lens when the camera is
 /// the format's own). Throws kfx::Error when the input has no intrinsics and none are given.
 ResolvedSetup resolve_setup(const Settings& settings, const Sequence& sequence);
@@ -51,9 +52,9 @@ class Reconstruction {
 
   /// Processes the next frame and returns its result. Throws kfx::Error, and changes nothing,
   /// when the frame is not the camera's size, is not a valid depth image (NaN, negative or
-  /// infinite metres, a non-positive scale), or has no colour image while the setting colour is
-  /// on. Colour (the depth image's size, registered to it) is fused when colour is on, else
-  /// ignored.
+  /// infinite metres, a non-positive scale), or, when the map fuses colour (setting colour, on
+  /// by default for a Sequence with colour), lacks a colour image of the camera's size. With
+  /// colour off a frame's colour is not used.
   FrameResult process(const FrameView& frame);
   /// The same for a frame a Sequence read.
   FrameResult process(const SequenceFrame& frame) { return process(frame.view()); }

@@ -39,7 +39,7 @@ struct ReconstructionAccess {
   static Pipeline& pipeline(Reconstruction& reconstruction);
   /// The internal report of the last collected frame (stage times, renders made).
   static const FrameReport& last_report(const Reconstruction& reconstruction);
-  /// Submits a frame a reader read, its colour image (when fused) without a copy.
+  /// Submits a frame a reader read (with its colour image, when it has one).
   static void submit(Reconstruction& reconstruction, const io::Frame& frame);
   /// Turns the renders of Pipeline::set_rendering on; frames that render are collected at once.
   static void set_rendering(Reconstruction& reconstruction, bool on);

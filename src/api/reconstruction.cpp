@@ -43,7 +43,7 @@ struct Reconstruction::Impl {
   std::vector<FrameResult> trajectory;
   std::deque<double> stamps_in_flight;
   HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
-  HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, copied for the upload
+  HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, rows packed
   FrameReport last_report;
   std::string input;  ///< the sequence's name, when made for one (file headers name it)
   std::unique_ptr<FrameDiagnostics> diagnostics;  ///< warnings about the volume and the depth
@@ -81,55 +81,51 @@ struct Reconstruction::Impl {
     diagnostics = std::make_unique<FrameDiagnostics>(config, intrinsics);
   }
 
+  /// The frame's colour, rows packed, when the map fuses colour (setting colour); none else
+  /// (a colour image given to a map without colour is not used).
+  ImageView<const Rgb8> colour_view(const ColourView& colour, const std::string& label) {
+    if (!config.colour.fuse) return {};
+    KFX_CHECK(colour.data != nullptr, label << ": the map fuses colour (setting colour=on) but "
+                                            << "the frame has no colour image");
+    KFX_CHECK(colour.width_px == camera.width_px && colour.height_px == camera.height_px,
+              label << ": colour image is " << colour.width_px << "x" << colour.height_px
+                    << ", the reconstruction was made for " << camera.width_px << "x"
+                    << camera.height_px);
+    const size_t row_bytes = 3 * static_cast<size_t>(colour.width_px);
+    const size_t stride = colour.row_stride_bytes ? colour.row_stride_bytes : row_bytes;
+    KFX_CHECK(stride >= row_bytes, label << ": colour rows are " << stride << " bytes apart, "
+                                         << "less than a row of " << row_bytes);
+    if (scratch_rgb.width() != colour.width_px || scratch_rgb.height() != colour.height_px) {
+      scratch_rgb = HostImage<Rgb8>(colour.width_px, colour.height_px);
+    }
+    for (int y = 0; y < colour.height_px; ++y) {
+      std::memcpy(&scratch_rgb(0, y), colour.data + y * stride, row_bytes);
+    }
+    return scratch_rgb.view();
+  }
+
+  /// The colour field as kernels read it, from a host copy in `field`; no data without colour.
+  ColourVolumeView colour_field(std::vector<ColourVoxel>& field) {
+    if (config.colour.fuse) field = pipeline->backend().read_colour_volume();
+    return ColourVolumeView{field.empty() ? nullptr : field.data(), config.volume.resolution_vox,
+                            config.volume.size_m};
+  }
+
   std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
 
-  /// Checks `frame` and submits it; `rgb`: its colour as an image already (the CLI's readers),
-  /// else the colour of `frame` (copied) is used. Throws, changing nothing, on a bad frame.
-  void submit(const FrameView& frame, const HostImage<Rgb8>* rgb = nullptr) {
+  /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame.
+  void submit(const FrameView& frame) {
     const std::string label = frame_label();
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
                     << ", the reconstruction was made for " << camera.width_px << "x"
                     << camera.height_px);
-    const ColourView& c = frame.colour;
-    if (rgb == nullptr && c.data != nullptr) {
-      KFX_CHECK(c.width_px == camera.width_px && c.height_px == camera.height_px,
-                label << ": colour image is " << c.width_px << "x" << c.height_px
-                      << ", the depth image " << camera.width_px << "x" << camera.height_px);
-      const size_t packed = 3 * static_cast<size_t>(c.width_px);
-      const size_t stride = c.row_stride_bytes == 0 ? packed : c.row_stride_bytes;
-      KFX_CHECK(stride >= packed, label << ": colour rows " << stride << " bytes apart for "
-                                        << c.width_px << " pixels of 3 bytes");
-      if (config.colour.fuse) {
-        if (scratch_rgb.width() != c.width_px || scratch_rgb.height() != c.height_px) {
-          scratch_rgb = HostImage<Rgb8>(c.width_px, c.height_px);
-        }
-        for (int y = 0; y < c.height_px; ++y) {
-          std::memcpy(&scratch_rgb(0, y), c.data + stride * y, packed);
-        }
-        rgb = &scratch_rgb;
-      }
-    }
-    if (rgb != nullptr && rgb->empty()) rgb = nullptr;
-    KFX_CHECK(!config.colour.fuse || rgb != nullptr,
-              label << ": the setting colour is on but the frame has no colour image (set "
-                       "colour=off for depth-only input)");
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
+    const ImageView<const Rgb8> rgb =
+        colour_view(frame.colour, label);  // checked before any change
     samples_in_flight.push_back(diagnostics->sample(mm));
-    pipeline->submit(mm, config.colour.fuse ? rgb : nullptr);
+    pipeline->submit(mm, rgb);
     stamps_in_flight.push_back(frame.stamp_s);
-  }
-
-  /// The colour field's colour at each point (empty when colour is not fused).
-  std::vector<uint8_t> colours_at(const MeshVertex* vertices, size_t count) {
-    std::vector<uint8_t> bytes;
-    if (!config.colour.fuse) return bytes;
-    std::vector<ColourVoxel> field = pipeline->backend().read_colour_volume();
-    const ColourVolumeView view{field.data(), config.volume.resolution_vox, config.volume.size_m};
-    const std::vector<Rgb8> colours = output::vertex_colours(vertices, count, view);
-    bytes.resize(colours.size() * 3);
-    if (!colours.empty()) std::memcpy(bytes.data(), colours.data(), bytes.size());
-    return bytes;
   }
 
   FrameResult collect() {
@@ -220,7 +216,13 @@ TriangleMesh Reconstruction::mesh() {
   if (view.triangle_count > 0) {
     std::memcpy(mesh.triangles.data(), view.triangles, sizeof(MeshTriangle) * view.triangle_count);
   }
-  mesh.colours = impl_->colours_at(view.vertices, view.vertex_count);
+  std::vector<ColourVoxel> field;
+  const ColourVolumeView colour = impl_->colour_field(field);
+  if (colour.data) {
+    for (const Rgb8& c : output::vertex_colours(view.vertices, view.vertex_count, colour)) {
+      mesh.colours.insert(mesh.colours.end(), {c.r, c.g, c.b});
+    }
+  }
   return mesh;
 }
 
@@ -240,7 +242,16 @@ PointCloud Reconstruction::point_cloud() {
       points.push_back(MeshVertex{p, n});
     }
   }
-  cloud.colours = impl_->colours_at(points.data(), points.size());
+  std::vector<ColourVoxel> field;
+  const ColourVolumeView colour = impl_->colour_field(field);
+  for (size_t i = 0; colour.data && i < cloud.point_count(); ++i) {
+    Vec3f rgb;
+    const Vec3f p{cloud.points_m[3 * i], cloud.points_m[3 * i + 1], cloud.points_m[3 * i + 2]};
+    if (!sample_colour(colour, p, rgb)) rgb = Vec3f{128.0f, 128.0f, 128.0f};  // no colour there
+    cloud.colours.insert(cloud.colours.end(),
+                         {static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
+                          static_cast<uint8_t>(rgb.z + 0.5f)});
+  }
   return cloud;
 }
 
@@ -285,8 +296,13 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
   impl_->drain();
   MeshView mesh = impl_->pipeline->backend().extract_mesh();
-  const std::vector<uint8_t> colours = impl_->colours_at(mesh.vertices, mesh.vertex_count);
-  if (!colours.empty()) mesh.colours = reinterpret_cast<const Rgb8*>(colours.data());
+  std::vector<ColourVoxel> field;
+  const ColourVolumeView colour = impl_->colour_field(field);
+  std::vector<Rgb8> colours;
+  if (colour.data) {
+    colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
+    mesh.colours = colours.data();
+  }
   output::write_mesh_ply(path, mesh,
                          "kfx " + std::string(KFX_VERSION) + " mesh of " +
                              (input.empty() ? impl_->input : input) +
@@ -328,7 +344,7 @@ const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
   return r.impl_->last_report;
 }
 void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
-  r.impl_->submit(api::frame_view(frame), &frame.rgb);
+  r.impl_->submit(api::frame_view(frame));
 }
 void ReconstructionAccess::set_rendering(Reconstruction& r, bool on) {
   r.impl_->pipeline->set_rendering(on);

@@ -22,7 +22,10 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
     run.settings_from_input.push_back(key);
   }
   // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
-  if (sequence.has_colour() && !user.is_set("colour")) run.settings.set("colour", "on");
+  if (sequence.has_colour() && !user.is_set("colour")) {
+    run.settings.set("colour", "on");
+    run.settings_from_input.push_back("colour");
+  }
   for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
   PipelineConfig config = api::make_config(run.settings);
   KFX_CHECK(!config.colour.fuse || sequence.has_colour(),

@@ -40,6 +40,11 @@ FrameView frame_view(const io::Frame& frame) {
   v.depth.data = frame.depth_mm.data();
   v.depth.width_px = frame.depth_mm.width();
   v.depth.height_px = frame.depth_mm.height();
+  if (!frame.rgb.empty()) {
+    v.colour.data = reinterpret_cast<const uint8_t*>(frame.rgb.data());
+    v.colour.width_px = frame.rgb.width();
+    v.colour.height_px = frame.rgb.height();
+  }
   v.stamp_s = frame.stamp_s;
   return v;
 }
@@ -71,8 +76,11 @@ ReadStatus Sequence::next(SequenceFrame& out) {
   out.width_px = f.depth_mm.width();
   out.height_px = f.depth_mm.height();
   out.depth_mm.assign(f.depth_mm.pixels().begin(), f.depth_mm.pixels().end());
-  out.colour.resize(f.rgb.pixels().size() * 3);
-  if (!out.colour.empty()) std::memcpy(out.colour.data(), f.rgb.data(), out.colour.size());
+  out.colour.clear();
+  if (!f.rgb.empty()) {  // the reader's colour, r g b per pixel, the depth's size
+    const auto* bytes = reinterpret_cast<const uint8_t*>(f.rgb.data());
+    out.colour.assign(bytes, bytes + f.rgb.pixels().size() * sizeof(Rgb8));
+  }
   out.source = f.source;
   return ReadStatus::kOk;
 }

@@ -65,12 +65,13 @@ void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& s
                                                       << depth_mm.width << ")");
 }
 
-void check_colour_frame(const HostImage<Rgb8>& rgb, const BackendSetup& setup) {
+void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup) {
   KFX_CHECK(setup.colour, "a colour image was given but the pipeline was set up without colour");
-  KFX_CHECK(rgb.width() == setup.input_width_px && rgb.height() == setup.input_height_px,
-            "colour image is " << rgb.width() << "x" << rgb.height()
-                               << ", the pipeline was set up for " << setup.input_width_px << "x"
-                               << setup.input_height_px << " (the depth image's size)");
+  KFX_CHECK(rgb.width == setup.input_width_px && rgb.height == setup.input_height_px &&
+                rgb.pitch == rgb.width,
+            "colour image is " << rgb.width << "x" << rgb.height << ", the pipeline was set up for "
+                               << setup.input_width_px << "x" << setup.input_height_px
+                               << " (the depth image's size)");
 }
 
 BackendKind parse_backend_kind(const std::string& text) {

@@ -116,9 +116,10 @@ class Backend {
   /// Copies the next input depth frame (input size, millimetres, rows packed: pitch == width) to
   /// the backend; the caller's memory is read during the call only.
   virtual void upload_depth(ImageView<const uint16_t> depth_mm) = 0;
-  /// Copies the next frame's colour image (input size) to the backend; with colour on, call it
-  /// after upload_depth() for every frame. Throws kfx::Error on a wrong size or with colour off.
-  virtual void upload_colour(const HostImage<Rgb8>& rgb) = 0;
+  /// Copies the next frame's colour image (input size, rows packed) to the backend; with colour
+  /// on, call it after upload_depth() for every frame. Throws kfx::Error on a wrong size or with
+  /// colour off.
+  virtual void upload_colour(ImageView<const Rgb8> rgb) = 0;
   /// Brackets one frame's stage calls. `shape` identifies which stages the frame runs (the
   /// pipeline derives it from the frame number alone), so the GPU can record the sequence once
   /// per shape as a graph and replay it. end_frame() submits the frame; read_state() waits.

@@ -113,6 +113,6 @@ struct FrameBuffers {
 void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& setup);
 
 /// Throws kfx::Error unless colour is on and `rgb` has the input size.
-void check_colour_frame(const HostImage<Rgb8>& rgb, const BackendSetup& setup);
+void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup);
 
 }  // namespace kfx

@@ -59,7 +59,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
                             (reader.frame_count() < 0 || reader.frame_count() > options.max_frames)
                         ? options.max_frames
                         : reader.frame_count();
-  const bool colour = reader.has_colour() && options.keep_colour;
+  const bool colour = options.colour && reader.has_colour();
   RawWriter writer(raw_path);
   RawSidecar sidecar;
   Frame frame;

@@ -23,10 +23,8 @@ HostImage<Rgb8> subsample_mean(const HostImage<Rgb8>& image, int ratio);
 struct ConvertOptions {
   int max_frames = 0;                ///< convert at most this many frames; 0 = all
   int ratio = 1;                     ///< subsampling ratio: 1, 2, 4 or 8
+  bool colour = true;                ///< keep the input's colour (false: blank images)
   std::ostream* progress = nullptr;  ///< where to print a progress line every 100 frames
-  /// Write the input's colour images (false: zero colour, as for an input without any; a
-  /// depth-only file is about a third the size once compressed).
-  bool keep_colour = true;
 };
 
 /// What convert_to_raw() wrote.

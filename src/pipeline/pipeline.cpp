@@ -63,17 +63,17 @@ FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostIma
   return collect();
 }
 
-void Pipeline::submit(ImageView<const uint16_t> depth_mm, const HostImage<Rgb8>* rgb) {
+void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
   const int f = frame_;
   FrameReport report;
   report.index = f;
   Backend& b = *backend_;
   b.upload_depth(depth_mm);
   if (config_.colour.fuse) {
-    KFX_CHECK(rgb != nullptr && !rgb->empty(),
+    KFX_CHECK(rgb.data != nullptr && rgb.size() > 0,
               "frame " << f << " has no colour image but setting colour is on (set colour=off "
                        << "for depth-only input)");
-    b.upload_colour(*rgb);
+    b.upload_colour(rgb);
   }
   // The reference view exists only after the first raycast (end of frame 3 when exact: the
   // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).

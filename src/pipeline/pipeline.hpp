@@ -49,10 +49,11 @@ class Pipeline {
   /// Submits the next frame without waiting (the GPU computes while the host reads on).
   /// `rgb` as in process().
   void submit(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb = nullptr) {
-    submit(depth_mm.view(), rgb);
+    submit(depth_mm.view(), rgb != nullptr ? rgb->view() : ImageView<const Rgb8>{});
   }
-  /// The same from pixels someone else owns (rows packed), read during the call only.
-  void submit(ImageView<const uint16_t> depth_mm, const HostImage<Rgb8>* rgb = nullptr);
+  /// The same from pixels someone else owns (rows packed), read during the call only; `rgb`
+  /// without data when the frame has no colour image.
+  void submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb = {});
   /// Waits for the oldest submitted frame and returns its report.
   FrameReport collect();
   /// Turns the renders on or off: when on, every frame f with f % render.rate == 0 renders

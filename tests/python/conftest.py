@@ -19,8 +19,7 @@ def frames():
 
 @pytest.fixture()
 def reconstruction():
-    # Depth only: the tests that feed bare depth arrays (test_colour covers colour).
-    return kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64, colour=False)
+    return kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
 
 
 def kfx_cli():

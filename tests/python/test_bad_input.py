@@ -66,10 +66,13 @@ def test_bad_colour(reconstruction, frames):
         reconstruction.process(depth, colour=np.zeros((120, 160), np.uint8))
     with pytest.raises(ValueError, match="does not match the depth"):
         reconstruction.process(depth, colour=np.zeros((60, 80, 3), np.uint8))
-    assert reconstruction.frame_count == 0
-    # With colour off (this fixture), a colour image is accepted and not fused.
-    reconstruction.process(depth, colour=np.zeros((120, 160, 3), np.uint8))
-    assert reconstruction.frame_count == 1
+    # The synthetic room has colour, so the map fuses it: a frame must bring its colour.
+    with pytest.raises(kfx.Error, match="the map fuses colour"):
+        reconstruction.process(depth)
+    grey = kfx.Reconstruction(kfx.open("synthetic:frames=2,width=160,height=120"),
+                              backend="cpu", volume_resolution=64, colour="off")
+    grey.process(depth, colour=np.zeros((120, 160, 3), np.uint8))  # colour off: not used
+    assert grey.mesh().colours is None
 
 
 def test_unknown_setting():

@@ -34,10 +34,11 @@ def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
     packed, metres, scaled = (kfx.Reconstruction(kfx.open(INPUT), backend="cpu",
                                                  volume_resolution=64) for _ in range(3))
     for f in frames:
+        # The sequence has colour, so these maps fuse it: each frame brings its colour too.
         a = packed.process(np.array(f.depth), stamp=f.stamp, colour=f.colour)
         b = metres.process(f.depth.astype(np.float32) / 1000.0, stamp=f.stamp, colour=f.colour)
         c = scaled.process(f.depth * np.uint16(5), stamp=f.stamp, depth_scale=5000.0,
-                           colour=np.array(f.colour))
+                           colour=f.colour)
         assert np.array_equal(a.pose, b.pose), f.index
         assert np.array_equal(a.pose, c.pose), f.index
         assert a.stamp == f.stamp
@@ -55,7 +56,9 @@ def test_frame_depth_is_a_read_only_view(frames):
     f = frames[3]
     assert f.depth.dtype == np.uint16 and f.depth.shape == (120, 160)
     assert not f.depth.flags.writeable
-    assert f.colour.dtype == np.uint8 and f.colour.shape == (120, 160, 3)  # synthetic has colour
+    # The synthetic room has colour: a read-only (height, width, 3) uint8 view.
+    assert f.colour.dtype == np.uint8 and f.colour.shape == (120, 160, 3)
+    assert not f.colour.flags.writeable
 
 
 def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
@@ -68,8 +71,11 @@ def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
     assert mesh.triangles.shape[1] == 3 and mesh.triangles.dtype == np.int32
     assert len(mesh.triangles) > 100
     assert mesh.triangles.max() < len(mesh.vertices)
+    # Colour is fused whenever the input has it (the synthetic room's exact colour).
+    assert mesh.colours.shape == mesh.vertices.shape and mesh.colours.dtype == np.uint8
     cloud = reconstruction.point_cloud()
     assert cloud.points.shape[0] > 1000
+    assert cloud.colours.shape == cloud.points.shape
     w, h = reconstruction.compute_size
     image = reconstruction.render()
     assert image.shape == (h, w, 4) and image.dtype == np.uint8
@@ -97,7 +103,7 @@ def test_colour(frames, tmp_path):
     assert mesh.colours.shape == mesh.vertices.shape and mesh.colours.dtype == np.uint8
     assert len(np.unique(mesh.colours, axis=0)) > 10
     assert r.point_cloud().colours.shape[1] == 3
-    with pytest.raises(kfx.Error, match="colour is on but the frame has no colour image"):
+    with pytest.raises(kfx.Error, match="fuses colour .* but the frame has no colour image"):
         r.process(np.array(frames[0].depth))
     # Colour of another size than the depth's is refused before anything runs.
     with pytest.raises(ValueError, match="does not match the depth"):

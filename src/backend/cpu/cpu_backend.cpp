@@ -97,9 +97,12 @@ class CpuBackend final : public Backend {
     std::copy(depth_mm.data, depth_mm.data + depth_mm.size(), input_mm_.data());
   }
 
-  void upload_colour(const HostImage<Rgb8>& rgb) override {
+  void upload_colour(ImageView<const Rgb8> rgb) override {
     check_colour_frame(rgb, setup_);
-    input_rgb_ = rgb;
+    if (input_rgb_.width() != rgb.width || input_rgb_.height() != rgb.height) {
+      input_rgb_ = HostImage<Rgb8>(rgb.width, rgb.height);
+    }
+    std::copy(rgb.data, rgb.data + rgb.size(), input_rgb_.data());
   }
 
   // The CPU runs each stage as it is called; end_frame() keeps the frame's result until read,

@@ -200,13 +200,13 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
   }
 
-  void upload_colour(const HostImage<Rgb8>& rgb) override {
+  void upload_colour(ImageView<const Rgb8> rgb) override {
     check_colour_frame(rgb, setup_);
     // After upload_depth(), which waited for the frame two back: these buffers are free.
-    std::memcpy(staging_rgb_[parity_].data(), rgb.data(), rgb.pixels().size() * sizeof(Rgb8));
-    KFX_CUDA_CHECK(cudaMemcpyAsync(input_rgb_[parity_].data(), staging_rgb_[parity_].data(),
-                                   rgb.pixels().size() * sizeof(Rgb8), cudaMemcpyHostToDevice,
-                                   copy_stream_.get()));
+    const size_t bytes = static_cast<size_t>(rgb.size()) * sizeof(Rgb8);
+    std::memcpy(staging_rgb_[parity_].data(), rgb.data, bytes);
+    KFX_CUDA_CHECK(cudaMemcpyAsync(input_rgb_[parity_].data(), staging_rgb_[parity_].data(), bytes,
+                                   cudaMemcpyHostToDevice, copy_stream_.get()));
     KFX_CUDA_CHECK(cudaEventRecord(upload_done_[parity_].get(), copy_stream_.get()));
   }
 
