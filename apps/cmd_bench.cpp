@@ -65,9 +65,11 @@ void bench(const BenchOptions& options) {
   Rendezvous timed_together(workers);
   run_workers(plan, [&](int w) {
     try {
-      Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
-                        prepared.reader->height_px(), prepared.backend, plan.device_of_worker[w],
-                        plan.workers_per_device);
+      Settings settings = prepared.setup.settings;
+      settings.cuda_device(plan.device_of_worker[w])
+          .reconstructions_on_device(plan.workers_per_device);
+      Reconstruction reconstruction(settings, prepared.setup.camera);
+      Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
       WorkerResult& result = results[w];
       result.backend = pipeline.backend().name();
       result.device = pipeline.backend().device_name();
@@ -88,7 +90,7 @@ void bench(const BenchOptions& options) {
       // Warm-up (pages in, records the GPU's frame graphs), then the timed passes, which all
       // pipelines start together.
       result.timed = run_timed_passes(
-          pipeline, frames, options.repeat, options.warmup_frames,
+          reconstruction, frames, options.repeat, options.warmup_frames,
           [&](int pass, double fps, const RunSummary& summary) {
             if (workers > 1) return;
             std::cerr << "kfx bench: pass " << pass + 1 << "/" << options.repeat << ": " << fps

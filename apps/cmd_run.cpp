@@ -13,10 +13,12 @@
 #include <iostream>
 #include <nlohmann/json.hpp>
 
+#include "api/internal.hpp"
 #include "commands.hpp"
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
 #include "io/trajectory.hpp"
+#include "kfx/reconstruction.hpp"
 #include "map/host_block_map.hpp"
 #include "output/block_map_file.hpp"
 #include "output/cloud_ply.hpp"
@@ -27,7 +29,6 @@
 #include "output/report_html.hpp"
 #include "output/run_config.hpp"
 #include "output/run_folder.hpp"
-#include "output/run_trajectory.hpp"
 #include "output/slambench_log_writer.hpp"
 #include "output/stats_json.hpp"
 #include "output/volume_file.hpp"
@@ -104,8 +105,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     output::check_host_memory(volume_bytes, "--save-volume's host copy");
   }
 
-  Pipeline pipeline(prepared.config, prepared.input_intrinsics, reader.width_px(),
-                    reader.height_px(), prepared.backend);
+  // The frame loop's bookkeeping is the library's (kfx::Reconstruction); the run folder's
+  // outputs read the pipeline behind it (stage times, renders, the SLAMBench log).
+  Reconstruction reconstruction(prepared.setup.settings, prepared.setup.camera);
+  Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
   if (outputs.mesh) {
     // The GPU backend checks its own memory; a block map sizes its scratch by its blocks.
     if (pipeline.backend().name() == "cpu" && prepared.config.volume.kind == MapKind::kDense) {
@@ -132,16 +135,15 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
 
   output::SlambenchLogWriter log(out_dir + "/slambench.log", pipeline.initial_pose());
   RunSummary summary;
-  std::vector<io::StampedPose> trajectory;
+  std::vector<io::StampedPose> trajectory;  ///< for the evaluation; trajectory.txt is the API's
   int frames_with_depth = 0, skipped = 0;
   std::vector<int> skipped_frames;  ///< input numbers of the bad frames skipped
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
   energy->start();  // the whole run, reading frames included
-  // What the host knows of each submitted frame until its report comes back.
+  // What the host knows of each submitted frame until its result comes back.
   struct Submitted {
-    double stamp_s;
     double acquisition_s;
     int input_index;    ///< the frame's number in the input (differs after skipped bad frames)
     DepthSample depth;  ///< for the diagnostics, judged once the pose is known
@@ -151,19 +153,19 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   std::deque<Submitted> submitted;
   int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
-  auto finish = [&](const FrameReport& pipeline_report) {
+  auto finish = [&](const FrameResult& result) {
     const Submitted s = std::move(submitted.front());
     submitted.pop_front();
     // One numbering everywhere the user looks (warnings, progress, slambench.log, renders,
     // stats.json): the input's, so a skipped bad frame leaves a gap instead of renumbering.
-    FrameReport report = pipeline_report;
+    FrameReport report = ReconstructionAccess::last_report(reconstruction);
     report.index = s.input_index;
     // Warnings, not progress: said with -q too, before the tracking loss they may explain.
     for (const auto& line : diagnostics.check(report.index, s.depth, report.T_world_cam)) {
       std::cerr << "kfx run: warning: " << line << "\n";
     }
     log.add(report, s.acquisition_s);
-    trajectory.push_back(io::to_stamped_pose(s.stamp_s, report.T_world_cam));
+    trajectory.push_back(io::to_stamped_pose(result.stamp_s, report.T_world_cam));
     summary.add(report);
     if (report.rendered) {
       output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
@@ -219,14 +221,16 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
-    submitted.push_back(Submitted{frame.stamp_s, acquisition_s, frame.index,
-                                  diagnostics.sample(frame.depth_mm.view())});
+    submitted.push_back(
+        Submitted{acquisition_s, frame.index, diagnostics.sample(frame.depth_mm.view())});
     const bool renders_now = pipeline.renders(pipeline.frame_count());
-    pipeline.submit(frame.depth_mm, &frame.rgb);
+    ReconstructionAccess::submit(reconstruction, frame);
     // A rendering frame is collected at once: its renders are read before the next submit.
-    while (pipeline.frames_in_flight() > (renders_now ? 0 : 1)) finish(pipeline.collect());
+    while (reconstruction.frames_in_flight() > (renders_now ? 0 : 1)) {
+      finish(reconstruction.collect());
+    }
   }
-  while (pipeline.frames_in_flight() > 0) finish(pipeline.collect());
+  while (reconstruction.frames_in_flight() > 0) finish(reconstruction.collect());
   energy->stop(summary.frames);
   if (!options.quiet) {
     for (const auto& line : energy->summary_lines())
@@ -330,8 +334,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     written += " volume.kfxtsdf";
   }
   output::write_run_config(out_dir + "/config.txt", pipeline.config(), options.preset);
-  output::write_run_trajectory(out_dir + "/trajectory.txt", trajectory, options.input,
-                               pipeline.initial_pose(), pipeline.compute_intrinsics());
+  reconstruction.save_trajectory(out_dir + "/trajectory.txt", options.input);
   log.commit();
   // The ground truth the run was evaluated against, so the folder alone can plot against it.
   if (!prepared.ground_truth.empty()) {

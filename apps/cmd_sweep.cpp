@@ -181,8 +181,10 @@ std::string energy_budget(const json& record, double max_mj_per_frame) {
 void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, int repeat,
              int warmup_frames, int device_index, int runs_on_device, IdleCache* idle,
              json& record) {
-  Pipeline pipeline(prepared.config, prepared.input_intrinsics, prepared.reader->width_px(),
-                    prepared.reader->height_px(), prepared.backend, device_index, runs_on_device);
+  Settings settings = prepared.setup.settings;
+  settings.cuda_device(device_index).reconstructions_on_device(runs_on_device);
+  Reconstruction reconstruction(settings, prepared.setup.camera);
+  Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
   record["backend"] = pipeline.backend().name();
   record["device"] = pipeline.backend().device_name();
   json config_json;
@@ -208,7 +210,7 @@ void measure(const PreparedRun& prepared, const std::vector<io::Frame>& frames, 
 
   // Warm-up (pages in, records the GPU's frame graphs), then the timed passes.
   const TimedPasses timed =
-      run_timed_passes(pipeline, frames, repeat, warmup_frames, {}, meters.get());
+      run_timed_passes(reconstruction, frames, repeat, warmup_frames, {}, meters.get());
   const RunSummary& all = timed.all;
   const std::vector<double>& pass_fps = timed.pass_fps;
   const std::vector<io::StampedPose>& trajectory = timed.trajectory;

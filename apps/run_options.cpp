@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <iomanip>
 #include <iostream>
-#include <set>
 #include <sstream>
 
 #include "core/platform.hpp"
@@ -93,91 +92,25 @@ void check_ground_truth_stamps(const PreparedRun& run, const RunOptions& o) {
 PreparedRun prepare_run(const RunOptions& o) {
   PreparedRun run;
   run.backend = parse_backend_kind(o.backend);
-  // The user's own settings first on a scratch config: the reader needs the depth scale, and
-  // the reader's recommendations must not override what the user set.
-  PipelineConfig user = make_preset(o.preset);
-  std::set<std::string> user_keys;
-  for (const auto& a : o.assignments) {
-    set_config_assignment(user, a);
-    user_keys.insert(a.substr(0, a.find('=')));
-  }
-  io::ReaderOptions reader_options;
-  reader_options.depth_scale_per_m = user.input.depth_scale_per_m;
-  reader_options.ground_truth_path = o.ground_truth_path;
-  run.reader = io::open_reader(o.input, reader_options);
-
-  run.config = make_preset(o.preset);
-  for (const auto& [key, value] : run.reader->recommended_settings()) {
-    if (user_keys.count(key)) continue;
-    set_config_value(run.config, key, value);
-    run.settings_from_input.push_back(key);
-  }
-  // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
-  // A block map carries no colour field yet: colour stays off there unless asked for (which
-  // validate() then refuses with a clear error).
-  if (run.reader->has_colour() && !user_keys.count("colour") &&
-      user.volume.kind == MapKind::kDense) {
-    run.config.colour.fuse = true;
-    run.settings_from_input.push_back("colour");
-  }
-  for (const auto& a : o.assignments) set_config_assignment(run.config, a);
-  KFX_CHECK(
-      !run.config.colour.fuse || run.reader->has_colour(),
-      o.input << ": colour=on but this input has no colour (" << run.reader->description() << ")");
-  run.config.validate();
-
-  const auto& k = run.config.input.camera_px;
-  const auto defaults = run.reader->default_intrinsics();
-  std::string source;
-  if (k[0] != 0 || k[1] != 0) {
-    run.input_intrinsics = Intrinsics{k[0], k[1], k[2], k[3]};
-    source = "given by the user (-k / camera)";
-  } else {
-    KFX_CHECK(defaults.has_value(), o.input << ": this input has no default intrinsics; give them "
-                                               "with -k fx,fy,cx,cy (pixels, input size)");
-    run.input_intrinsics = *defaults;
-    // The settings say which camera was used, not "0,0,0,0" (config.txt, stats.json).
-    run.config.input.camera_px = {defaults->fx, defaults->fy, defaults->cx, defaults->cy};
-    run.settings_from_input.push_back("camera");
-    source = run.reader->intrinsics_source();
-    if (source.empty()) source = "the input's default";
-  }
-  // A lens distortion belongs to one calibration: the format's applies only with the format's
-  // own intrinsics (given or defaulted), never to a camera the user described otherwise.
-  auto& distortion = run.config.input.distortion;
-  const bool distortion_given = !distortion.none();
-  const LensDistortion format_lens = run.reader->default_distortion();
-  const bool format_camera = defaults.has_value() && defaults->fx == run.input_intrinsics.fx &&
-                             defaults->fy == run.input_intrinsics.fy &&
-                             defaults->cx == run.input_intrinsics.cx &&
-                             defaults->cy == run.input_intrinsics.cy;
-  // Only where it is used: with undistortion off the lens is not part of what ran.
-  if (!distortion_given && format_camera && !format_lens.none() &&
-      run.config.quality.depth_undistortion) {
-    distortion = format_lens;
-    run.settings_from_input.push_back("camera_distortion");
-  }
-  {
-    const Intrinsics& c = run.input_intrinsics;
-    std::ostringstream note;
-    note << "intrinsics fx " << c.fx << ", fy " << c.fy << ", cx " << c.cx << ", cy " << c.cy
-         << " px at " << run.reader->width_px() << "x" << run.reader->height_px() << ": " << source;
-    if (run.config.quality.depth_undistortion) {
-      const LensDistortion& k = distortion;
-      if (k.none()) {
-        note << "; depth_undistortion is on but the lens distortion is unknown (set "
-                "camera_distortion=k1,k2,p1,p2,k3): the depth is used as it is";
-      } else {
-        note << "; depth undistorted with k1,k2,p1,p2,k3 = " << k.k1 << "," << k.k2 << "," << k.p1
-             << "," << k.p2 << "," << k.k3
-             << (distortion_given ? " (given by the user)" : " (the format's camera)");
-      }
-    }
-    run.intrinsics_note = note.str();
-  }
-  // SLAMBench runs ICL-NUIM with +fy where the true camera has −fy: that mirrors the world in
-  // y, so evaluation must flip y back.
-  run.evaluate_flip_y = defaults.has_value() && defaults->fy * run.input_intrinsics.fy < 0;
+  // The library resolves the settings and the camera as for any caller (kfx::resolve_setup):
+  // the user's settings open the input (depth scale), its recommendations apply unless the
+  // user set those keys, then the user's settings.
+  Settings user(o.preset);
+  user.backend(o.backend);
+  for (const auto& a : o.assignments) user.set(a);
+  run.sequence = std::make_unique<Sequence>(o.input, api::make_config(user).input.depth_scale_per_m,
+                                            o.ground_truth_path);
+  run.reader = &SequenceAccess::reader(*run.sequence);
+  run.setup = resolve_setup(user, *run.sequence);
+  run.config = api::make_config(run.setup.settings);
+  const auto& lens = run.setup.camera.distortion;
+  run.config.input.distortion = LensDistortion{lens[0], lens[1], lens[2], lens[3], lens[4]};
+  const Camera& camera = run.setup.camera;
+  run.input_intrinsics = Intrinsics{camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
+  run.config.input.camera_px = {camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
+  run.intrinsics_note = run.setup.camera_note;
+  run.evaluate_flip_y = run.setup.flips_y;
+  run.settings_from_input = run.setup.settings_from_input;
   run.ground_truth = run.reader->ground_truth();
   check_ground_truth_stamps(run, o);
   return run;

@@ -8,8 +8,10 @@
 #include <string>
 #include <vector>
 
+#include "api/internal.hpp"
 #include "backend/backend.hpp"
 #include "io/reader.hpp"
+#include "kfx/reconstruction.hpp"
 #include "pipeline/config.hpp"
 
 namespace kfx::cli {
@@ -31,10 +33,12 @@ void add_run_options(CLI::App& command, RunOptions& options);
 
 /// A configuration and a reader ready to run.
 struct PreparedRun {
-  PipelineConfig config;
-  std::unique_ptr<io::Reader> reader;
-  Intrinsics input_intrinsics;  ///< at input size
-  std::string intrinsics_note;  ///< one line: the intrinsics used, where from and why
+  std::unique_ptr<Sequence> sequence;  ///< the input, opened through the library
+  ResolvedSetup setup;                 ///< settings and camera, as a Reconstruction takes them
+  PipelineConfig config;               ///< the same, as a Pipeline takes them
+  io::Reader* reader = nullptr;        ///< the sequence's reader
+  Intrinsics input_intrinsics;         ///< at input size
+  std::string intrinsics_note;         ///< one line: the intrinsics used, where from and why
   std::vector<io::StampedPose> ground_truth;
   bool evaluate_flip_y = false;  ///< intrinsics mirror the dataset's world in y
   /// Setting keys whose values came from the input, not the preset or the user (the format's

@@ -20,32 +20,33 @@ std::vector<io::Frame> load_frames(io::Reader& reader, const std::string& input,
   return frames;
 }
 
-TimedPasses run_timed_passes(Pipeline& pipeline, const std::vector<io::Frame>& frames, int repeat,
-                             int warmup_frames,
+TimedPasses run_timed_passes(Reconstruction& reconstruction, const std::vector<io::Frame>& frames,
+                             int repeat, int warmup_frames,
                              const std::function<void(int, double, const RunSummary&)>& on_pass,
                              energy::RunEnergy* energy, const std::function<void()>& after_warmup) {
   for (size_t i = 0; i < frames.size() && static_cast<int>(i) < warmup_frames; ++i) {
-    pipeline.process(frames[i].depth_mm, &frames[i].rgb);
+    ReconstructionAccess::submit(reconstruction, frames[i]);
+    reconstruction.collect();
   }
   if (after_warmup) after_warmup();
   TimedPasses result;
   result.start = std::chrono::steady_clock::now();
   if (energy) energy->start();
   for (int pass = 0; pass < repeat; ++pass) {
-    pipeline.reset();
+    reconstruction.reset();
     RunSummary summary;
     result.trajectory.clear();
-    auto take = [&](const FrameReport& r) {
-      summary.add(r);
-      result.trajectory.push_back(io::to_stamped_pose(frames[r.index].stamp_s, r.T_world_cam));
+    auto take = [&](const FrameResult& r) {
+      summary.add(ReconstructionAccess::last_report(reconstruction));
+      result.trajectory.push_back(io::to_stamped_pose(r.stamp_s, api::to_mat4f(r.T_world_cam)));
     };
     const auto start = std::chrono::steady_clock::now();
     // One frame in flight: the host prepares frame f+1 while the device computes frame f.
     for (const auto& frame : frames) {
-      pipeline.submit(frame.depth_mm, &frame.rgb);
-      if (pipeline.frames_in_flight() > 1) take(pipeline.collect());
+      ReconstructionAccess::submit(reconstruction, frame);
+      if (reconstruction.frames_in_flight() > 1) take(reconstruction.collect());
     }
-    while (pipeline.frames_in_flight() > 0) take(pipeline.collect());
+    while (reconstruction.frames_in_flight() > 0) take(reconstruction.collect());
     const double wall_s =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     const double fps = wall_s > 0 ? frames.size() / wall_s : 0.0;

@@ -7,8 +7,10 @@
 #include <string>
 #include <vector>
 
+#include "api/internal.hpp"
 #include "energy/run_energy.hpp"
 #include "io/reader.hpp"
+#include "kfx/reconstruction.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_summary.hpp"
 
@@ -31,7 +33,8 @@ struct TimedPasses {
 /// 16 hex digits: equal digests mean bit-identical trajectories, for comparing runs.
 std::string trajectory_digest(const std::vector<io::StampedPose>& trajectory);
 
-/// Processes the first `warmup_frames` frames untimed (on the GPU this also records the frame
+/// Through the library's frame loop (kfx::Reconstruction, as any caller of the API):
+/// processes the first `warmup_frames` frames untimed (on the GPU this also records the frame
 /// graphs), then runs `repeat` passes, each from a reset pipeline, submitting frame f+1 before
 /// collecting frame f. `on_pass(pass, fps, summary)` is called after each pass if given.
 /// `energy`, if given, is started after the warm-up and stopped after the last pass (the
@@ -39,8 +42,8 @@ std::string trajectory_digest(const std::vector<io::StampedPose>& trajectory);
 /// called between the warm-up and the first timed pass (concurrent runs meet there, so that
 /// they are timed together).
 TimedPasses run_timed_passes(
-    Pipeline& pipeline, const std::vector<io::Frame>& frames, int repeat, int warmup_frames,
-    const std::function<void(int, double, const RunSummary&)>& on_pass = {},
+    Reconstruction& reconstruction, const std::vector<io::Frame>& frames, int repeat,
+    int warmup_frames, const std::function<void(int, double, const RunSummary&)>& on_pass = {},
     energy::RunEnergy* energy = nullptr, const std::function<void()>& after_warmup = {});
 
 }  // namespace kfx::cli

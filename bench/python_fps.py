@@ -2,9 +2,10 @@
 """Frames/s of a Python loop feeding kfx, against `kfx bench` on the same sequence and device.
 
 Times what `kfx bench` times (apps/timed_passes.cpp): the frames read into memory first, a
-warm-up of 30 frames, then REPEAT passes over every frame, each from a reset reconstruction,
-with one frame in flight (submit frame f+1, then collect frame f); a pass's frames/s is its
-frames over its wall time; the median over passes is reported. The Python loop feeds numpy
+warm-up of 30 frames, then passes over every frame, each from a reset reconstruction, with one
+frame in flight (submit frame f+1, then collect frame f); a pass's frames/s is its frames over
+its wall time; the median over passes is reported. ROUNDS rounds alternate `kfx bench --repeat
+REPEAT` and REPEAT Python passes. The Python loop feeds numpy
 uint16 millimetre arrays (the caller's own memory, no copy) or, with --frames-as-read, the
 kfx.Frame objects a Sequence yields.
 
@@ -30,35 +31,54 @@ import numpy as np
 import kfx
 
 
-def python_passes(args, settings):
-    sequence = kfx.open(args.input)
-    frames = list(sequence)
-    if args.frames:
-        frames = frames[: args.frames]
-    depths = [np.array(f.depth) for f in frames]
-    stamps = [f.stamp for f in frames]
-    r = kfx.Reconstruction(sequence, settings=settings)
-    for i in range(min(30, len(frames))):  # warm-up (records the GPU's frame graphs)
-        r.process(frames[i])
-    fps = []
-    for _ in range(args.repeat):
-        r.reset()
-        submit, collect = r.submit, r.collect
-        start = time.perf_counter()
-        if args.frames_as_read:
-            for f in frames:
-                submit(f)
-                if r.frames_in_flight > 1:
-                    collect()
-        else:
-            for depth, stamp in zip(depths, stamps):
-                submit(depth, stamp)
-                if r.frames_in_flight > 1:
-                    collect()
-        while r.frames_in_flight:
-            collect()
-        fps.append(len(frames) / (time.perf_counter() - start))
-    return r, fps, len(frames)
+class PythonLoop:
+    """The frames in memory and a warmed-up reconstruction; passes() times REPEAT passes."""
+
+    def __init__(self, args, settings):
+        sequence = kfx.open(args.input)
+        self.frames = list(sequence)
+        if args.frames:
+            self.frames = self.frames[: args.frames]
+        self.depths = [np.array(f.depth) for f in self.frames]
+        self.stamps = [f.stamp for f in self.frames]
+        self.as_read = args.frames_as_read
+        self.r = kfx.Reconstruction(sequence, settings=settings)
+        for i in range(min(30, len(self.frames))):  # warm-up (records the GPU's frame graphs)
+            self.r.process(self.frames[i])
+
+    def passes(self, repeat):
+        r = self.r
+        fps = []
+        for _ in range(repeat):
+            r.reset()
+            submit, collect = r.submit, r.collect
+            start = time.perf_counter()
+            if self.as_read:
+                for f in self.frames:
+                    submit(f)
+                    if r.frames_in_flight > 1:
+                        collect()
+            else:
+                for depth, stamp in zip(self.depths, self.stamps):
+                    submit(depth, stamp)
+                    if r.frames_in_flight > 1:
+                        collect()
+            while r.frames_in_flight:
+                collect()
+            fps.append(len(self.frames) / (time.perf_counter() - start))
+        return fps
+
+
+def kfx_bench_passes(args):
+    with tempfile.TemporaryDirectory() as tmp:
+        cmd = [args.kfx, "bench", args.input, "--backend", args.backend, "--preset",
+               args.preset, "--repeat", str(args.repeat), "--json", tmp + "/bench.json"]
+        cmd += [x for a in args.set for x in ("--set", a)]
+        if args.frames:
+            cmd += ["--frames", str(args.frames)]
+        subprocess.run(cmd, check=True, capture_output=True)
+        with open(tmp + "/bench.json") as f:
+            return json.load(f)["end_to_end_frames_per_second_passes"]
 
 
 def main():
@@ -67,7 +87,9 @@ def main():
     p.add_argument("--backend", default="auto")
     p.add_argument("--preset", default="exact")
     p.add_argument("--set", action="append", default=[], metavar="KEY=VALUE")
-    p.add_argument("--repeat", type=int, default=5)
+    p.add_argument("--repeat", type=int, default=5, help="timed passes per round")
+    p.add_argument("--rounds", type=int, default=3,
+                   help="rounds, each `kfx bench --repeat REPEAT` then REPEAT Python passes")
     p.add_argument("--frames", type=int, default=0, help="first N frames only (0 = all)")
     p.add_argument("--frames-as-read", action="store_true",
                    help="feed kfx.Frame objects instead of numpy arrays")
@@ -83,30 +105,28 @@ def main():
         settings.set(key, value)
 
     result = {"input": args.input, "backend": args.backend, "preset": args.preset,
-              "settings": args.set, "repeat": args.repeat, "kfx_version": kfx.version()}
+              "settings": args.set, "repeat": args.repeat, "rounds": args.rounds,
+              "kfx_version": kfx.version()}
+    loop = PythonLoop(args, settings)
+    r = loop.r
+    # Rounds alternate the two, so that a machine's slow minute weighs on both alike.
+    python_fps, bench_fps = [], []
+    for _ in range(args.rounds):
+        if args.kfx:
+            bench_fps += kfx_bench_passes(args)
+        python_fps += loop.passes(args.repeat)
+    n = len(loop.frames)
+    result.update(frames=n, device=r.device, python_fps_median=statistics.median(python_fps),
+                  python_fps_passes=python_fps)
+    print(f"python loop: {result['python_fps_median']:.1f} frames/s (median of "
+          f"{len(python_fps)} passes, {n} frames, {r.backend} on {r.device})")
     if args.kfx:
-        with tempfile.TemporaryDirectory() as tmp:
-            cmd = [args.kfx, "bench", args.input, "--backend", args.backend, "--preset",
-                   args.preset, "--repeat", str(args.repeat), "--json", tmp + "/bench.json"]
-            cmd += [x for a in args.set for x in ("--set", a)]
-            if args.frames:
-                cmd += ["--frames", str(args.frames)]
-            subprocess.run(cmd, check=True, capture_output=True)
-            with open(tmp + "/bench.json") as f:
-                bench = json.load(f)
-        result["kfx_bench_fps_median"] = bench["end_to_end_frames_per_second_median"]
-        result["kfx_bench_fps_passes"] = bench["end_to_end_frames_per_second_passes"]
-
-    r, fps, n = python_passes(args, settings)
-    result.update(frames=n, device=r.device, python_fps_median=statistics.median(fps),
-                  python_fps_passes=fps)
-    print(f"python loop: {result['python_fps_median']:.1f} frames/s (median of {args.repeat} "
-          f"passes, {n} frames, {r.backend} on {r.device})")
-    if args.kfx:
+        result["kfx_bench_fps_median"] = statistics.median(bench_fps)
+        result["kfx_bench_fps_passes"] = bench_fps
         ratio = result["python_fps_median"] / result["kfx_bench_fps_median"]
         result["ratio"] = ratio
-        print(f"kfx bench:   {result['kfx_bench_fps_median']:.1f} frames/s; python / bench = "
-              f"{100 * ratio:.1f} %")
+        print(f"kfx bench:   {result['kfx_bench_fps_median']:.1f} frames/s (median of "
+              f"{len(bench_fps)} passes); python / bench = {100 * ratio:.1f} %")
 
     if args.trajectory_check:
         out = args.trajectory_check

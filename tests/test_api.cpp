@@ -97,6 +97,7 @@ TEST(Api, EveryDepthLayoutGivesTheSamePoses) {
 TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   Sequence sequence(kInput);
   const auto frames = read_all(sequence);
+  // The synthetic scene's colour is fused by default: depth problems are found before colour.
   Reconstruction r(cpu_settings(), sequence);
   r.process(frames[0]);
   auto expect_error = [&](const FrameView& v, const std::string& words) {
@@ -151,6 +152,29 @@ TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   expect_error(v, "frame 1: colour image is 80x60, the reconstruction was made for 160x120");
   // and the next good frame is frame 1
   EXPECT_EQ(r.process(frames[1]).index, 1);
+}
+
+TEST(Api, ColourIsFusedWhereTheInputHasIt) {
+  Sequence sequence(kInput);
+  ASSERT_TRUE(sequence.has_colour());
+  const auto frames = read_all(sequence);
+  Reconstruction r(cpu_settings(), sequence);
+  for (const auto& f : frames) r.process(f);
+  const TriangleMesh mesh = r.mesh();
+  ASSERT_EQ(mesh.colours.size(), mesh.vertices_m.size());
+  EXPECT_EQ(r.point_cloud().colours.size(), r.point_cloud().points_m.size());
+  // A frame without colour while colour is on is an error that changes nothing.
+  FrameView v = frames[0].view();
+  v.colour = ColourView{};
+  EXPECT_THROW(r.process(v), Error);
+  EXPECT_EQ(r.frame_count(), static_cast<int>(frames.size()));
+  // The same mesh as kfx run writes, colours included.
+  const auto dir = test::fresh_test_dir("kfx_api_");
+  const auto cli = test::run_kfx(std::string("run '") + kInput + "' --backend cpu -q --no-report " +
+                                 "--set volume_resolution=64 --out " + (dir / "cli").string());
+  ASSERT_EQ(cli.exit_code, 0) << cli.output;
+  r.save_mesh((dir / "api.ply").string());
+  EXPECT_EQ(read_file((dir / "api.ply").string()), read_file((dir / "cli" / "mesh.ply").string()));
 }
 
 TEST(Api, SettingsAreCheckedByTheOneTable) {

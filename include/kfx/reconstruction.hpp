@@ -24,6 +24,10 @@ struct ResolvedSetup {
   /// The intrinsics mirror the dataset's world in y (SLAMBench's ICL-NUIM convention), so a
   /// ground-truth comparison must flip y.
   bool flips_y = false;
+  /// Keys whose values came from the input rather than the preset or the user: the
+  /// recommendations applied, `camera` when the input's intrinsics are used, `camera_distortion`
+  /// when its lens is.
+  std::vector<std::string> settings_from_input;
 };
 
 /// Resolves `settings` for `sequence` as `kfx run` does: the preset, then the sequence's
@@ -90,9 +94,9 @@ class Reconstruction {
 
   /// Writes the trajectory in TUM format (stamp tx ty tz qx qy qz qw, the pose after each frame,
   /// camera to map frame), byte for byte as `kfx run`'s trajectory.txt; `input` names the
-  /// source in its header.
+  /// source in its header ("": the sequence the reconstruction was made for, if any).
   void save_trajectory(const std::string& path, const std::string& input = "") const;
-  /// Writes the mesh as binary PLY (as `kfx run`'s mesh.ply).
+  /// Writes the mesh as binary PLY (as `kfx run`'s mesh.ply); `input` as in save_trajectory().
   void save_mesh(const std::string& path, const std::string& input = "");
   /// True when the map can be saved and loaded (the dense volume can).
   bool map_saveable() const;

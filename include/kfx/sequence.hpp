@@ -64,6 +64,8 @@ class Sequence {
   int height_px() const;
   /// Number of frames when known, else −1.
   int frame_count() const;
+  /// True when the frames carry a colour image (registered to the depth image).
+  bool has_colour() const;
   /// The camera the format defines (intrinsics at input size, the lens where known), if any.
   std::optional<Camera> camera() const;
   /// Where camera() comes from ("TUM freiburg 1 camera, named by the folder ..."); "" if none.

@@ -279,6 +279,9 @@ NB_MODULE(_kfx, m) {
       .def_ro("stamp", &kfx::FrameResult::stamp_s)
       .def_ro("tracking_ran", &kfx::FrameResult::tracking_ran)
       .def_ro("tracked", &kfx::FrameResult::tracked, "Tracking held.")
+      .def_prop_ro(
+          "lost", [](const kfx::FrameResult& r) { return r.tracking_ran && !r.tracked; },
+          "Tracking ran and failed (the pose was kept, the frame not integrated).")
       .def_ro("integrated", &kfx::FrameResult::integrated)
       .def_ro("computation_ms", &kfx::FrameResult::computation_ms)
       .def_ro("icp_iterations", &kfx::FrameResult::icp_iterations)
@@ -324,59 +327,74 @@ NB_MODULE(_kfx, m) {
             r.submit(v);
           },
           "depth"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(), "colour"_a = nb::none())
-      .def("collect", &kfx::Reconstruction::collect, nb::call_guard<nb::gil_scoped_release>())
-      .def_prop_ro("frames_in_flight", &kfx::Reconstruction::frames_in_flight)
-      .def("reset", &kfx::Reconstruction::reset, nb::call_guard<nb::gil_scoped_release>())
-      .def_prop_ro("pose", [](const kfx::Reconstruction& r) { return pose_array(r.pose()); })
+      .def("collect", &kfx::Reconstruction::collect, nb::call_guard<nb::gil_scoped_release>(),
+           "Waits for the oldest submitted frame and returns its FrameResult.")
+      .def_prop_ro("frames_in_flight", &kfx::Reconstruction::frames_in_flight,
+                   "Frames submitted and not yet collected.")
+      .def("reset", &kfx::Reconstruction::reset, nb::call_guard<nb::gil_scoped_release>(),
+           "Starts over: empty map, initial pose, frame 0, results cleared.")
+      .def_prop_ro(
+          "pose", [](const kfx::Reconstruction& r) { return pose_array(r.pose()); },
+          "The pose after the last collected frame, 4x4 float32 (camera to map frame).")
       .def_prop_ro("initial_pose",
                    [](const kfx::Reconstruction& r) { return pose_array(r.initial_pose()); })
       .def_prop_ro("frame_count", &kfx::Reconstruction::frame_count)
-      .def("results", [](const kfx::Reconstruction& r) { return r.trajectory(); })
-      .def("poses",
-           [](const kfx::Reconstruction& r) {
-             const auto& t = r.trajectory();
-             std::vector<float> values;
-             values.reserve(t.size() * 16);
-             for (const auto& f : t)
-               values.insert(values.end(), f.T_world_cam.begin(), f.T_world_cam.end());
-             return owned_array(std::move(values), {t.size(), 4, 4});
-           })
-      .def("stamps",
-           [](const kfx::Reconstruction& r) {
-             std::vector<double> values;
-             for (const auto& f : r.trajectory()) values.push_back(f.stamp_s);
-             const size_t n = values.size();
-             return owned_array(std::move(values), {n});
-           })
-      .def("mesh_arrays",
-           [](kfx::Reconstruction& r) {
-             kfx::TriangleMesh mesh;
-             {
-               nb::gil_scoped_release release;
-               mesh = r.mesh();
-             }
-             const size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
-             nb::object colours = nb::none();
-             if (!mesh.colours.empty())
-               colours = nb::cast(owned_array(std::move(mesh.colours), {nv, 3}));
-             return nb::make_tuple(owned_array(std::move(mesh.vertices_m), {nv, 3}),
-                                   owned_array(std::move(mesh.normals), {nv, 3}),
-                                   owned_array(std::move(mesh.triangles), {nt, 3}), colours);
-           })
-      .def("cloud_arrays",
-           [](kfx::Reconstruction& r) {
-             kfx::PointCloud cloud;
-             {
-               nb::gil_scoped_release release;
-               cloud = r.point_cloud();
-             }
-             const size_t n = cloud.point_count();
-             nb::object colours = nb::none();
-             if (!cloud.colours.empty())
-               colours = nb::cast(owned_array(std::move(cloud.colours), {n, 3}));
-             return nb::make_tuple(owned_array(std::move(cloud.points_m), {n, 3}),
-                                   owned_array(std::move(cloud.normals), {n, 3}), colours);
-           })
+      .def(
+          "results", [](const kfx::Reconstruction& r) { return r.trajectory(); },
+          "Every collected frame's FrameResult since the start or the last reset.")
+      .def(
+          "poses",
+          [](const kfx::Reconstruction& r) {
+            const auto& t = r.trajectory();
+            std::vector<float> values;
+            values.reserve(t.size() * 16);
+            for (const auto& f : t)
+              values.insert(values.end(), f.T_world_cam.begin(), f.T_world_cam.end());
+            return owned_array(std::move(values), {t.size(), 4, 4});
+          },
+          "Every collected frame's pose, (N, 4, 4) float32.")
+      .def(
+          "stamps",
+          [](const kfx::Reconstruction& r) {
+            std::vector<double> values;
+            for (const auto& f : r.trajectory()) values.push_back(f.stamp_s);
+            const size_t n = values.size();
+            return owned_array(std::move(values), {n});
+          },
+          "Every collected frame's stamp, (N,) float64.")
+      .def(
+          "mesh_arrays",
+          [](kfx::Reconstruction& r) {
+            kfx::TriangleMesh mesh;
+            {
+              nb::gil_scoped_release release;
+              mesh = r.mesh();
+            }
+            const size_t nv = mesh.vertex_count(), nt = mesh.triangle_count();
+            nb::object colours = nb::none();
+            if (!mesh.colours.empty())
+              colours = nb::cast(owned_array(std::move(mesh.colours), {nv, 3}));
+            return nb::make_tuple(owned_array(std::move(mesh.vertices_m), {nv, 3}),
+                                  owned_array(std::move(mesh.normals), {nv, 3}),
+                                  owned_array(std::move(mesh.triangles), {nt, 3}), colours);
+          },
+          "(vertices, normals, triangles, colours or None) of the map's mesh.")
+      .def(
+          "cloud_arrays",
+          [](kfx::Reconstruction& r) {
+            kfx::PointCloud cloud;
+            {
+              nb::gil_scoped_release release;
+              cloud = r.point_cloud();
+            }
+            const size_t n = cloud.point_count();
+            nb::object colours = nb::none();
+            if (!cloud.colours.empty())
+              colours = nb::cast(owned_array(std::move(cloud.colours), {n, 3}));
+            return nb::make_tuple(owned_array(std::move(cloud.points_m), {n, 3}),
+                                  owned_array(std::move(cloud.normals), {n, 3}), colours);
+          },
+          "(points, normals, colours or None) of the last raycast.")
       .def(
           "render",
           [](kfx::Reconstruction& r, std::optional<AnyArray> pose) {
@@ -389,7 +407,9 @@ NB_MODULE(_kfx, m) {
             const size_t h = image.height_px, w = image.width_px;
             return owned_array(std::move(image.rgba), {h, w, 4});
           },
-          "pose"_a = nb::none())
+          "pose"_a = nb::none(),
+          "The map shaded (SLAMBench's renderVolume) from `pose` (4x4; None: the current one), "
+          "(H, W, 4) uint8 at compute size.")
       .def(
           "render_depth",
           [](kfx::Reconstruction& r, std::optional<AnyArray> pose) {
@@ -402,16 +422,24 @@ NB_MODULE(_kfx, m) {
             const size_t h = image.height_px, w = image.width_px;
             return owned_array(std::move(image.values), {h, w});
           },
-          "pose"_a = nb::none())
-      .def("save_trajectory", &kfx::Reconstruction::save_trajectory, "path"_a, "input"_a = "")
+          "pose"_a = nb::none(),
+          "Depth of the map (metres along the optical axis, 0: nothing) seen from `pose` (4x4; "
+          "None: the current one), (H, W) float32 at compute size.")
+      .def("save_trajectory", &kfx::Reconstruction::save_trajectory, "path"_a, "input"_a = "",
+           "Writes the trajectory in TUM format, byte for byte as `kfx run`'s trajectory.txt "
+           "(`input` names the source in its header).")
       .def("save_mesh", &kfx::Reconstruction::save_mesh, "path"_a, "input"_a = "",
-           nb::call_guard<nb::gil_scoped_release>())
+           nb::call_guard<nb::gil_scoped_release>(),
+           "Writes the mesh as binary PLY, as `kfx run`'s mesh.ply.")
       .def_prop_ro("map_saveable", &kfx::Reconstruction::map_saveable)
       .def("save_map", &kfx::Reconstruction::save_map, "path"_a,
-           nb::call_guard<nb::gil_scoped_release>())
+           nb::call_guard<nb::gil_scoped_release>(),
+           "Writes the map (volume.kfxtsdf) where the map kind can be saved.")
       .def("load_map", &kfx::Reconstruction::load_map, "path"_a,
-           nb::call_guard<nb::gil_scoped_release>())
-      .def("settings_dump", &kfx::Reconstruction::settings_dump)
+           nb::call_guard<nb::gil_scoped_release>(),
+           "Replaces the map by one save_map() wrote (same resolution and size).")
+      .def("settings_dump", &kfx::Reconstruction::settings_dump,
+           "The settings in force, `key = value` lines.")
       .def_prop_ro("camera", &kfx::Reconstruction::camera)
       .def_prop_ro("compute_size",
                    [](const kfx::Reconstruction& r) {

@@ -18,6 +18,9 @@ namespace api {
 /// The configuration `settings` describes (preset, then overrides in order); not validated.
 PipelineConfig make_config(const Settings& settings);
 
+/// A view of a frame a reader read (its depth is packed millimetres: no copy when submitted).
+FrameView frame_view(const io::Frame& frame);
+
 /// A public pose from a matrix, and back.
 Pose to_pose(const Mat4f& m);
 Mat4f to_mat4f(const Pose& pose);
@@ -36,6 +39,8 @@ struct ReconstructionAccess {
   static Pipeline& pipeline(Reconstruction& reconstruction);
   /// The internal report of the last collected frame (stage times, renders made).
   static const FrameReport& last_report(const Reconstruction& reconstruction);
+  /// Submits a frame a reader read (with its colour image, when it has one).
+  static void submit(Reconstruction& reconstruction, const io::Frame& frame);
   /// Turns the renders of Pipeline::set_rendering on; frames that render are collected at once.
   static void set_rendering(Reconstruction& reconstruction, bool on);
 };

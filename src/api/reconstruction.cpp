@@ -46,6 +46,7 @@ struct Reconstruction::Impl {
   HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
   HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, rows packed
   FrameReport last_report;
+  std::string input;  ///< the sequence's name, when made for one (file headers name it)
   std::unique_ptr<FrameDiagnostics> diagnostics;  ///< warnings about the volume and the depth
   std::deque<DepthSample> samples_in_flight;      ///< judged when their frames are collected
 
@@ -58,6 +59,8 @@ struct Reconstruction::Impl {
       camera.cx_px = k[2];
       camera.cy_px = k[3];
     }
+    // The settings say which camera is used (settings_dump(), kfx run's config.txt).
+    config.input.camera_px = {camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
     KFX_CHECK(camera.width_px > 0 && camera.height_px > 0,
               "camera of " << camera.width_px << "x" << camera.height_px << " pixels");
     KFX_CHECK(camera.fx_px != 0 && camera.fy_px != 0,
@@ -111,6 +114,7 @@ struct Reconstruction::Impl {
 
   std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
 
+  /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame.
   void submit(const FrameView& frame) {
     const std::string label = frame_label();
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
@@ -118,8 +122,10 @@ struct Reconstruction::Impl {
                     << ", the reconstruction was made for " << camera.width_px << "x"
                     << camera.height_px);
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
+    const ImageView<const Rgb8> rgb =
+        colour_view(frame.colour, label);  // checked before any change
     samples_in_flight.push_back(diagnostics->sample(mm));
-    pipeline->submit(mm, colour_view(frame.colour, label));
+    pipeline->submit(mm, rgb);
     stamps_in_flight.push_back(frame.stamp_s);
   }
 
@@ -163,6 +169,7 @@ Reconstruction::Reconstruction(const Settings& settings, const Camera& camera)
 Reconstruction::Reconstruction(const Settings& settings, const Sequence& sequence) {
   const ResolvedSetup setup = resolve_setup(settings, sequence);
   impl_ = std::make_unique<Impl>(setup.settings, setup.camera);
+  impl_->input = sequence.input();
 }
 
 Reconstruction::~Reconstruction() = default;
@@ -226,12 +233,14 @@ PointCloud Reconstruction::point_cloud() {
   PointCloud cloud;
   const auto& vertex = maps.ref_vertex;
   const auto& normal = maps.ref_normal;
+  std::vector<MeshVertex> points;
   for (int y = 0; y < vertex.height(); ++y) {
     for (int x = 0; x < vertex.width(); ++x) {
       if (normal(x, y).x == kInvalidNormal) continue;  // no surface at this pixel
       const Vec3f p = vertex(x, y), n = normal(x, y);
       cloud.points_m.insert(cloud.points_m.end(), {p.x, p.y, p.z});
       cloud.normals.insert(cloud.normals.end(), {n.x, n.y, n.z});
+      points.push_back(MeshVertex{p, n});
     }
   }
   std::vector<ColourVoxel> field;
@@ -280,7 +289,8 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
   for (const FrameResult& r : impl_->trajectory) {
     poses.push_back(io::to_stamped_pose(r.stamp_s, api::to_mat4f(r.T_world_cam)));
   }
-  output::write_run_trajectory(path, poses, input, impl_->pipeline->initial_pose(),
+  output::write_run_trajectory(path, poses, input.empty() ? impl_->input : input,
+                               impl_->pipeline->initial_pose(),
                                impl_->pipeline->compute_intrinsics());
 }
 
@@ -295,7 +305,8 @@ void Reconstruction::save_mesh(const std::string& path, const std::string& input
     mesh.colours = colours.data();
   }
   output::write_mesh_ply(path, mesh,
-                         "kfx " + std::string(KFX_VERSION) + " mesh of " + input +
+                         "kfx " + std::string(KFX_VERSION) + " mesh of " +
+                             (input.empty() ? impl_->input : input) +
                              ", volume frame (as trajectory.txt), metres");
 }
 
@@ -345,6 +356,9 @@ std::string Reconstruction::device_name() const { return impl_->pipeline->backen
 Pipeline& ReconstructionAccess::pipeline(Reconstruction& r) { return *r.impl_->pipeline; }
 const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
   return r.impl_->last_report;
+}
+void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
+  r.impl_->submit(api::frame_view(frame));
 }
 void ReconstructionAccess::set_rendering(Reconstruction& r, bool on) {
   r.impl_->pipeline->set_rendering(on);

@@ -17,13 +17,23 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
       .cuda_device(user.cuda_device())
       .reconstructions_on_device(user.reconstructions_on_device());
   for (const auto& [key, value] : sequence.recommended_settings()) {
-    if (!user.is_set(key)) run.settings.set(key, value);
+    if (user.is_set(key)) continue;
+    run.settings.set(key, value);
+    run.settings_from_input.push_back(key);
   }
-  // Colour is fused whenever the input has it, unless the user says otherwise (as `kfx run`).
-  const io::Reader& input = SequenceAccess::reader(sequence);
-  if (input.has_colour() && !user.is_set("colour")) run.settings.set("colour", "on");
+  // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
+  // A block map carries no colour field yet: colour stays off there unless asked for (which
+  // validate() then refuses with a clear error).
+  if (sequence.has_colour() && !user.is_set("colour") &&
+      api::make_config(user).volume.kind == MapKind::kDense) {
+    run.settings.set("colour", "on");
+    run.settings_from_input.push_back("colour");
+  }
   for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
   PipelineConfig config = api::make_config(run.settings);
+  KFX_CHECK(!config.colour.fuse || sequence.has_colour(),
+            sequence.input() << ": colour=on but this input has no colour ("
+                             << sequence.description() << ")");
   config.validate();
 
   const io::Reader& reader = SequenceAccess::reader(sequence);
@@ -39,6 +49,9 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
                                         << ": this input has no default intrinsics; give them "
                                            "with -k fx,fy,cx,cy (pixels, input size)");
     intrinsics = *defaults;
+    // The settings then say which camera was used (config.txt, stats.json): a Reconstruction
+    // sets `camera` from the camera it is given when the settings leave it 0.
+    run.settings_from_input.push_back("camera");
     source = reader.intrinsics_source();
     if (source.empty()) source = "the input's default";
   }
@@ -50,7 +63,12 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
   const bool format_camera = defaults.has_value() && defaults->fx == intrinsics.fx &&
                              defaults->fy == intrinsics.fy && defaults->cx == intrinsics.cx &&
                              defaults->cy == intrinsics.cy;
-  if (!distortion_given && format_camera && !format_lens.none()) distortion = format_lens;
+  // Only where it is used: with undistortion off the lens is not part of what ran.
+  if (!distortion_given && format_camera && !format_lens.none() &&
+      config.quality.depth_undistortion) {
+    distortion = format_lens;
+    run.settings_from_input.push_back("camera_distortion");
+  }
 
   std::ostringstream note;
   note << "intrinsics fx " << intrinsics.fx << ", fy " << intrinsics.fy << ", cx " << intrinsics.cx

@@ -3,6 +3,7 @@
 #include "kfx/sequence.hpp"
 
 #include <algorithm>
+#include <cstring>
 
 #include "api/internal.hpp"
 #include "core/platform.hpp"
@@ -31,6 +32,24 @@ FrameView SequenceFrame::view() const {
   v.stamp_s = stamp_s;
   return v;
 }
+
+namespace api {
+
+FrameView frame_view(const io::Frame& frame) {
+  FrameView v;
+  v.depth.data = frame.depth_mm.data();
+  v.depth.width_px = frame.depth_mm.width();
+  v.depth.height_px = frame.depth_mm.height();
+  if (!frame.rgb.empty()) {
+    v.colour.data = reinterpret_cast<const uint8_t*>(frame.rgb.data());
+    v.colour.width_px = frame.rgb.width();
+    v.colour.height_px = frame.rgb.height();
+  }
+  v.stamp_s = frame.stamp_s;
+  return v;
+}
+
+}  // namespace api
 
 Sequence::Sequence(const std::string& input, double depth_scale_per_m,
                    const std::string& ground_truth_path)
@@ -71,6 +90,7 @@ const std::string& Sequence::input() const { return impl_->input; }
 int Sequence::width_px() const { return impl_->reader->width_px(); }
 int Sequence::height_px() const { return impl_->reader->height_px(); }
 int Sequence::frame_count() const { return impl_->reader->frame_count(); }
+bool Sequence::has_colour() const { return impl_->reader->has_colour(); }
 
 std::optional<Camera> Sequence::camera() const {
   const auto k = impl_->reader->default_intrinsics();

@@ -24,16 +24,15 @@ def test_trajectory_is_the_cli_runs_byte_for_byte(tmp_path):
             r.collect()
     while r.frames_in_flight:
         r.collect()
-    r.save_trajectory(str(tmp_path / "py.txt"), INPUT)
+    r.save_trajectory(str(tmp_path / "py.txt"))  # names the sequence, as kfx run
     expected = (tmp_path / "cli" / "trajectory.txt").read_bytes()
     assert expected
     assert (tmp_path / "py.txt").read_bytes() == expected
 
 
 def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
-    packed = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
-    metres = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
-    scaled = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    packed, metres, scaled = (kfx.Reconstruction(kfx.open(INPUT), backend="cpu",
+                                                 volume_resolution=64) for _ in range(3))
     for f in frames:
         # The sequence has colour, so these maps fuse it: each frame brings its colour too.
         a = packed.process(np.array(f.depth), stamp=f.stamp, colour=f.colour)
@@ -49,6 +48,8 @@ def test_numpy_frames_in_every_layout_give_the_same_poses(frames):
     # the camera moved and tracking held after the bootstrap frames
     assert not np.array_equal(poses[-1], packed.initial_pose)
     assert all(r.tracked for r in packed.results()[4:])
+    assert not any(r.lost for r in packed.results())
+    assert not any(r.tracking_ran for r in packed.results()[:4])  # the bootstrap frames
 
 
 def test_frame_depth_is_a_read_only_view(frames):
@@ -90,6 +91,24 @@ def test_mesh_cloud_renders_and_map(reconstruction, frames, tmp_path):
     again = loaded.mesh()
     assert np.array_equal(again.vertices, mesh.vertices)
     assert np.array_equal(again.triangles, mesh.triangles)
+
+
+def test_colour(frames, tmp_path):
+    """The synthetic scene has colour: fused by default, the mesh and cloud coloured."""
+    r = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    assert "colour = on" in r.settings_dump()
+    for f in frames:
+        r.process(f)
+    mesh = r.mesh()
+    assert mesh.colours.shape == mesh.vertices.shape and mesh.colours.dtype == np.uint8
+    assert len(np.unique(mesh.colours, axis=0)) > 10
+    assert r.point_cloud().colours.shape[1] == 3
+    with pytest.raises(kfx.Error, match="fuses colour .* but the frame has no colour image"):
+        r.process(np.array(frames[0].depth))
+    # Colour of another size than the depth's is refused before anything runs.
+    with pytest.raises(ValueError, match="does not match the depth"):
+        r.process(np.array(frames[0].depth), colour=np.zeros((60, 80, 3), np.uint8))
+    assert r.frame_count == len(frames)
 
 
 def test_reset_repeats_the_run(reconstruction, frames):
