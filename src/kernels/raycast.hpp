@@ -129,8 +129,8 @@ KFX_HD inline bool untouched_cubes(const uint8_t* flags, int cubes_per_side, int
   }
   u.untouched = true;
   for (int i = 0; i < 3; ++i) {
-    u.box_begin_vox[i] = (lo[i] >> shift) << shift;
-    u.box_end_vox[i] = ((hi[i] >> shift) + 1) << shift;
+    u.box_begin_vox[i] = (lo[i] >> shift) * (1 << shift);
+    u.box_end_vox[i] = ((hi[i] >> shift) + 1) * (1 << shift);
   }
   return true;
 }
@@ -189,8 +189,8 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
     if (coarse_untouched) {
       u.untouched = true;
       for (int i = 0; i < 3; ++i) {
-        u.box_begin_vox[i] = (lo[i] >> kCoarseVoxelShift) << kCoarseVoxelShift;
-        u.box_end_vox[i] = ((hi[i] >> kCoarseVoxelShift) + 1) << kCoarseVoxelShift;
+        u.box_begin_vox[i] = (lo[i] >> kCoarseVoxelShift) * (1 << kCoarseVoxelShift);
+        u.box_end_vox[i] = ((hi[i] >> kCoarseVoxelShift) + 1) * (1 << kCoarseVoxelShift);
       }
       return u;
     }
