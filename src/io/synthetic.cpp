@@ -21,7 +21,8 @@ constexpr long long kMaxFrames = 1000000;
 constexpr long long kMinSidePx = 16;
 constexpr long long kMaxSidePx = 8192;
 constexpr double kMaxSpeed = 4.0;
-constexpr const char* kAllowedKeys = "frames, width, height, seed, noise, speed, jump, blank";
+constexpr const char* kAllowedKeys =
+    "scene, frames, width, height, seed, noise, speed, jump, blank";
 
 // ---- Camera loop -----------------------------------------------------------------------------
 
@@ -144,7 +145,8 @@ void parse_stretch(const std::string& spec, const std::string& key, const std::s
 
 std::string synthetic_spec_syntax() {
   // Keep in step with kAllowedKeys (a test checks that help names every key).
-  return "synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1,speed=X,jump=A-B,blank=A-B]";
+  return "synthetic[:scene=room|house,frames=N,width=W,height=H,seed=S,noise=0|1,speed=X,jump=A-B,"
+         "blank=A-B]";
 }
 
 SyntheticOptions parse_synthetic_spec(const std::string& spec) {
@@ -168,7 +170,12 @@ SyntheticOptions parse_synthetic_spec(const std::string& spec) {
     const std::string value = trim(item.substr(eq + 1));
     KFX_CHECK(seen.insert(key).second,
               "synthetic spec '" << spec << "': key '" << key << "' given more than once");
-    if (key == "frames") {
+    if (key == "scene") {
+      KFX_CHECK(value == "room" || value == "house", "synthetic spec '"
+                                                         << spec << "': scene must be room or "
+                                                         << "house, got '" << value << "'");
+      opt.scene = value == "house" ? synth::SceneLayout::kHouse : synth::SceneLayout::kRoom;
+    } else if (key == "frames") {
       opt.frames = static_cast<int>(parse_int(spec, key, value, 1, kMaxFrames));
     } else if (key == "width") {
       opt.width_px = static_cast<int>(parse_int(spec, key, value, kMinSidePx, kMaxSidePx));
@@ -207,6 +214,8 @@ SyntheticOptions parse_synthetic_spec(const std::string& spec) {
     }
   }
   KFX_CHECK(spec.back() != ',', "synthetic spec '" << spec << "': trailing ','");
+  if (opt.scene == synth::SceneLayout::kHouse && seen.count("frames") == 0)
+    opt.frames = SyntheticScene::house_loop_frames(opt.speed);
   return opt;
 }
 
@@ -239,7 +248,8 @@ uint16_t KinectDepthModel::measure_mm(double z_m, double cos_incidence, double n
 
 // ---- SyntheticScene ----------------------------------------------------------------------------
 
-SyntheticScene::SyntheticScene(const SyntheticOptions& options) : options_(options) {
+SyntheticScene::SyntheticScene(const SyntheticOptions& options)
+    : options_(options), room_(options.scene) {
   KFX_CHECK(options.frames >= 1 && options.frames <= kMaxFrames,
             "synthetic scene: frames must be in [1, " << kMaxFrames << "], got " << options.frames);
   KFX_CHECK(options.width_px >= kMinSidePx && options.width_px <= kMaxSidePx &&
@@ -303,10 +313,30 @@ double loop_phase(int frame, double speed) {
   return 2 * kPi * speed * SyntheticScene::stamp_s(frame) / kLoopPeriodS;
 }
 
+/// The camera's state at a frame: the room's loop, or the house's path walked at
+/// kHouseSpeedMps · speed.
+LoopState camera_state(const SyntheticOptions& options, const synth::HousePath& path, int frame) {
+  if (options.scene != synth::SceneLayout::kHouse)
+    return loop_state(loop_phase(frame, options.speed));
+  const synth::PathState p =
+      path.state(synth::kHouseSpeedMps * options.speed * SyntheticScene::stamp_s(frame));
+  LoopState s;
+  for (int i = 0; i < 3; ++i) s.p[i] = p.p[i];
+  s.yaw = p.yaw;
+  s.pitch = p.pitch;
+  s.roll = p.roll;
+  return s;
+}
+
 }  // namespace
 
+int SyntheticScene::house_loop_frames(double speed) {
+  const double frames = synth::HousePath().length_m() / (synth::kHouseSpeedMps * speed) * 30.0;
+  return static_cast<int>(std::min<double>(kMaxFrames, std::ceil(frames)));
+}
+
 void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
-  LoopState s = loop_state(loop_phase(frame, options_.speed));
+  LoopState s = camera_state(options_, house_path_, frame);
   if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   double q[4];
   loop_quaternion(s, q);
@@ -324,7 +354,7 @@ void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
 }
 
 StampedPose SyntheticScene::stamped_pose(int frame) const {
-  LoopState s = loop_state(loop_phase(frame, options_.speed));
+  LoopState s = camera_state(options_, house_path_, frame);
   if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   StampedPose out;
   out.stamp_s = stamp_s(frame);
@@ -471,12 +501,15 @@ class SyntheticReader final : public Reader {
   std::string description() const override {
     const SyntheticOptions& o = scene_.options();
     std::ostringstream s;
-    s << "synthetic room (" << o.frames << " frames, " << o.width_px << "\u00d7" << o.height_px
-      << ", seed " << o.seed << ", noise " << (o.noise ? "on" : "off") << ")";
+    s << (o.scene == synth::SceneLayout::kHouse ? "synthetic house (" : "synthetic room (")
+      << o.frames << " frames, " << o.width_px << "\u00d7" << o.height_px << ", seed " << o.seed
+      << ", noise " << (o.noise ? "on" : "off") << ")";
     return s.str();
   }
 
   std::vector<std::pair<std::string, std::string>> recommended_settings() const override {
+    if (scene_.options().scene == synth::SceneLayout::kHouse)
+      return {{"volume", "blocks"}, {"voxel_size_m", "0.01"}, {"init_pose_factor", "0,0,0"}};
     std::ostringstream size, factor;
     size << SyntheticScene::kVolumeSizeM;
     factor << SyntheticScene::kInitPoseFactor[0] << "," << SyntheticScene::kInitPoseFactor[1] << ","

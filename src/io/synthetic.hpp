@@ -3,12 +3,15 @@
 /// camera loop, with Kinect-like depth noise and exact ground truth.
 ///
 /// Spec: "synthetic" or "synthetic:key=value,key=value,...". Keys (defaults):
-///   frames=300    number of frames, 1 … 1000000
+///   scene=room    room: the furnished room below; house: five furnished rooms and a corridor
+///                 (16 × 11.5 m) and a 33 m closed path through them (io/synthetic_house.hpp)
+///   frames=300    number of frames, 1 … 1000000 (the house: one loop of its path by default)
 ///   width=640     image width in pixels, 16 … 8192
 ///   height=480    image height in pixels, 16 … 8192
 ///   seed=1        noise seed, 0 … 2⁶⁴−1
 ///   noise=1       1 = Kinect-like noise, mm quantisation and holes; 0 = exact depth (in mm)
-///   speed=1       camera speed factor, (0, 4]; at 1 the loop takes 10 s = 300 frames
+///   speed=1       camera speed factor, (0, 4]; at 1 the room's loop takes 10 s = 300 frames,
+///                 and the house's path is walked at 0.2 m/s (6.7 mm a frame)
 ///   jump=A-B      frames A … B (or just A) look 90° to the side of the loop (a pose jump away
 ///                 and back; the ground truth follows it), for tracking-loss tests
 ///   blank=A-B     frames A … B (or just A) have no depth at all (every pixel 0)
@@ -24,6 +27,11 @@
 /// 0.17 m down, turning up to ±12.6° in yaw, −8.6° … +4.0° in pitch and ±1.7° in roll, always
 /// facing the front wall; at speed 1 it moves at most 7.1 mm and 0.41° per frame (a handheld
 /// Kinect at 30 Hz). Every surface it sees lies between ~1.1 m and ~3.85 m of depth.
+///
+/// The house (scene=house) has the same floor and ceiling heights, the first camera at its
+/// origin, 8° down (its first pose is not the identity), and surfaces beyond the sensor's 4 m
+/// (the corridor's far end): the depth model reads 0 there, as a Kinect does. Colour as the
+/// room's (true_colour()).
 
 #include <cstdint>
 #include <memory>
@@ -33,6 +41,7 @@
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "io/reader.hpp"
+#include "io/synthetic_house.hpp"
 #include "io/synthetic_scene.hpp"
 #include "io/trajectory.hpp"
 
@@ -40,10 +49,11 @@ namespace kfx::io {
 
 /// Options of the synthetic scene, as parsed from a spec.
 struct SyntheticOptions {
-  int frames = 300;      ///< sequence length
-  int width_px = 640;    ///< image width
-  int height_px = 480;   ///< image height
-  uint64_t seed = 1;     ///< noise seed
+  synth::SceneLayout scene = synth::SceneLayout::kRoom;  ///< which scene
+  int frames = 300;                                      ///< sequence length
+  int width_px = 640;                                    ///< image width
+  int height_px = 480;                                   ///< image height
+  uint64_t seed = 1;                                     ///< noise seed
   bool noise = true;     ///< Kinect-like noise, quantisation and holes when true
   double speed = 1.0;    ///< camera speed factor (1 = the loop in 10 s)
   int jump_first = -1;   ///< first frame of the pose jump (−1: none)
@@ -100,6 +110,13 @@ class SyntheticScene {
   /// The options the scene was built with.
   const SyntheticOptions& options() const { return options_; }
 
+  /// The scene's geometry (ray casts, true surface).
+  const synth::RoomGeometry& geometry() const { return room_; }
+
+  /// Frames in one loop of the house's path at `speed` (the default frame count of
+  /// scene=house).
+  static int house_loop_frames(double speed);
+
   /// Intrinsics at the chosen resolution: fx = fy = 525·width/640, cx = (width−1)/2,
   /// cy = (height−1)/2 (pixel centres at integer coordinates).
   Intrinsics intrinsics() const;
@@ -144,10 +161,13 @@ class SyntheticScene {
  private:
   SyntheticOptions options_;
   synth::RoomGeometry room_;
+  synth::HousePath house_path_;  ///< used by scene=house only
 };
 
-/// Opens the synthetic scene from a spec (see the top of this header) as a Reader. Its
-/// recommended_settings() are {"volume_size_m", "4.2"} and {"init_pose_factor", "0.5,0.52,0.09"}.
+/// Opens the synthetic scene from a spec (see the top of this header) as a Reader. The room's
+/// recommended_settings() are {"volume_size_m", "4.2"} and {"init_pose_factor", "0.5,0.52,0.09"};
+/// the house's (which no cube holds) {"volume", "blocks"}, {"voxel_size_m", "0.01"} and
+/// {"init_pose_factor", "0,0,0"} (the map's frame is the first camera's).
 std::unique_ptr<Reader> make_synthetic_reader(const std::string& spec);
 
 }  // namespace kfx::io

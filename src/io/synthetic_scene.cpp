@@ -37,7 +37,15 @@ inline double slab_entry(const double o[3], const double inv_d[3], const double 
 
 }  // namespace
 
-RoomGeometry::RoomGeometry() {
+RoomGeometry::RoomGeometry(SceneLayout layout) {
+  if (layout == SceneLayout::kHouse) {
+    build_house();
+  } else {
+    build_room();
+  }
+}
+
+void RoomGeometry::build_room() {
   // Heights read as "metres above the floor": y = kFloorY − height (y is down).
   const double f = kFloorY;
 
@@ -133,12 +141,10 @@ namespace {
 /// 1/a, with a huge finite value for a = 0: that keeps 0·inf NaNs out of the slab tests.
 inline double safe_reciprocal(double a) { return 1.0 / (a != 0 ? a : 1e-300); }
 
-/// The room's walls: the ray o + t·d leaves the room through the nearest inner face; writes its
-/// t and |n·d| (n the face's unit normal).
-inline void hit_room_walls(const double o[3], const double d[3], const double inv_d[3], double* t,
-                           double* n_dot_d) {
-  constexpr double kLo[3] = {kRoomMinX, kCeilingY, kRoomMinZ};
-  constexpr double kHi[3] = {kRoomMaxX, kFloorY, kRoomMaxZ};
+/// The shell's walls [kLo, kHi]: the ray o + t·d leaves the shell through the nearest inner
+/// face; writes its t and |n·d| (n the face's unit normal).
+inline void hit_room_walls(const double o[3], const double d[3], const double inv_d[3],
+                           const double kLo[3], const double kHi[3], double* t, double* n_dot_d) {
   // NOTE: d[a] = 0 gets a huge positive reciprocal, hence the far (hi) face and a huge t.
   double best_t = ((inv_d[0] > 0 ? kHi[0] : kLo[0]) - o[0]) * inv_d[0];
   double best_n = std::fabs(d[0]);
@@ -167,8 +173,9 @@ struct RoomGeometry::Ray {
   /// |n·d| of the best hit (n its unit normal); divided by |d| once at the end.
   double best_n_dot_d;
 
-  /// A ray along `dir` that starts at the wall it leaves the room through.
-  Ray(const double o[3], double dx, double dy, double dz) : d{dx, dy, dz} {
+  /// A ray along `dir` that starts at the wall it leaves the shell [lo, hi] through.
+  Ray(const double o[3], const double lo[3], const double hi[3], double dx, double dy, double dz)
+      : d{dx, dy, dz} {
     // NOTE: one division for the three reciprocals where no component is tiny (divisions are
     // a large part of the per-ray set-up); exact enough (a few ulps) for the slab tests.
     const double product = dx * dy * dz;
@@ -180,7 +187,7 @@ struct RoomGeometry::Ray {
     } else {
       for (int a = 0; a < 3; ++a) inv_d[a] = safe_reciprocal(d[a]);
     }
-    hit_room_walls(o, d, inv_d, &best_t, &best_n_dot_d);
+    hit_room_walls(o, d, inv_d, lo, hi, &best_t, &best_n_dot_d);
   }
   /// The best hit so far, with |cos| of the incidence.
   RayHit hit() const { return {best_t, incidence_cos(best_n_dot_d, d[0], d[1], d[2])}; }
@@ -253,7 +260,7 @@ inline void RoomGeometry::hit_prim(const Prim& p, const double o[3], Ray& ray) {
 
 RayHit RoomGeometry::cast(const Vec3d& origin, const Vec3d& dir) const {
   const double o[3] = {origin.x, origin.y, origin.z};
-  Ray ray(o, dir.x, dir.y, dir.z);
+  Ray ray(o, shell_lo_, shell_hi_, dir.x, dir.y, dir.z);
   for (const Prim& p : prims_) hit_prim(p, o, ray);
   return ray.hit();
 }
@@ -325,7 +332,8 @@ void RoomGeometry::render(const double R[3][3], const double t[3], double f, dou
                    c2 = R[2][1] * ry + R[2][2];
       for (int x = 0; x < width; ++x) {
         const double rx = (x - cx) / f;
-        rays.emplace_back(t, R[0][0] * rx + c0, R[1][0] * rx + c1, R[2][0] * rx + c2);
+        rays.emplace_back(t, shell_lo_, shell_hi_, R[0][0] * rx + c0, R[1][0] * rx + c1,
+                          R[2][0] * rx + c2);
       }
       // Each primitive whose rectangle spans this row, over its columns only, front to back:
       // a ray whose best hit is nearer than the primitive's nearest depth skips it.
@@ -345,6 +353,192 @@ void RoomGeometry::render(const double R[3][3], const double t[3], double f, dou
       }
     }
   }
+}
+
+// ---- The true surface ------------------------------------------------------------------------
+
+namespace {
+
+/// Samples closer than this to another primitive (or inside it) are hidden: faces in contact.
+constexpr double kContactM = 1e-6;
+
+/// Signed distance to the solid outside the shell [lo, hi] (positive inside the shell).
+inline double shell_signed_distance(const double lo[3], const double hi[3], const double p[3]) {
+  double d = std::numeric_limits<double>::infinity();
+  for (int a = 0; a < 3; ++a) d = std::min(d, std::min(p[a] - lo[a], hi[a] - p[a]));
+  return d;
+}
+
+/// Signed distance of the 2-D box |(u, v)| ≤ 0 form: u, v the per-axis excesses.
+inline double excess_distance(const double* e, int n) {
+  double outside = 0, inside = -std::numeric_limits<double>::infinity();
+  for (int i = 0; i < n; ++i) {
+    outside += e[i] > 0 ? e[i] * e[i] : 0;
+    inside = std::max(inside, e[i]);
+  }
+  return std::sqrt(outside) + std::min(inside, 0.0);
+}
+
+/// Area samples of the six faces of the box [lo, hi], normals outward (or inward with
+/// `inward`, for the shell).
+void sample_box_faces(const double lo[3], const double hi[3], double spacing_m, bool inward,
+                      std::vector<SurfaceSample>& out) {
+  for (int a = 0; a < 3; ++a) {
+    const int b = (a + 1) % 3, c = (a + 2) % 3;
+    const double len_b = hi[b] - lo[b], len_c = hi[c] - lo[c];
+    const int nb = std::max(1, static_cast<int>(std::ceil(len_b / spacing_m)));
+    const int nc = std::max(1, static_cast<int>(std::ceil(len_c / spacing_m)));
+    const double area = len_b * len_c / (static_cast<double>(nb) * nc);
+    for (int side = 0; side < 2; ++side) {
+      double normal[3] = {0, 0, 0};
+      normal[a] = (side == 1 ? 1.0 : -1.0) * (inward ? -1.0 : 1.0);
+      for (int i = 0; i < nb; ++i) {
+        for (int j = 0; j < nc; ++j) {
+          double q[3];
+          q[a] = side == 1 ? hi[a] : lo[a];
+          q[b] = lo[b] + (i + 0.5) * len_b / nb;
+          q[c] = lo[c] + (j + 0.5) * len_c / nc;
+          out.push_back({{q[0], q[1], q[2]}, {normal[0], normal[1], normal[2]}, area});
+        }
+      }
+    }
+  }
+}
+
+}  // namespace
+
+double RoomGeometry::prim_signed_distance(const Prim& prim, const double p[3]) {
+  switch (prim.kind) {
+    case Kind::kBox: {
+      const double e[3] = {std::max(prim.lo[0] - p[0], p[0] - prim.hi[0]),
+                           std::max(prim.lo[1] - p[1], p[1] - prim.hi[1]),
+                           std::max(prim.lo[2] - p[2], p[2] - prim.hi[2])};
+      return excess_distance(e, 3);
+    }
+    case Kind::kSphere: {
+      const double d[3] = {p[0] - prim.c[0], p[1] - prim.c[1], p[2] - prim.c[2]};
+      return std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]) - prim.radius;
+    }
+    case Kind::kCylinder: {
+      const int ax = prim.axis, b = (ax + 1) % 3, c = (ax + 2) % 3;
+      const double db = p[b] - prim.c[b], dc = p[c] - prim.c[c];
+      const double e[2] = {std::sqrt(db * db + dc * dc) - prim.radius,
+                           std::max(prim.lo[ax] - p[ax], p[ax] - prim.hi[ax])};
+      return excess_distance(e, 2);
+    }
+  }
+  return std::numeric_limits<double>::infinity();
+}
+
+double RoomGeometry::signed_distance_m(const Vec3d& point) const {
+  const double p[3] = {point.x, point.y, point.z};
+  double d = shell_signed_distance(shell_lo_, shell_hi_, p);
+  for (const Prim& prim : prims_) {
+    // A primitive whose bounding box is farther than the best so far cannot be nearer.
+    double box_gap = 0;
+    for (int a = 0; a < 3; ++a) {
+      const double g = std::max(prim.lo[a] - p[a], p[a] - prim.hi[a]);
+      box_gap = std::max(box_gap, g);
+    }
+    if (box_gap > 0 && box_gap >= d) continue;
+    d = std::min(d, prim_signed_distance(prim, p));
+  }
+  return d;
+}
+
+void RoomGeometry::sample_prim(const Prim& prim, double spacing_m,
+                               std::vector<SurfaceSample>& out) {
+  constexpr double kPiLocal = 3.14159265358979323846;
+  switch (prim.kind) {
+    case Kind::kBox:
+      sample_box_faces(prim.lo, prim.hi, spacing_m, false, out);
+      return;
+    case Kind::kSphere: {
+      // A Fibonacci lattice: points of equal area.
+      const double r = prim.radius;
+      const double area = 4 * kPiLocal * r * r;
+      const int n = std::max(8, static_cast<int>(std::ceil(area / (spacing_m * spacing_m))));
+      const double golden = kPiLocal * (3.0 - std::sqrt(5.0));
+      for (int i = 0; i < n; ++i) {
+        const double z = 1.0 - (2.0 * i + 1.0) / n;
+        const double rxy = std::sqrt(std::max(0.0, 1.0 - z * z));
+        const double n3[3] = {rxy * std::cos(golden * i), rxy * std::sin(golden * i), z};
+        out.push_back({{prim.c[0] + r * n3[0], prim.c[1] + r * n3[1], prim.c[2] + r * n3[2]},
+                       {n3[0], n3[1], n3[2]},
+                       area / n});
+      }
+      return;
+    }
+    case Kind::kCylinder: {
+      const int ax = prim.axis, b = (ax + 1) % 3, c = (ax + 2) % 3;
+      const double r = prim.radius, height = prim.hi[ax] - prim.lo[ax];
+      // Side: angle × height cells.
+      const int na = std::max(8, static_cast<int>(std::ceil(2 * kPiLocal * r / spacing_m)));
+      const int nh = std::max(1, static_cast<int>(std::ceil(height / spacing_m)));
+      const double side_area = 2 * kPiLocal * r * height / (static_cast<double>(na) * nh);
+      for (int i = 0; i < na; ++i) {
+        const double angle = 2 * kPiLocal * (i + 0.5) / na;
+        double n3[3] = {0, 0, 0};
+        n3[b] = std::cos(angle);
+        n3[c] = std::sin(angle);
+        for (int j = 0; j < nh; ++j) {
+          double q[3];
+          q[ax] = prim.lo[ax] + (j + 0.5) * height / nh;
+          q[b] = prim.c[b] + r * n3[b];
+          q[c] = prim.c[c] + r * n3[c];
+          out.push_back({{q[0], q[1], q[2]}, {n3[0], n3[1], n3[2]}, side_area});
+        }
+      }
+      // Caps: the square grid's cells whose centre lies within the circle.
+      const int ns = std::max(2, static_cast<int>(std::ceil(2 * r / spacing_m)));
+      const double cell = 2 * r / ns;
+      for (int side = 0; side < 2; ++side) {
+        for (int i = 0; i < ns; ++i) {
+          for (int j = 0; j < ns; ++j) {
+            const double u = -r + (i + 0.5) * cell, v = -r + (j + 0.5) * cell;
+            if (u * u + v * v > r * r) continue;
+            double q[3], n3[3] = {0, 0, 0};
+            q[ax] = side == 1 ? prim.hi[ax] : prim.lo[ax];
+            q[b] = prim.c[b] + u;
+            q[c] = prim.c[c] + v;
+            n3[ax] = side == 1 ? 1.0 : -1.0;
+            out.push_back({{q[0], q[1], q[2]}, {n3[0], n3[1], n3[2]}, cell * cell});
+          }
+        }
+      }
+      return;
+    }
+  }
+}
+
+std::vector<SurfaceSample> RoomGeometry::sample_surface(double spacing_m) const {
+  KFX_CHECK(spacing_m > 0, "synthetic scene: surface sample spacing must be > 0");
+  std::vector<SurfaceSample> kept;
+  std::vector<SurfaceSample> faces;
+  // Index −1: the shell; otherwise the primitive the samples belong to.
+  for (int owner = -1; owner < static_cast<int>(prims_.size()); ++owner) {
+    faces.clear();
+    if (owner < 0) {
+      sample_box_faces(shell_lo_, shell_hi_, spacing_m, true, faces);
+    } else {
+      sample_prim(prims_[owner], spacing_m, faces);
+    }
+    for (const SurfaceSample& s : faces) {
+      const double p[3] = {s.p.x, s.p.y, s.p.z};
+      bool visible = owner < 0 || shell_signed_distance(shell_lo_, shell_hi_, p) > kContactM;
+      for (int j = 0; visible && j < static_cast<int>(prims_.size()); ++j) {
+        if (j == owner) continue;
+        const Prim& prim = prims_[j];
+        bool near_box = true;
+        for (int a = 0; a < 3; ++a) {
+          near_box = near_box && p[a] > prim.lo[a] - kContactM && p[a] < prim.hi[a] + kContactM;
+        }
+        visible = !near_box || prim_signed_distance(prim, p) > kContactM;
+      }
+      if (visible) kept.push_back(s);
+    }
+  }
+  return kept;
 }
 
 }  // namespace kfx::io::synth
