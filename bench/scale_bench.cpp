@@ -1,0 +1,393 @@
+/// kfx_scale_bench: issue 25's "Scale" measurement on the synthetic house. Runs the whole
+/// sequence through a Pipeline (volume=blocks by the house's recommendation, on the CPU or the
+/// CUDA backend), then measures against the scene's true surface:
+///   - ATE (TUM-style, rigid alignment) against the exact ground truth;
+///   - the mesh's distance to the true surface (|signed distance| of every vertex, mapped to
+///     the scene frame through frame 0: drift counts against the mesh): mean, median, 95th
+///     percentile;
+///   - the observed true surface: area samples of the visible surface seen by at least one
+///     checked frame (in the image, 0.4–4 m deep, facing the camera, not grazing beyond the
+///     depth model's hole angle, not occluded: a ray cast from the true camera reaches it), and
+///     how much of it lies within 2 cm of a mesh vertex (coverage);
+///   - map memory against (observed area / voxel area) × bytes per voxel, and against the
+///     truncation band's own volume (observed area × 2 mu / voxel³) × bytes per voxel;
+///   - frames left short of blocks under the budget.
+/// Prints the figures and writes them as JSON (--json). A benchmark, not a test: it asserts
+/// nothing.
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+#include "core/mesh.hpp"
+#include "core/platform.hpp"
+#include "eval/ate.hpp"
+#include "io/synthetic.hpp"
+#include "map/host_block_map.hpp"
+#include "pipeline/config.hpp"
+#include "pipeline/pipeline.hpp"
+
+namespace {
+
+using kfx::io::synth::Vec3d;
+
+struct Options {
+  std::string backend = "cpu";
+  std::string preset = "exact";
+  std::string scene_spec = "synthetic:scene=house";
+  std::vector<std::pair<std::string, std::string>> sets;
+  double sample_spacing_m = 0.03;
+  int visibility_every = 10;
+  double coverage_m = 0.02;
+  std::string json_path;
+};
+
+[[noreturn]] void usage(const char* why) {
+  std::fprintf(stderr,
+               "kfx_scale_bench: %s\n"
+               "usage: kfx_scale_bench [--backend cpu|cuda] [--preset NAME] [--input SPEC]\n"
+               "       [--set key=value]... [--sample-spacing M] [--visibility-every N]\n"
+               "       [--coverage M] [--json PATH]\n"
+               "  --input defaults to synthetic:scene=house (give width, height, frames, speed\n"
+               "  there); the house recommends volume=blocks, voxel_size_m=0.01.\n",
+               why);
+  std::exit(2);
+}
+
+Options parse(int argc, char** argv) {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto next = [&]() -> std::string {
+      if (i + 1 >= argc) usage(("missing value after " + a).c_str());
+      return argv[++i];
+    };
+    if (a == "--backend") {
+      o.backend = next();
+    } else if (a == "--preset") {
+      o.preset = next();
+    } else if (a == "--input") {
+      o.scene_spec = next();
+    } else if (a == "--set") {
+      const std::string kv = next();
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos) usage(("--set needs key=value, got " + kv).c_str());
+      o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    } else if (a == "--sample-spacing") {
+      o.sample_spacing_m = std::stod(next());
+    } else if (a == "--visibility-every") {
+      o.visibility_every = std::max(1, std::stoi(next()));
+    } else if (a == "--coverage") {
+      o.coverage_m = std::stod(next());
+    } else if (a == "--json") {
+      o.json_path = next();
+    } else {
+      usage(("unknown argument " + a).c_str());
+    }
+  }
+  return o;
+}
+
+/// A rigid transform in double precision: p' = R p + t.
+struct Rigid {
+  double R[3][3];
+  double t[3];
+  static Rigid from(const kfx::Mat4f& m) {
+    Rigid r{};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) r.R[i][j] = m.m[i][j];
+      r.t[i] = m.m[i][3];
+    }
+    return r;
+  }
+  static Rigid from(const double R[3][3], const double t[3]) {
+    Rigid r{};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) r.R[i][j] = R[i][j];
+      r.t[i] = t[i];
+    }
+    return r;
+  }
+  Rigid inverse() const {
+    Rigid r{};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) r.R[i][j] = R[j][i];
+    }
+    for (int i = 0; i < 3; ++i) r.t[i] = -(r.R[i][0] * t[0] + r.R[i][1] * t[1] + r.R[i][2] * t[2]);
+    return r;
+  }
+  Rigid operator*(const Rigid& b) const {
+    Rigid r{};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j)
+        r.R[i][j] = R[i][0] * b.R[0][j] + R[i][1] * b.R[1][j] + R[i][2] * b.R[2][j];
+      r.t[i] = R[i][0] * b.t[0] + R[i][1] * b.t[1] + R[i][2] * b.t[2] + t[i];
+    }
+    return r;
+  }
+  Vec3d apply(double x, double y, double z) const {
+    return {R[0][0] * x + R[0][1] * y + R[0][2] * z + t[0],
+            R[1][0] * x + R[1][1] * y + R[1][2] * z + t[1],
+            R[2][0] * x + R[2][1] * y + R[2][2] * z + t[2]};
+  }
+};
+
+/// Points in a hash grid of `cell_m` cells: "is there a point within cell_m of p".
+class NearGrid {
+ public:
+  NearGrid(const std::vector<Vec3d>& points, double cell_m) : points_(points), cell_m_(cell_m) {
+    for (size_t i = 0; i < points_.size(); ++i) cells_[key(cell(points_[i]))].push_back(i);
+  }
+  bool any_within(const Vec3d& p) const {
+    const auto c = cell(p);
+    for (int dz = -1; dz <= 1; ++dz) {
+      for (int dy = -1; dy <= 1; ++dy) {
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = cells_.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
+          if (it == cells_.end()) continue;
+          for (size_t i : it->second) {
+            const double ex = points_[i].x - p.x, ey = points_[i].y - p.y, ez = points_[i].z - p.z;
+            if (ex * ex + ey * ey + ez * ez <= cell_m_ * cell_m_) return true;
+          }
+        }
+      }
+    }
+    return false;
+  }
+
+ private:
+  std::array<long long, 3> cell(const Vec3d& p) const {
+    return {static_cast<long long>(std::floor(p.x / cell_m_)),
+            static_cast<long long>(std::floor(p.y / cell_m_)),
+            static_cast<long long>(std::floor(p.z / cell_m_))};
+  }
+  static long long key(const std::array<long long, 3>& c) {
+    return (c[0] & 0x1fffff) | ((c[1] & 0x1fffff) << 21) | ((c[2] & 0x1fffff) << 42);
+  }
+  std::vector<Vec3d> points_;
+  double cell_m_;
+  std::unordered_map<long long, std::vector<size_t>> cells_;
+};
+
+double percentile(std::vector<double> v, double q) {
+  if (v.empty()) return 0;
+  const size_t k = std::min(v.size() - 1, static_cast<size_t>(q * (v.size() - 1) + 0.5));
+  std::nth_element(v.begin(), v.begin() + k, v.end());
+  return v[k];
+}
+
+/// Which surface samples at least one checked frame sees (the sensor's range and hole angle,
+/// the true pose, an unoccluded ray).
+std::vector<char> observed_samples(const kfx::io::SyntheticScene& scene,
+                                   const std::vector<kfx::io::synth::SurfaceSample>& samples,
+                                   int frames, int every) {
+  using kfx::io::KinectDepthModel;
+  const auto& o = scene.options();
+  const double f = 525.0 * o.width_px / 640.0, cx = (o.width_px - 1) / 2.0,
+               cy = (o.height_px - 1) / 2.0;
+  std::vector<char> seen(samples.size(), 0);
+  for (int frame = 0; frame < frames; frame += every) {
+    double R[3][3], t[3];
+    scene.pose(frame, R, t);
+#pragma omp parallel for schedule(dynamic, 4096)
+    for (long long i = 0; i < static_cast<long long>(samples.size()); ++i) {
+      if (seen[i]) continue;
+      const auto& s = samples[i];
+      const double w[3] = {s.p.x - t[0], s.p.y - t[1], s.p.z - t[2]};
+      double c[3];
+      for (int k = 0; k < 3; ++k) c[k] = R[0][k] * w[0] + R[1][k] * w[1] + R[2][k] * w[2];
+      if (c[2] < KinectDepthModel::kMinDepthM || c[2] > KinectDepthModel::kMaxDepthM) continue;
+      const double u = f * c[0] / c[2] + cx, v = f * c[1] / c[2] + cy;
+      if (u < -0.5 || v < -0.5 || u > o.width_px - 0.5 || v > o.height_px - 0.5) continue;
+      const double dist = std::sqrt(w[0] * w[0] + w[1] * w[1] + w[2] * w[2]);
+      const double cos_in = -(s.n.x * w[0] + s.n.y * w[1] + s.n.z * w[2]) / dist;
+      if (cos_in < KinectDepthModel::kGrazingCosHole) continue;
+      const auto hit = scene.geometry().cast({t[0], t[1], t[2]}, {w[0], w[1], w[2]});
+      if ((1.0 - hit.t) * dist > 0.002) continue;  // something nearer on the ray
+      seen[i] = 1;
+    }
+  }
+  return seen;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  const Options opt = parse(argc, argv);
+  const kfx::io::SyntheticOptions scene_options = kfx::io::parse_synthetic_spec(opt.scene_spec);
+  const kfx::io::SyntheticScene scene(scene_options);
+  auto reader = kfx::io::make_synthetic_reader(opt.scene_spec);
+
+  kfx::PipelineConfig config = kfx::make_preset(opt.preset);
+  for (const auto& [key, value] : reader->recommended_settings())
+    kfx::set_config_value(config, key, value);
+  for (const auto& [key, value] : opt.sets) kfx::set_config_value(config, key, value);
+  KFX_CHECK(config.volume.kind == kfx::MapKind::kBlocks,
+            "kfx_scale_bench measures the block map: do not set volume=dense");
+  const double voxel_m = config.volume.voxel_size_m > 0
+                             ? config.volume.voxel_size_m
+                             : config.volume.size_m / config.volume.resolution_vox;
+  const kfx::BackendKind backend = kfx::parse_backend_kind(opt.backend);
+
+  std::printf("kfx_scale_bench: %s, %d frames %dx%d, backend %s, preset %s, voxel %.4f m, mu %.3f "
+              "m, budget %d MiB\n",
+              opt.scene_spec.c_str(), scene_options.frames, scene_options.width_px,
+              scene_options.height_px, opt.backend.c_str(), opt.preset.c_str(), voxel_m,
+              config.volume.mu_m, config.volume.map_budget_mb);
+  std::fflush(stdout);
+
+  // ---- The run ----
+  const auto t0 = std::chrono::steady_clock::now();
+  kfx::Pipeline pipeline(config, reader->default_intrinsics().value(), reader->width_px(),
+                         reader->height_px(), backend);
+  std::vector<kfx::Mat4f> poses;
+  int tracked = 0, integrated = 0, frames_short = 0, first_short = -1, map_blocks = 0;
+  long long blocks_dropped = 0;
+  double computation_ms = 0;
+  kfx::io::Frame frame;
+  while (reader->next(frame).status == kfx::io::ReadStatus::kOk) {
+    const kfx::FrameReport r = pipeline.process(frame.depth_mm);
+    poses.push_back(r.T_world_cam);
+    tracked += r.tracked;
+    integrated += r.integrated;
+    computation_ms += r.computation_ms;
+    map_blocks = r.map_blocks;
+    blocks_dropped += r.map_blocks_dropped;
+    if (r.map_blocks_dropped > 0) {
+      ++frames_short;
+      if (first_short < 0) first_short = r.index;
+    }
+    if (r.index % 250 == 0) {
+      std::printf("  frame %d: %d blocks, %.1f ms computation a frame so far\n", r.index,
+                  map_blocks, computation_ms / poses.size());
+      std::fflush(stdout);
+    }
+  }
+  const kfx::Mesh mesh(pipeline.backend().extract_mesh());
+  const double run_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const int n = static_cast<int>(poses.size());
+
+  // ---- ATE ----
+  const std::vector<kfx::io::StampedPose> gt = reader->ground_truth();
+  Eigen::Matrix3Xd est_m(3, n), gt_m(3, n);
+  for (int i = 0; i < n; ++i) {
+    for (int k = 0; k < 3; ++k) {
+      est_m(k, i) = poses[i].m[k][3];
+      gt_m(k, i) = gt[i].t[k];
+    }
+  }
+  const kfx::eval::AteResult ate = kfx::eval::compute_ate(est_m, gt_m);
+
+  // ---- The mesh against the true surface ----
+  double R0[3][3], t0_m[3];
+  scene.pose(0, R0, t0_m);
+  const Rigid scene_from_world = Rigid::from(R0, t0_m) * Rigid::from(poses.front()).inverse();
+  std::vector<Vec3d> vertices;
+  vertices.reserve(mesh.vertices.size());
+  for (const auto& v : mesh.vertices) vertices.push_back(scene_from_world.apply(v.p_m.x, v.p_m.y, v.p_m.z));
+  std::vector<double> vertex_distance(vertices.size());
+#pragma omp parallel for schedule(static)
+  for (long long i = 0; i < static_cast<long long>(vertices.size()); ++i)
+    vertex_distance[i] = std::fabs(scene.geometry().signed_distance_m(vertices[i]));
+  double mean_distance = 0;
+  int within_voxel = 0;
+  for (double d : vertex_distance) {
+    mean_distance += d;
+    within_voxel += d <= voxel_m;
+  }
+  mean_distance /= std::max<size_t>(1, vertex_distance.size());
+
+  // ---- The observed true surface, coverage, memory ----
+  const auto samples = scene.geometry().sample_surface(opt.sample_spacing_m);
+  const std::vector<char> seen = observed_samples(scene, samples, n, opt.visibility_every);
+  const NearGrid mesh_grid(vertices, opt.coverage_m);
+  double total_area = 0, observed_area = 0, covered_area = 0;
+  std::vector<char> covered(samples.size(), 0);
+#pragma omp parallel for schedule(static)
+  for (long long i = 0; i < static_cast<long long>(samples.size()); ++i)
+    covered[i] = seen[i] && mesh_grid.any_within(samples[i].p);
+  for (size_t i = 0; i < samples.size(); ++i) {
+    total_area += samples[i].area_m2;
+    if (seen[i]) observed_area += samples[i].area_m2;
+    if (covered[i]) covered_area += samples[i].area_m2;
+  }
+  const double bytes_per_voxel =
+      static_cast<double>(kfx::kBytesPerBlock) / static_cast<double>(kfx::kBlockVoxels);
+  const double map_bytes = static_cast<double>(map_blocks) * kfx::kBytesPerBlock;
+  const double surface_bytes = observed_area / (voxel_m * voxel_m) * bytes_per_voxel;
+  const double band_bytes =
+      observed_area * 2 * config.volume.mu_m / (voxel_m * voxel_m * voxel_m) * bytes_per_voxel;
+  const auto lo = scene.geometry().shell_lo(), hi = scene.geometry().shell_hi();
+
+  std::printf("run: %d frames, %d tracked, %d integrated, %.1f ms computation a frame, %.0f s "
+              "wall\n",
+              n, tracked, integrated, computation_ms / n, run_s);
+  std::printf("scene extent %.2f x %.2f x %.2f m (a 512^3 cube at this voxel spans %.2f m)\n",
+              hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 512 * voxel_m);
+  std::printf("ATE rmse %.2f cm, mean %.2f cm, median %.2f cm, max %.2f cm\n",
+              ate.stats_m.rmse * 100, ate.stats_m.mean * 100, ate.stats_m.median * 100,
+              ate.stats_m.max * 100);
+  std::printf("mesh: %zu vertices; distance to the true surface mean %.2f mm, median %.2f mm, "
+              "95th percentile %.2f mm; %.1f %% within one voxel\n",
+              vertices.size(), mean_distance * 1000, percentile(vertex_distance, 0.5) * 1000,
+              percentile(vertex_distance, 0.95) * 1000,
+              100.0 * within_voxel / std::max<size_t>(1, vertices.size()));
+  std::printf("true surface: %.1f m^2 visible in the scene, %.1f m^2 observed (%zu samples of "
+              "%.3f m, every %d-th frame checked); %.1f %% of the observed surface within %.1f cm "
+              "of a mesh vertex\n",
+              total_area, observed_area, samples.size(), opt.sample_spacing_m,
+              opt.visibility_every, 100.0 * covered_area / std::max(1e-9, observed_area),
+              opt.coverage_m * 100);
+  std::printf("memory: %d blocks = %.1f MiB; observed area / voxel area x %.3f B = %.1f MiB "
+              "(ratio %.2f); truncation band (area x 2 mu / voxel^3) x %.3f B = %.1f MiB (ratio "
+              "%.2f)\n",
+              map_blocks, map_bytes / 1048576.0, bytes_per_voxel, surface_bytes / 1048576.0,
+              map_bytes / surface_bytes, bytes_per_voxel, band_bytes / 1048576.0,
+              map_bytes / band_bytes);
+  std::printf("frames short of blocks: %d (first %d), blocks dropped %lld, budget %d MiB\n",
+              frames_short, first_short, blocks_dropped, config.volume.map_budget_mb);
+
+  if (!opt.json_path.empty()) {
+    std::ofstream out(opt.json_path);
+    KFX_CHECK(out, "cannot write " << opt.json_path);
+    out << "{\n"
+        << "  \"input\": \"" << opt.scene_spec << "\",\n"
+        << "  \"backend\": \"" << opt.backend << "\",\n"
+        << "  \"preset\": \"" << opt.preset << "\",\n"
+        << "  \"voxel_m\": " << voxel_m << ",\n"
+        << "  \"mu_m\": " << config.volume.mu_m << ",\n"
+        << "  \"frames\": " << n << ",\n"
+        << "  \"tracked\": " << tracked << ",\n"
+        << "  \"integrated\": " << integrated << ",\n"
+        << "  \"computation_ms_per_frame\": " << computation_ms / n << ",\n"
+        << "  \"wall_s\": " << run_s << ",\n"
+        << "  \"ate_rmse_m\": " << ate.stats_m.rmse << ",\n"
+        << "  \"ate_median_m\": " << ate.stats_m.median << ",\n"
+        << "  \"ate_max_m\": " << ate.stats_m.max << ",\n"
+        << "  \"mesh_vertices\": " << vertices.size() << ",\n"
+        << "  \"mesh_distance_mean_m\": " << mean_distance << ",\n"
+        << "  \"mesh_distance_median_m\": " << percentile(vertex_distance, 0.5) << ",\n"
+        << "  \"mesh_distance_p95_m\": " << percentile(vertex_distance, 0.95) << ",\n"
+        << "  \"visible_area_m2\": " << total_area << ",\n"
+        << "  \"observed_area_m2\": " << observed_area << ",\n"
+        << "  \"coverage_fraction\": " << covered_area / std::max(1e-9, observed_area) << ",\n"
+        << "  \"coverage_threshold_m\": " << opt.coverage_m << ",\n"
+        << "  \"map_blocks\": " << map_blocks << ",\n"
+        << "  \"map_bytes\": " << map_bytes << ",\n"
+        << "  \"surface_bytes\": " << surface_bytes << ",\n"
+        << "  \"band_bytes\": " << band_bytes << ",\n"
+        << "  \"frames_short_of_blocks\": " << frames_short << ",\n"
+        << "  \"blocks_dropped\": " << blocks_dropped << "\n"
+        << "}\n";
+  }
+  return 0;
+} catch (const std::exception& e) {
+  std::fprintf(stderr, "kfx_scale_bench: %s\n", e.what());
+  return 1;
+}
