@@ -234,11 +234,12 @@ int main(int argc, char** argv) try {
                              : config.volume.size_m / config.volume.resolution_vox;
   const kfx::BackendKind backend = kfx::parse_backend_kind(opt.backend);
 
-  std::printf("kfx_scale_bench: %s, %d frames %dx%d, backend %s, preset %s, voxel %.4f m, mu %.3f "
-              "m, budget %d MiB\n",
-              opt.scene_spec.c_str(), scene_options.frames, scene_options.width_px,
-              scene_options.height_px, opt.backend.c_str(), opt.preset.c_str(), voxel_m,
-              config.volume.mu_m, config.volume.map_budget_mb);
+  std::printf(
+      "kfx_scale_bench: %s, %d frames %dx%d, backend %s, preset %s, voxel %.4f m, mu %.3f "
+      "m, budget %d MiB\n",
+      opt.scene_spec.c_str(), scene_options.frames, scene_options.width_px, scene_options.height_px,
+      opt.backend.c_str(), opt.preset.c_str(), voxel_m, config.volume.mu_m,
+      config.volume.map_budget_mb);
   std::fflush(stdout);
 
   // ---- The run ----
@@ -269,8 +270,7 @@ int main(int argc, char** argv) try {
     }
   }
   const kfx::Mesh mesh(pipeline.backend().extract_mesh());
-  const double run_s =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const int n = static_cast<int>(poses.size());
 
   // ---- ATE ----
@@ -283,6 +283,22 @@ int main(int argc, char** argv) try {
     }
   }
   const kfx::eval::AteResult ate = kfx::eval::compute_ate(est_m, gt_m);
+  // Drift: each estimated position taken to the scene frame through frame 0 (no fitting),
+  // against the ground truth, every 250 frames: where along the path tracking went wrong.
+  {
+    double Ra[3][3], ta[3];
+    scene.pose(0, Ra, ta);
+    const Rigid anchor = Rigid::from(Ra, ta) * Rigid::from(poses.front()).inverse();
+    std::printf("drift (scene frame through frame 0, no alignment):");
+    for (int i = 0; i < n; i += 250) {
+      const Vec3d p = anchor.apply(est_m(0, i), est_m(1, i), est_m(2, i));
+      std::printf(" %d: %.1f cm;", i,
+                  100 * std::sqrt((p.x - gt_m(0, i)) * (p.x - gt_m(0, i)) +
+                                  (p.y - gt_m(1, i)) * (p.y - gt_m(1, i)) +
+                                  (p.z - gt_m(2, i)) * (p.z - gt_m(2, i))));
+    }
+    std::printf("\n");
+  }
 
   // ---- The mesh against the true surface ----
   double R0[3][3], t0_m[3];
@@ -290,7 +306,8 @@ int main(int argc, char** argv) try {
   const Rigid scene_from_world = Rigid::from(R0, t0_m) * Rigid::from(poses.front()).inverse();
   std::vector<Vec3d> vertices;
   vertices.reserve(mesh.vertices.size());
-  for (const auto& v : mesh.vertices) vertices.push_back(scene_from_world.apply(v.p_m.x, v.p_m.y, v.p_m.z));
+  for (const auto& v : mesh.vertices)
+    vertices.push_back(scene_from_world.apply(v.p_m.x, v.p_m.y, v.p_m.z));
   std::vector<double> vertex_distance(vertices.size());
 #pragma omp parallel for schedule(static)
   for (long long i = 0; i < static_cast<long long>(vertices.size()); ++i)
@@ -325,31 +342,33 @@ int main(int argc, char** argv) try {
       observed_area * 2 * config.volume.mu_m / (voxel_m * voxel_m * voxel_m) * bytes_per_voxel;
   const auto lo = scene.geometry().shell_lo(), hi = scene.geometry().shell_hi();
 
-  std::printf("run: %d frames, %d tracked, %d integrated, %.1f ms computation a frame, %.0f s "
-              "wall\n",
-              n, tracked, integrated, computation_ms / n, run_s);
+  std::printf(
+      "run: %d frames, %d tracked, %d integrated, %.1f ms computation a frame, %.0f s "
+      "wall\n",
+      n, tracked, integrated, computation_ms / n, run_s);
   std::printf("scene extent %.2f x %.2f x %.2f m (a 512^3 cube at this voxel spans %.2f m)\n",
               hi.x - lo.x, hi.y - lo.y, hi.z - lo.z, 512 * voxel_m);
   std::printf("ATE rmse %.2f cm, mean %.2f cm, median %.2f cm, max %.2f cm\n",
               ate.stats_m.rmse * 100, ate.stats_m.mean * 100, ate.stats_m.median * 100,
               ate.stats_m.max * 100);
-  std::printf("mesh: %zu vertices; distance to the true surface mean %.2f mm, median %.2f mm, "
-              "95th percentile %.2f mm; %.1f %% within one voxel\n",
-              vertices.size(), mean_distance * 1000, percentile(vertex_distance, 0.5) * 1000,
-              percentile(vertex_distance, 0.95) * 1000,
-              100.0 * within_voxel / std::max<size_t>(1, vertices.size()));
-  std::printf("true surface: %.1f m^2 visible in the scene, %.1f m^2 observed (%zu samples of "
-              "%.3f m, every %d-th frame checked); %.1f %% of the observed surface within %.1f cm "
-              "of a mesh vertex\n",
-              total_area, observed_area, samples.size(), opt.sample_spacing_m,
-              opt.visibility_every, 100.0 * covered_area / std::max(1e-9, observed_area),
-              opt.coverage_m * 100);
-  std::printf("memory: %d blocks = %.1f MiB; observed area / voxel area x %.3f B = %.1f MiB "
-              "(ratio %.2f); truncation band (area x 2 mu / voxel^3) x %.3f B = %.1f MiB (ratio "
-              "%.2f)\n",
-              map_blocks, map_bytes / 1048576.0, bytes_per_voxel, surface_bytes / 1048576.0,
-              map_bytes / surface_bytes, bytes_per_voxel, band_bytes / 1048576.0,
-              map_bytes / band_bytes);
+  std::printf(
+      "mesh: %zu vertices; distance to the true surface mean %.2f mm, median %.2f mm, "
+      "95th percentile %.2f mm; %.1f %% within one voxel\n",
+      vertices.size(), mean_distance * 1000, percentile(vertex_distance, 0.5) * 1000,
+      percentile(vertex_distance, 0.95) * 1000,
+      100.0 * within_voxel / std::max<size_t>(1, vertices.size()));
+  std::printf(
+      "true surface: %.1f m^2 visible in the scene, %.1f m^2 observed (%zu samples of "
+      "%.3f m, every %d-th frame checked); %.1f %% of the observed surface within %.1f cm "
+      "of a mesh vertex\n",
+      total_area, observed_area, samples.size(), opt.sample_spacing_m, opt.visibility_every,
+      100.0 * covered_area / std::max(1e-9, observed_area), opt.coverage_m * 100);
+  std::printf(
+      "memory: %d blocks = %.1f MiB; observed area / voxel area x %.3f B = %.1f MiB "
+      "(ratio %.2f); truncation band (area x 2 mu / voxel^3) x %.3f B = %.1f MiB (ratio "
+      "%.2f)\n",
+      map_blocks, map_bytes / 1048576.0, bytes_per_voxel, surface_bytes / 1048576.0,
+      map_bytes / surface_bytes, bytes_per_voxel, band_bytes / 1048576.0, map_bytes / band_bytes);
   std::printf("frames short of blocks: %d (first %d), blocks dropped %lld, budget %d MiB\n",
               frames_short, first_short, blocks_dropped, config.volume.map_budget_mb);
 
