@@ -100,6 +100,8 @@ void RoomGeometry::build_house() {
   ball(2.4, 1.75, 2.8, 0.18);
   box(-1.5, -0.3, 1.4, 2.0, 3.5 - kWallM - 0.04, 3.5 - kWallM);  // picture, north wall
   box(-2.5, -2.46, 1.2, 1.9, -0.6, 0.4);                         // picture, west wall
+  box(-1.0, -0.2, 0, 0.45, -1.4, -0.6);                          // armchair facing the table
+  box(-1.0, -0.85, 0.45, 0.9, -1.4, -0.6);
 
   // B, the lounge (x 3.12 … 8.0).
   box(4.0, 6.5, 0, 0.45, 2.5, 3.38);     // sofa seat against the corridor wall
@@ -129,8 +131,10 @@ void RoomGeometry::build_house() {
   post(9.1, 1.9, 0.04, 0, 0.42);
   box(10.5, 10.95, 0, 0.55, -2.0, -1.6);  // nightstand with a lamp
   ball(10.72, 0.72, -1.8, 0.12);
-  post(9.6, 2.7, 0.15, 0, kHeightM);     // a round column
-  box(13.46, 13.5, 1.2, 1.8, 2.3, 3.1);  // picture, east wall
+  post(9.6, 2.7, 0.15, 0, kHeightM);      // a round column
+  box(13.46, 13.5, 1.2, 1.8, 2.3, 3.1);   // picture, east wall
+  box(10.0, 10.9, 0, 1.0, 2.4, 3.38);     // chest on the corridor wall
+  box(12.0, 12.85, 0, 1.3, -0.35, 0.25);  // chest of drawers at the foot of the bed
 
   // D, the kitchen (x −2.5 … 5.0, z 5.62 … 9.5), seen through its door.
   box(-2.5, 3.0, 0, 0.9, 8.9, 9.5);     // counter on the north wall
@@ -156,6 +160,9 @@ void RoomGeometry::build_house() {
   post(13.0, 9.0, 0.2, 0, 0.4);  // plant
   ball(13.0, 0.75, 9.0, 0.3);
   box(13.46, 13.5, 1.2, 1.9, 6.5, 7.8);  // picture, east wall
+  box(6.2, 7.6, 0, 1.8, 8.3, 8.7);       // open shelf facing the door
+  for (double h : {0.6, 1.2}) box(6.2, 7.6, h, h + 0.03, 8.1, 8.3);
+  post(10.6, 9.0, 0.15, 0, kHeightM);  // a round column
 
   // The corridor (z 3.5 … 5.5): ceiling beams across it, a bench, a cabinet, a radiator,
   // pictures and plants.
@@ -171,6 +178,9 @@ void RoomGeometry::build_house() {
   ball(-2.0, 0.8, 4.5, 0.35);
   post(13.0, 4.5, 0.2, 0, 0.45);
   ball(13.0, 0.8, 4.5, 0.35);
+  // Pilasters on both walls, staggered: what tells a tracker how far along the corridor it is.
+  for (double x : {-1.2, 2.5, 5.4, 7.6, 10.6}) box(x, x + 0.25, 0, kHeightM, 3.5, 3.62);
+  for (double x : {-0.8, 5.4, 8.0, 10.5, 13.0}) box(x, x + 0.25, 0, kHeightM, 5.38, 5.5);
 }
 
 // ---- The path ------------------------------------------------------------------------------
