@@ -313,13 +313,10 @@ double loop_phase(int frame, double speed) {
   return 2 * kPi * speed * SyntheticScene::stamp_s(frame) / kLoopPeriodS;
 }
 
-/// The camera's state at a frame: the room's loop, or the house's path walked at
-/// kHouseSpeedMps · speed.
-LoopState camera_state(const SyntheticOptions& options, const synth::HousePath& path, int frame) {
-  if (options.scene != synth::SceneLayout::kHouse)
-    return loop_state(loop_phase(frame, options.speed));
+/// The camera's state on the house's path at a frame, walked at kHouseSpeedMps · speed.
+LoopState house_state(const synth::HousePath& path, int frame, double speed) {
   const synth::PathState p =
-      path.state(synth::kHouseSpeedMps * options.speed * SyntheticScene::stamp_s(frame));
+      path.state(synth::kHouseSpeedMps * speed * SyntheticScene::stamp_s(frame));
   LoopState s;
   for (int i = 0; i < 3; ++i) s.p[i] = p.p[i];
   s.yaw = p.yaw;
@@ -336,7 +333,21 @@ int SyntheticScene::house_loop_frames(double speed) {
 }
 
 void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
-  LoopState s = camera_state(options_, house_path_, frame);
+  if (options_.scene == synth::SceneLayout::kHouse) {
+    // The house's pose as its stamped pose's quaternion, as a matrix.
+    const StampedPose p = house_stamped_pose(frame);
+    const double x = p.q[0], y = p.q[1], z = p.q[2], w = p.q[3];
+    const double m[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                            {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                            {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+    for (int i = 0; i < 3; ++i) {
+      for (int j = 0; j < 3; ++j) R[i][j] = m[i][j];
+      t[i] = p.t[i];
+    }
+    return;
+  }
+  // NOTE: the room's pose exactly as before the house existed (see stamped_pose()).
+  LoopState s = loop_state(loop_phase(frame, options_.speed));
   if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   double q[4];
   loop_quaternion(s, q);
@@ -354,7 +365,20 @@ void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
 }
 
 StampedPose SyntheticScene::stamped_pose(int frame) const {
-  LoopState s = camera_state(options_, house_path_, frame);
+  if (options_.scene == synth::SceneLayout::kHouse) return house_stamped_pose(frame);
+  // NOTE: the room's pose exactly as before the house existed: its ground truth is pinned bit
+  // for bit, and the compiler's multiply-add contraction follows the code's shape.
+  LoopState s = loop_state(loop_phase(frame, options_.speed));
+  if (options_.jumped(frame)) s.yaw += kJumpYawRad;
+  StampedPose out;
+  out.stamp_s = stamp_s(frame);
+  for (int i = 0; i < 3; ++i) out.t[i] = s.p[i];
+  loop_quaternion(s, out.q);
+  return out;
+}
+
+StampedPose SyntheticScene::house_stamped_pose(int frame) const {
+  LoopState s = house_state(house_path_, frame, options_.speed);
   if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   StampedPose out;
   out.stamp_s = stamp_s(frame);
