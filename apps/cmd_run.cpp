@@ -200,7 +200,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                 << " frames/s computation";
       if (report.map_blocks > 0) {
         std::cerr << ", map " << report.map_blocks << " blocks ("
-                  << static_cast<double>(report.map_blocks) * kBytesPerBlock / (1 << 20) << " MiB)";
+                  << static_cast<double>(report.map_bytes) / (1 << 20) << " MiB)";
       }
       std::cerr << "\n";
     }
@@ -290,18 +290,13 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // Outputs become visible only now, stats.json last: it marks a complete run.
   std::string written = "trajectory.txt slambench.log stats.json config.txt";
   // The colour field, when fused, colours the mesh and the cloud.
-  std::vector<ColourVoxel> colour_field;
-  if (pipeline.config().colour.fuse && (outputs.mesh || outputs.cloud)) {
-    colour_field = pipeline.backend().read_colour_volume();
-  }
-  const ColourVolumeView colour{colour_field.empty() ? nullptr : colour_field.data(),
-                                pipeline.config().volume.resolution_vox,
-                                pipeline.config().volume.size_m};
+  const output::ColourField colour =
+      outputs.mesh || outputs.cloud ? output::read_colour_field(pipeline) : output::ColourField{};
   if (outputs.mesh) {
     const auto start = Clock::now();
     MeshView mesh = pipeline.backend().extract_mesh();
     std::vector<Rgb8> mesh_colours;
-    if (colour.data) {
+    if (!colour.empty()) {
       mesh_colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
       mesh.colours = mesh_colours.data();
     }

@@ -105,12 +105,8 @@ struct Reconstruction::Impl {
     return scratch_rgb.view();
   }
 
-  /// The colour field as kernels read it, from a host copy in `field`; no data without colour.
-  ColourVolumeView colour_field(std::vector<ColourVoxel>& field) {
-    if (config.colour.fuse) field = pipeline->backend().read_colour_volume();
-    return ColourVolumeView{field.empty() ? nullptr : field.data(), config.volume.resolution_vox,
-                            config.volume.size_m};
-  }
+  /// The model's colour field, read from the backend; empty without colour.
+  output::ColourField colour_field() { return output::read_colour_field(*pipeline); }
 
   std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
 
@@ -217,9 +213,8 @@ TriangleMesh Reconstruction::mesh() {
   if (view.triangle_count > 0) {
     std::memcpy(mesh.triangles.data(), view.triangles, sizeof(MeshTriangle) * view.triangle_count);
   }
-  std::vector<ColourVoxel> field;
-  const ColourVolumeView colour = impl_->colour_field(field);
-  if (colour.data) {
+  const output::ColourField colour = impl_->colour_field();
+  if (!colour.empty()) {
     for (const Rgb8& c : output::vertex_colours(view.vertices, view.vertex_count, colour)) {
       mesh.colours.insert(mesh.colours.end(), {c.r, c.g, c.b});
     }
@@ -243,12 +238,11 @@ PointCloud Reconstruction::point_cloud() {
       points.push_back(MeshVertex{p, n});
     }
   }
-  std::vector<ColourVoxel> field;
-  const ColourVolumeView colour = impl_->colour_field(field);
-  for (size_t i = 0; colour.data && i < cloud.point_count(); ++i) {
+  const output::ColourField colour = impl_->colour_field();
+  for (size_t i = 0; !colour.empty() && i < cloud.point_count(); ++i) {
     Vec3f rgb;
     const Vec3f p{cloud.points_m[3 * i], cloud.points_m[3 * i + 1], cloud.points_m[3 * i + 2]};
-    if (!sample_colour(colour, p, rgb)) rgb = Vec3f{128.0f, 128.0f, 128.0f};  // no colour there
+    if (!colour.sample(p, rgb)) rgb = Vec3f{128.0f, 128.0f, 128.0f};  // no colour there
     cloud.colours.insert(cloud.colours.end(),
                          {static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
                           static_cast<uint8_t>(rgb.z + 0.5f)});
@@ -297,10 +291,9 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
   impl_->drain();
   MeshView mesh = impl_->pipeline->backend().extract_mesh();
-  std::vector<ColourVoxel> field;
-  const ColourVolumeView colour = impl_->colour_field(field);
+  const output::ColourField colour = impl_->colour_field();
   std::vector<Rgb8> colours;
-  if (colour.data) {
+  if (!colour.empty()) {
     colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
     mesh.colours = colours.data();
   }
