@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """docs/presets.md from `kfx sweep` results: each preset's settings and intent, its speed and ATE
 on every sequence of the results, whether it meets its constraint (computed, never typed), and
 one Pareto plot per sequence (ATE on a log scale against frames/s) with the presets marked.
@@ -10,6 +9,7 @@ the results; give several results (e.g. an H200 sweep and a CPU sweep) to get a 
 
 Usage: scripts/presets_report RESULTS [RESULTS ...] [--out docs/presets.md]
                               [--figures docs/presets] [--command TEXT]
+       (or python -m kfx.plots.presets ... where the package is installed)
 RESULTS: a sweep folder (its results.json is used: it carries each run's configuration) or a
 results.json / results.jsonl / results.csv file. Needs matplotlib (Debian: python3-matplotlib;
 run with /usr/bin/python3); --no-plots writes the tables only.
@@ -20,13 +20,9 @@ import dataclasses
 import os
 import sys
 
-sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from plot_sweep import Results, ate_cm, import_pyplot, load_results, pareto_front  # noqa: E402
-
-try:
-    from matplotlib.ticker import FuncFormatter
-except ImportError:  # --no-plots works without matplotlib
-    FuncFormatter = None
+from ..study import ToolError, run_tool
+from ..study.results import Results, ate_cm, load_results, pareto_front
+from . import import_pyplot
 
 # What each preset is for, and the constraint it must meet against the baseline on every
 # sequence (issue 9). Intent only: every figure in the page is computed from the results.
@@ -49,8 +45,7 @@ BASELINE = "exact"
 
 
 def fail(message):
-    print(f"presets_report: error: {message}", file=sys.stderr)
-    sys.exit(2)
+    raise ToolError(message)
 
 
 def lost(r):
@@ -218,6 +213,8 @@ def plot_sequence(plt, res, seq, names, path):
             ax.annotate(name, (f, a), textcoords="offset points", xytext=(6, 6), fontsize=9,
                         color="tab:blue", weight="bold")
     ax.set_yscale("log")
+    from matplotlib.ticker import FuncFormatter
+
     plain = FuncFormatter(lambda v, _: f"{v:g}")
     ax.yaxis.set_major_formatter(plain)
     ax.yaxis.set_minor_formatter(plain)
@@ -252,7 +249,7 @@ def meta_lines(res, source, command):
     return lines
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("results", nargs="+", help="sweep folders or results files")
     parser.add_argument("--out", default="docs/presets.md")
@@ -260,7 +257,7 @@ def main():
     parser.add_argument("--command", action="append", default=[],
                         help="the command that made each RESULTS (in order), for the page")
     parser.add_argument("--no-plots", action="store_true")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     figures = args.figures or os.path.splitext(args.out)[0]
     plt = None if args.no_plots else import_pyplot()
     os.makedirs(figures, exist_ok=True)
@@ -342,4 +339,4 @@ def main():
 
 
 if __name__ == "__main__":
-    main()
+    sys.exit(run_tool("presets_report", main))

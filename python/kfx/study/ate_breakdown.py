@@ -1,7 +1,7 @@
-#!/usr/bin/env python3
 """What an ATE is made of: per-frame aligned error of kfx runs (or any TUM trajectory) over time.
 
 Usage: scripts/ate_breakdown.py GT.txt RUN [RUN ...] [--flip-y] [--csv OUT.csv]
+       (or python -m kfx.study.ate_breakdown ... where the package is installed)
 
 RUN is a `kfx run` output folder (trajectory.txt and slambench.log: tracked flags) or a bare
 TUM trajectory file (e.g. ../shared/reference/*.tum.txt; every frame counted as tracked).
@@ -305,7 +305,7 @@ def analyse(run, gt, flip_y, csv_rows, fixed_arm=None):
                          "angular_speed_deg_s": f"{w:.1f}"})
 
 
-def main():
+def main(argv=None):
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("gt")
     ap.add_argument("runs", nargs="+")
@@ -313,7 +313,7 @@ def main():
     ap.add_argument("--csv", help="write per-frame errors here")
     ap.add_argument("--lever-arm", help="x,y,z metres: also the ATE with this lever arm (e.g. one"
                     " fitted on another sequence of the same camera: a cross-check)")
-    args = ap.parse_args()
+    args = ap.parse_args(argv)
     gt = read_tum(args.gt)
     rows = []
     for run in args.runs:

@@ -1,4 +1,3 @@
-#!/usr/bin/env python3
 """The search mode of `kfx sweep` (docs/sweep.md, "Search"): Optuna proposes configurations.
 
 A search plan is a sweep plan (same sequences, variants, data_root, settings, repeat, warm-up)
@@ -19,6 +18,8 @@ Usage: scripts/kfx_search PLAN.json --out DIR [--kfx BIN] [--backend cpu|cuda|au
        [--seed S] [--batch N] [--variant V] [--data-root DIR] [--frames N] [--repeat N]
        [--warmup N] [--leave-out SEQ] [--robustness] [--top K] [--start-frames N,N]
        [--no-search]
+       (or python -m kfx.study.search ... where the package is installed)
+Optuna is imported when the search starts (Debian: python3-optuna; PyPI: optuna).
 """
 
 import argparse
@@ -34,13 +35,12 @@ import subprocess
 import sys
 import time
 
-EXIT_SKIP = 77
+from . import ToolError, default_path, run_tool
 
 
 def fail(message):
-    """Prints a clear error and exits non-zero."""
-    print(f"kfx_search: error: {message}", file=sys.stderr)
-    sys.exit(1)
+    """A clear error: the command line prints it and exits non-zero (status 1)."""
+    raise ToolError(message)
 
 
 def import_optuna():
@@ -843,12 +843,11 @@ def robustness(plan, args, out_dir, evaluator, rows, baseline, sequences):
 
 
 def main(argv=None):
-    here = os.path.dirname(os.path.abspath(__file__))
     parser = argparse.ArgumentParser(
         description="Search mode of kfx sweep: Optuna proposes configurations (docs/sweep.md)")
     parser.add_argument("plan", help="search plan (a sweep plan with a \"search\" section)")
     parser.add_argument("--out", required=True, help="output folder (study.db, trials.*, best.json)")
-    parser.add_argument("--kfx", default=os.path.join(here, "..", "build", "release", "kfx"),
+    parser.add_argument("--kfx", default=default_path("build", "release", "kfx"),
                         help="kfx binary (default: build/release/kfx)")
     parser.add_argument("--backend", default="auto", choices=["cpu", "cuda", "auto"])
     parser.add_argument("--trials", type=int, help="trials the study should have in all "
@@ -959,4 +958,4 @@ def main(argv=None):
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    sys.exit(run_tool("kfx_search", main, status=1))

@@ -1,9 +1,9 @@
-#!/usr/bin/env python3
 """Soak benchmark: one long `kfx run` over the synthetic room, sampling the process's host
 memory (VmRSS), the GPU memory it holds (nvidia-smi, CUDA only) and the per-frame computation
 time (slambench.log), then saying whether memory stays flat and per-frame time does not drift.
 
   scripts/soak [--backend cpu|cuda] [--frames N] [--kfx PATH] [--out DIR] [-- extra run options]
+  (or python -m kfx.study.soak ... where the package is installed)
 
 Defaults: cuda 10,000 frames, cpu 2,000 frames, 640x480 (compute 320x240), 256^3 volume.
 Flat: after the first 10 % of the run, memory grows by at most 2 % (and at most 16 MiB).
@@ -17,7 +17,7 @@ import subprocess
 import sys
 import time
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+from . import default_path
 
 
 def rss_mib(pid):
@@ -58,15 +58,15 @@ def flat(samples, label):
                 f"(growth {growth:+.1f} MiB) -> {'flat' if ok else 'NOT flat'}")
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--backend", default="cuda", choices=["cpu", "cuda"])
     parser.add_argument("--frames", type=int, default=0)
-    parser.add_argument("--kfx", default=os.path.join(ROOT, "build", "release", "kfx"))
-    parser.add_argument("--out", default=os.path.join(ROOT, "out", "soak"))
+    parser.add_argument("--kfx", default=default_path("build", "release", "kfx"))
+    parser.add_argument("--out", default=default_path("out", "soak"))
     parser.add_argument("--interval", type=float, default=1.0, help="seconds between samples")
     parser.add_argument("extra", nargs="*", help="more kfx run options (after --)")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     frames = args.frames or (10000 if args.backend == "cuda" else 2000)
     out = os.path.join(args.out, args.backend)
     command = [args.kfx, "run", f"synthetic:frames={frames}", "--backend", args.backend,
