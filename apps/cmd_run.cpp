@@ -141,8 +141,9 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   io::Frame frame;
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
-  energy->start();                             // the whole run, reading frames included
-  std::deque<double> acquisition_s_in_flight;  ///< each submitted frame's read time
+  energy->start();  // the whole run, reading frames included
+  // Each submitted frame's read time, until its result comes back.
+  std::deque<double> acquisition_s_in_flight;
   int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameResult& result) {

@@ -9,6 +9,9 @@
 
 Settings are keyword arguments checked by the one settings table (``kfx.settings_table()``,
 ``kfx settings`` on the command line); every error is a ``kfx.Error`` naming the problem.
+
+The tools above the library are imported on their own: ``kfx.study`` (sweep results, the
+search, the ATE breakdown, the soak benchmark) and ``kfx.plots`` (figures; matplotlib).
 """
 
 from __future__ import annotations
