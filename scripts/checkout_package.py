@@ -6,6 +6,8 @@ The tools are pure Python and need none of the compiled module that ``kfx/__init
 so the checkout's python/kfx is registered as the package ``kfx`` without running its
 ``__init__.py``: ``import kfx.study.search`` then reads this checkout's files, also on a machine
 where nothing was built (the GPU machine's scripts/gpu_search) and never an older installed copy.
+
+Shell scripts run a module with: python3 scripts/checkout_package.py MODULE [ARGS...]
 """
 
 import importlib
@@ -28,10 +30,17 @@ def use_checkout_package():
     sys.modules["kfx"] = package
 
 
-def run(module_name, tool_name, status=2):
-    """Runs ``module_name``'s main() on the command line's arguments under ``tool_name`` (its
-    errors read "TOOL_NAME: error: ..."); returns the exit status."""
+def run(module_name, tool_name, status=2, argv=None):
+    """Runs ``module_name``'s main() on ``argv`` (default: the command line's arguments) under
+    ``tool_name`` (its errors read "TOOL_NAME: error: ..."); returns the exit status."""
     use_checkout_package()
     module = importlib.import_module(module_name)
     study = importlib.import_module("kfx.study")
-    return study.run_tool(tool_name, module.main, sys.argv[1:], status)
+    return study.run_tool(tool_name, module.main, sys.argv[1:] if argv is None else argv, status)
+
+
+if __name__ == "__main__":
+    if len(sys.argv) < 2 or not sys.argv[1].startswith("kfx."):
+        print("usage: checkout_package.py kfx.MODULE [ARGS...]", file=sys.stderr)
+        sys.exit(2)
+    sys.exit(run(sys.argv[1], sys.argv[1], argv=sys.argv[2:]))

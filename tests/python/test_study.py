@@ -13,7 +13,7 @@ import sys
 import pytest
 
 from conftest import ROOT, kfx_cli
-from kfx.study import ToolError, ate_breakdown, results, search, tables
+from kfx.study import ToolError, ate_breakdown, energy, results, search, tables
 
 
 def record(name, sequence, ate_cm, ms, group=None, before="", step="", step_key="",
@@ -200,9 +200,44 @@ def test_ate_breakdown_alignment_removes_a_rigid_motion():
     assert ate_breakdown.rms([3.0, 4.0]) == pytest.approx(math.sqrt(12.5))
 
 
+def bench_json(path, joules_per_frame, idle=True, available=True):
+    """A `kfx bench --json` result with the energy fields the table reads."""
+    gpu = {"available": False, "reason": "no NVML here"}
+    if available:
+        gpu = {"available": True, "joules_per_frame": joules_per_frame,
+               "frames_per_joule": 1.0 / joules_per_frame, "mean_watts": 300.0, "seconds": 4.0,
+               "method": "nvml"}
+        if idle:
+            gpu.update({"idle": {"mean_watts": 100.0},
+                        "above_idle_joules_per_frame": joules_per_frame * 0.5})
+    path.write_text(json.dumps({"frames": 500, "repeat": 8, "energy": {
+        "gpu": gpu, "cpu": {"available": False, "reason": "no RAPL"}}}))
+
+
+def test_energy_table_means_and_spread(tmp_path):
+    for rep, j in enumerate((0.040, 0.050, 0.060), 1):
+        bench_json(tmp_path / f"icl_exact_{rep}.json", j)
+        bench_json(tmp_path / f"icl_fast_{rep}.json", j, available=False)
+    text = energy.energy_table(str(tmp_path), ["icl"], "exact fast", 3, "1.5", "H200", "abc1234",
+                               "60")
+    row = next(line for line in text.splitlines() if line.startswith("| icl | exact |"))
+    # mean 50 mJ/frame, 20.6 frames/J (mean of 25, 20, 16.7), idle 100 W, 25 mJ above idle
+    # (41.1 frames/J: mean of 50, 40, 33.3),
+    # spread (60 - 40) / 50 = 40 %.
+    cells = [c.strip() for c in row.strip("|").split("|")]
+    assert cells[2:10] == ["500 × 8 (4.0)", "50.000", "20.6", "300", "100", "25.000", "41.1",
+                           "40.0 %"]
+    assert "| icl | fast | 500 × 8 | no NVML here |" in text
+    assert "Host CPU energy on this machine: no RAPL." in text
+    assert "Commit: `abc1234`" in text
+    with pytest.raises(ToolError, match="cannot read the bench results"):
+        energy.energy_table(str(tmp_path), ["tum"], "exact", 1, "1", "", "", "")
+
+
 def test_import_kfx_needs_neither_matplotlib_nor_optuna():
     code = ("import sys, kfx, kfx.study.results, kfx.study.search, kfx.study.tables, "
-            "kfx.study.thesis, kfx.plots.sweep, kfx.plots.presets; "
+            "kfx.study.thesis, kfx.study.energy, kfx.study.soak, kfx.study.ate_breakdown, "
+            "kfx.plots.sweep, kfx.plots.presets; "
             "print(sorted(m for m in ('matplotlib', 'optuna') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout

@@ -4,7 +4,8 @@ command line (``kfx sweep``, ``kfx run``) and read what it writes; none needs th
 module, and all are pure standard library except the search (Optuna, imported when it runs).
 
 Modules, each also a command (``python -m kfx.study.search ...``; scripts/ has the same names
-as before: scripts/kfx_search, scripts/ate_breakdown.py, scripts/soak):
+as before: scripts/kfx_search, scripts/ate_breakdown.py, scripts/soak; scripts/energy_bench
+runs kfx.study.energy):
 
 - ``kfx.study.results``: `kfx sweep` results loaded, the measures of a run (ATE, stage times).
 - ``kfx.study.tables``: Markdown tables and report templates from those results.
@@ -12,6 +13,7 @@ as before: scripts/kfx_search, scripts/ate_breakdown.py, scripts/soak):
 - ``kfx.study.thesis``: the readings of docs/thesis-study.md, computed from the results.
 - ``kfx.study.ate_breakdown``: what an ATE is made of, per frame and per segment.
 - ``kfx.study.soak``: one long run, watching memory and per-frame time.
+- ``kfx.study.energy``: scripts/energy_bench's table from `kfx bench --json` results.
 
 The figures are in ``kfx.plots`` (matplotlib).
 """
