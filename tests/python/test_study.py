@@ -13,7 +13,7 @@ import sys
 import pytest
 
 from conftest import ROOT, kfx_cli
-from kfx.study import ToolError, ate_breakdown, energy, results, search, tables
+from kfx.study import ToolError, ate_breakdown, energy, results, search, search_summary, tables
 
 
 def record(name, sequence, ate_cm, ms, group=None, before="", step="", step_key="",
@@ -189,6 +189,27 @@ def test_bad_search_plans_raise_a_clear_error(tmp_path, section, message):
         search.SearchPlan(write_plan(tmp_path, section))
 
 
+def test_search_summary_of_a_study_folder(tmp_path):
+    assert search_summary.summary_lines(str(tmp_path)) == []  # nothing measured yet
+    (tmp_path / "trials.json").write_text(json.dumps(
+        {"trials": [{"feasible": True}, {"feasible": False}, {"feasible": True}]}))
+    (tmp_path / "best.json").write_text(json.dumps({
+        "trial": 2, "value": 1234.5, "worst_ate_ratio": 1.04, "set_arguments": "--set x=2",
+        "results": {"a": {"end_to_end_frames_per_second": 1300.2, "ate_rmse_m": 0.0123,
+                          "tracked": 500, "frames": 500}},
+        "baseline": {"a": {"end_to_end_frames_per_second": 1000, "ate_rmse_m": 0.012,
+                           "tracked": 500}}}))
+    (tmp_path / "validation.json").write_text(json.dumps(
+        {"held_out": {"holds": False, "reasons": ["b ATE 1.2x"], "worst_ate_ratio": 1.2}}))
+    assert search_summary.summary_lines(str(tmp_path)) == [
+        "trials: 3 (2 feasible)",
+        "best: trial 2, 1234 frames/s (geomean), worst ATE ratio 1.04",
+        "  --set x=2",
+        "  a: 1300 frames/s (exact 1000), ATE 1.23 cm (exact 1.20), tracked 500/500 (exact 500)",
+        "held out: does NOT hold: b ATE 1.2x; worst ATE ratio 1.2",
+    ]
+
+
 def test_ate_breakdown_alignment_removes_a_rigid_motion():
     gt = [[0.1 * i, 0.05 * i * i, 0.3 * math.sin(i)] for i in range(12)]
     c, s = math.cos(0.4), math.sin(0.4)
@@ -237,6 +258,7 @@ def test_energy_table_means_and_spread(tmp_path):
 def test_import_kfx_needs_neither_matplotlib_nor_optuna():
     code = ("import sys, kfx, kfx.study.results, kfx.study.search, kfx.study.tables, "
             "kfx.study.thesis, kfx.study.energy, kfx.study.soak, kfx.study.ate_breakdown, "
+            "kfx.study.search_summary, "
             "kfx.plots.sweep, kfx.plots.presets; "
             "print(sorted(m for m in ('matplotlib', 'optuna') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

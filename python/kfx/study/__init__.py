@@ -10,6 +10,7 @@ runs kfx.study.energy):
 - ``kfx.study.results``: `kfx sweep` results loaded, the measures of a run (ATE, stage times).
 - ``kfx.study.tables``: Markdown tables and report templates from those results.
 - ``kfx.study.search``: the search mode of `kfx sweep` (docs/sweep.md, "Search").
+- ``kfx.study.search_summary``: a search folder's outcome in a few lines (scripts/gpu_search).
 - ``kfx.study.thesis``: the readings of docs/thesis-study.md, computed from the results.
 - ``kfx.study.ate_breakdown``: what an ATE is made of, per frame and per segment.
 - ``kfx.study.soak``: one long run, watching memory and per-frame time.
