@@ -74,6 +74,16 @@ void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup) {
                                << " (the depth image's size)");
 }
 
+void check_colour_volume_upload(const std::vector<ColourVoxel>& colours, size_t field_size,
+                                const BackendSetup& setup) {
+  KFX_CHECK(setup.colour, "a colour field was given but the pipeline was set up without colour");
+  KFX_CHECK(setup.map_kind == MapKind::kDense,
+            "a dense colour field cannot be loaded into a block map (its blocks carry colour)");
+  KFX_CHECK(colours.size() == field_size, "colour field of " << colours.size()
+                                                             << " voxels given, the backend holds "
+                                                             << field_size);
+}
+
 BackendKind parse_backend_kind(const std::string& text) {
   if (text == "cpu") return BackendKind::kCpu;
   if (text == "cuda") return BackendKind::kCuda;

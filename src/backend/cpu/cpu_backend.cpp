@@ -427,6 +427,11 @@ class CpuBackend final : public Backend {
     std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 1);
   }
 
+  void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
+    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
+    std::copy(colours.begin(), colours.end(), buffers_.colour_volume.begin());
+  }
+
  private:
   bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
 

@@ -474,6 +474,13 @@ class CudaBackend final : public Backend {
         cudaMemset(buffers_.super_brick_touched.data(), 1, buffers_.super_brick_touched.bytes()));
   }
 
+  void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
+    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    KFX_CUDA_CHECK(cudaMemcpy(buffers_.colour_volume.data(), colours.data(),
+                              buffers_.colour_volume.bytes(), cudaMemcpyHostToDevice));
+  }
+
  private:
   /// Blocks of one ICP iteration's reduction: one per kReduceBlock samples, at most
   /// reduce_blocks_. Both ICP paths use it: it fixes the order of the float sums.
