@@ -147,13 +147,13 @@ TEST(BlockMapCuda, AFullBudgetGivesTheCpusDroppedReport) {
 }
 
 TEST(BlockMapCuda, AFrameBeyondThePerFrameKeyBufferIsAClearError) {
-  // Voxels far smaller than a pixel's footprint: frame 0's band reaches more new blocks than
-  // the GPU gathers in one frame. The run must stop with an error naming the frame, not
-  // allocate an arbitrary subset.
+  // 2 mm voxels (1.6 cm blocks): frame 0's band reaches several hundred thousand new blocks,
+  // more than the GPU gathers in one frame (65,536 here). The run must stop with an error naming
+  // the frame, not allocate an arbitrary subset.
   KFX_REQUIRE_CUDA();
   const std::string input = "synthetic:frames=2,width=160,height=120";
   PipelineConfig c = with_blocks(synthetic_config(input));
-  set_config_value(c, "voxel_size_m", "0.0004");
+  set_config_value(c, "voxel_size_m", "0.002");
   try {
     run(input, c, BackendKind::kCuda, 2);
     FAIL() << "an overflowing frame was accepted";
