@@ -81,11 +81,11 @@ __global__ void gather_new_blocks_kernel(BlockAllocArgs alloc, DeviceBlockMapArg
   band_blocks_of_pixel(x, y, alloc, [&](uint64_t key) {
     if (key == last) return;
     last = key;
+    if (alloc.map.hash.find(key) >= 0 || m.frame_keys.find(key) >= 0) return;
     // Once the list is full the frame has overflowed: stop adding, so the set (twice the list's
     // slots) never fills up, which would make every lookup probe the whole table. Each thread
     // adds at most one key after the count reached the capacity (read through L2: __ldcg).
     if (__ldcg(&m.counts->new_keys) > m.new_key_capacity) return;
-    if (alloc.map.hash.find(key) >= 0 || m.frame_keys.find(key) >= 0) return;
     uint32_t slot = 0;
     const BlockInsert outcome = m.frame_keys.insert(key, 0, &slot);
     if (outcome == BlockInsert::kPresent) return;
