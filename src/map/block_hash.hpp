@@ -80,11 +80,8 @@ struct BlockHashView {
   KFX_HD int32_t find(uint64_t key) const {
     uint32_t slot = static_cast<uint32_t>(block_key_hash(key)) & slot_mask;
     for (uint32_t probe = 0; probe <= slot_mask; ++probe) {
-      // The value is loaded beside the key, not after the compare: on the GPU the two loads'
-      // latencies overlap instead of adding up (the raycast's lookups are dependent chains).
       const uint64_t k = keys[slot];
-      const int32_t value = values[slot];
-      if (k == key) return value;
+      if (k == key) return values[slot];
       if (k == kEmptyBlockKey) return -1;
       slot = (slot + 1) & slot_mask;
     }
