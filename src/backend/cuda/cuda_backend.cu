@@ -140,7 +140,7 @@ class CudaBackend final : public Backend {
     state_ = DeviceBuffer<TrackingState>(1);
     if (blocks()) {
       block_map_ = DeviceBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
-                                  new_key_capacity_for(w * h));
+                                  setup.colour, new_key_capacity_for(w * h));
       block_map_.clear(stream_.get());
       map_grid_ = std::max(1, properties_.multiProcessorCount * kMapBlocksPerSm);
     }
@@ -365,18 +365,24 @@ class CudaBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
-    if (blocks()) {  // without colour: the colour field is the dense cube's so far
+    const ImageView<const Rgb8> colour_image{
+        input_rgb_[parity_].data(), setup_.colour ? setup_.input_width_px : 0,
+        setup_.colour ? setup_.input_height_px : 0, setup_.input_width_px};
+    if (blocks()) {
+      // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
       const DeviceBlockMapArgs m = block_map_.args();
-      const IntegrateArgsT<OneBlockView> a{p, OneBlockView{}, buffers_.depth_m.view(),
-                                           state_.data(), buffers_.level_normal[0].view()};
+      const IntegrateArgsT<OneBlockView> a{p,
+                                           OneBlockView{},
+                                           buffers_.depth_m.view(),
+                                           state_.data(),
+                                           buffers_.level_normal[0].view(),
+                                           ColourVolumeView{},
+                                           colour_image};
       launch(find_visible_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), m, a);
       const dim3 rows(kBlockSide * kBlockSide, kMapThreads / (kBlockSide * kBlockSide));
       launch(integrate_blocks_kernel, dim3(map_grid_), rows, m, a);
       return;
     }
-    const ImageView<const Rgb8> colour_image{
-        input_rgb_[parity_].data(), setup_.colour ? setup_.input_width_px : 0,
-        setup_.colour ? setup_.input_height_px : 0, setup_.input_width_px};
     const IntegrateArgs a{p,
                           buffers_.volume_view(),
                           buffers_.depth_m.view(),
@@ -432,6 +438,13 @@ class CudaBackend final : public Backend {
              v, w, h);
     }
     if (!setup_.colour) return;
+    if (blocks()) {
+      const auto c = make_render_colour_args(block_map_.view(), ColourVolumeView{},
+                                             buffers_.render_colour.view(), state_.data(), p);
+      launch(pixel_kernel<RenderColourBodyT<BlockMapView>, RenderColourArgsT<BlockMapView>>,
+             grid_for(w, h, ray_block), ray_block, c, w, h);
+      return;
+    }
     const RenderColourArgs c =
         make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
                                 buffers_.render_colour.view(), state_.data(), p);
@@ -515,7 +528,7 @@ class CudaBackend final : public Backend {
       // CPU's bodies and order, so both backends give the same bytes for the same map.
       const BlockMapContents contents = block_map_.download(stream_.get());
       HostBlockMap host(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
-                        contents.grid_res, contents.grid_size_m);
+                        contents.grid_res, contents.grid_size_m, !contents.colours.empty());
       host.load(contents);
       return extract_block_map_mesh(host.view(), block_mesh_vertices_, block_mesh_triangles_);
     }

@@ -159,8 +159,8 @@ __device__ inline int blocks_added(const DeviceBlockMapArgs& m) {
   return max(0, min(m.counts->listed, m.map.block_capacity - m.counts->blocks));
 }
 
-/// The new blocks' voxels (empty) and coarse indices (their cells were all stored by the
-/// launch before).
+/// The new blocks' voxels (empty), colours (none) and coarse indices (their cells were all
+/// stored by the launch before).
 __global__ void init_new_blocks_kernel(DeviceBlockMapArgs m) {
   wait_for_previous_kernel();
   const int first = m.counts->blocks;
@@ -169,6 +169,8 @@ __global__ void init_new_blocks_kernel(DeviceBlockMapArgs m) {
        v += static_cast<long long>(gridDim.x) * blockDim.x) {
     const int32_t b = first + static_cast<int32_t>(v / kBlockVoxels);
     m.map.voxels[static_cast<long long>(first) * kBlockVoxels + v] = empty_voxel();
+    if (m.map.colours)
+      m.map.colours[static_cast<long long>(first) * kBlockVoxels + v] = {0, 0, 0, 0};
     if (v % kBlockVoxels == 0) {
       const Vec3i c = unpack_block_key(m.map.block_keys[b]);
       m.map.block_coarse[b] = m.map.coarse_hash.find(
@@ -217,10 +219,13 @@ __global__ void integrate_blocks_kernel(DeviceBlockMapArgs m, IntegrateArgsT<One
 class DeviceBlockMap {
  public:
   DeviceBlockMap() = default;
-  DeviceBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, int new_key_capacity)
+  /// With `colour`, each block carries kBlockVoxels colours beside its voxels.
+  DeviceBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour,
+                 int new_key_capacity)
       : hash_keys_(block_hash_slot_count(block_capacity)),
         hash_values_(hash_keys_.size()),
         voxels_(static_cast<size_t>(block_capacity) * kBlockVoxels),
+        colours_(colour ? static_cast<size_t>(block_capacity) * kBlockVoxels : 0),
         block_keys_(block_capacity),
         block_touched_(block_capacity),
         block_coarse_(block_capacity),
@@ -277,6 +282,7 @@ class DeviceBlockMap {
     v.block_count = 0;  // on the device only: counts->blocks
     v.grid_res = grid_res_;
     v.grid_size_m = grid_size_m_;
+    v.colours = colours_.size() > 0 ? colours_.data() : nullptr;
     return v;
   }
 
@@ -289,6 +295,11 @@ class DeviceBlockMap {
     const size_t n = static_cast<size_t>(counts.blocks);
     std::vector<uint64_t> keys(n);
     std::vector<Voxel> voxels(n * kBlockVoxels);
+    std::vector<ColourVoxel> colours(colours_.size() > 0 ? n * kBlockVoxels : 0);
+    if (!colours.empty()) {
+      KFX_CUDA_CHECK(cudaMemcpy(colours.data(), colours_.data(),
+                                colours.size() * sizeof(ColourVoxel), cudaMemcpyDeviceToHost));
+    }
     if (n > 0) {
       KFX_CUDA_CHECK(cudaMemcpy(keys.data(), block_keys_.data(), n * sizeof(uint64_t),
                                 cudaMemcpyDeviceToHost));
@@ -307,6 +318,10 @@ class DeviceBlockMap {
       c.keys.push_back(keys[b]);
       c.voxels.insert(c.voxels.end(), voxels.begin() + b * kBlockVoxels,
                       voxels.begin() + (b + 1) * kBlockVoxels);
+      if (!colours.empty()) {
+        c.colours.insert(c.colours.end(), colours.begin() + b * kBlockVoxels,
+                         colours.begin() + (b + 1) * kBlockVoxels);
+      }
     }
     return c;
   }
@@ -315,7 +330,7 @@ class DeviceBlockMap {
   /// touched), copied whole to the device. Returns the block count. Waits for `stream`.
   int upload(const BlockMapContents& contents, cudaStream_t stream) {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
-    HostBlockMap host(capacity_, grid_res_, grid_size_m_);
+    HostBlockMap host(capacity_, grid_res_, grid_size_m_, colours_.size() > 0);
     host.load(contents);
     const BlockMapView h = host.view();
     const size_t n = static_cast<size_t>(host.block_count());
@@ -328,6 +343,7 @@ class DeviceBlockMap {
     copy_up(block_coarse_.data(), h.block_coarse, n);
     copy_up(coarse_touched_.data(), h.coarse_touched, static_cast<size_t>(host.coarse_count()));
     copy_up(voxels_.data(), h.voxels, n * kBlockVoxels);
+    if (h.colours) copy_up(colours_.data(), h.colours, n * kBlockVoxels);
     const BlockMapCounts counts{host.block_count(), host.coarse_count(), 0, 0, 0};
     copy_up(counts_.data(), &counts, 1);
     return host.block_count();
@@ -345,6 +361,7 @@ class DeviceBlockMap {
   DeviceBuffer<uint64_t> hash_keys_;
   DeviceBuffer<int32_t> hash_values_;
   DeviceBuffer<Voxel> voxels_;
+  DeviceBuffer<ColourVoxel> colours_;  ///< empty without colour
   DeviceBuffer<uint64_t> block_keys_;
   DeviceBuffer<uint8_t> block_touched_;
   DeviceBuffer<int32_t> block_coarse_;

@@ -73,11 +73,13 @@ struct RenderTrackBody {
     render_track_pixel(x, y, a);
   }
 };
-struct RenderColourBody {
-  __device__ void operator()(int x, int y, const RenderColourArgs& a) const {
+template <class Map>
+struct RenderColourBodyT {
+  __device__ void operator()(int x, int y, const RenderColourArgsT<Map>& a) const {
     render_colour_pixel(x, y, a);
   }
 };
+using RenderColourBody = RenderColourBodyT<VolumeView>;
 template <class Map>
 struct RenderVolumeBodyT {
   __device__ void operator()(int x, int y, const RenderVolumeArgsT<Map>& a) const {
