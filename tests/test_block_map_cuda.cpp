@@ -48,7 +48,8 @@ BlockRun run(const std::string& input, const PipelineConfig& config, BackendKind
   BlockRun r;
   io::Frame frame;
   for (int f = 0; f < frames && reader->next(frame).status == io::ReadStatus::kOk; ++f) {
-    r.reports.push_back(pipeline.process(frame.depth_mm));
+    r.reports.push_back(
+        pipeline.process(frame.depth_mm, config.colour.fuse ? &frame.rgb : nullptr));
     r.trajectory.push_back(io::to_stamped_pose(frame.stamp_s, r.reports.back().T_world_cam));
   }
   r.mesh = Mesh(pipeline.backend().extract_mesh());
@@ -123,6 +124,32 @@ TEST(BlockMapCuda, BootstrapFramesAllocateTheCpusBlocks) {
   const auto [tsdf, weights] = voxel_differences(cpu.contents, gpu.contents);
   EXPECT_EQ(weights, 0u);
   EXPECT_LE(tsdf, 2) << "largest tsdf difference, in stored units of 1/32767";
+}
+
+TEST(BlockMapCuda, ColouredBootstrapFramesGiveTheCpusColours) {
+  // Colour fused into each block's own colours by the same body: the same keys, the same colour
+  // weights, and colours equal but where the GPU's float rounding moves a voxel's projection
+  // into the neighbouring colour pixel.
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=4,width=160,height=120";
+  PipelineConfig c = with_blocks(synthetic_config(input));
+  set_config_value(c, "colour", "on");
+  const BlockRun cpu = run(input, c, BackendKind::kCpu, 4);
+  const BlockRun gpu = run(input, c, BackendKind::kCuda, 4);
+  ASSERT_EQ(gpu.contents.keys, cpu.contents.keys);
+  ASSERT_EQ(cpu.contents.colours.size(), cpu.contents.voxels.size());
+  ASSERT_EQ(gpu.contents.colours.size(), cpu.contents.colours.size());
+  size_t coloured = 0, weight_differs = 0, colour_differs = 0;
+  for (size_t i = 0; i < cpu.contents.colours.size(); ++i) {
+    const ColourVoxel a = cpu.contents.colours[i], b = gpu.contents.colours[i];
+    coloured += a.weight > 0 ? 1 : 0;
+    weight_differs += a.weight != b.weight ? 1 : 0;
+    const int d = std::max({std::abs(a.r - b.r), std::abs(a.g - b.g), std::abs(a.b - b.b)});
+    colour_differs += d > 0 ? 1 : 0;
+  }
+  EXPECT_GT(coloured, 10000u);
+  EXPECT_LE(weight_differs, coloured / 1000) << "of " << coloured << " coloured voxels";
+  EXPECT_LE(colour_differs, coloured / 1000) << "of " << coloured << " coloured voxels";
 }
 
 TEST(BlockMapCuda, AFullBudgetGivesTheCpusDroppedReport) {
