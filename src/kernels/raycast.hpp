@@ -13,11 +13,11 @@ namespace kfx {
 
 /// Trilinear tsdf at a volume-frame point (metres); voxel indices clamped to the volume (the
 /// dense cube's; a block map has no faces). `Map`: VolumeView or BlockMapView.
-/// volume_interp through `reader` (map_reader(vol)), which a caller keeps across samples.
-template <class Map, class Reader>
-KFX_HD inline float volume_interp(const Map& vol, Reader& reader, Vec3f p_m) {
+template <class Map>
+KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m) {
   const int res = map_grid_res(vol);
   const float size_m = map_grid_size_m(vol);
+  auto&& reader = map_reader(vol);
   const Vec3f s{p_m.x * res / size_m - 0.5f, p_m.y * res / size_m - 0.5f,
                 p_m.z * res / size_m - 0.5f};
   const int bx = static_cast<int>(floorf(s.x)), by = static_cast<int>(floorf(s.y)),
@@ -33,12 +33,6 @@ KFX_HD inline float volume_interp(const Map& vol, Reader& reader, Vec3f p_m) {
            (t(lx, uy, uz) * (1 - fx) + t(ux, uy, uz) * fx) * fy) *
               fz) *
          kTsdfInvScale;
-}
-
-template <class Map>
-KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m) {
-  auto&& reader = map_reader(vol);
-  return volume_interp(vol, reader, p_m);
 }
 
 KFX_HD inline float lerp(float a, float b, float f) { return a * (1 - f) + b * f; }
@@ -167,8 +161,8 @@ KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m,
 /// reads as tsdf +1) or allocated but untouched; the box is their union. The coarse cells
 /// (kCoarseShift) are asked first: one whose blocks are all untouched or unallocated, usually
 /// the only one the sample reaches, gives a box of 32³ voxels.
-KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, BlockMapReader& reader,
-                                               Vec3f p_m, float vox_per_m) {
+KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m,
+                                               float vox_per_m) {
   UntouchedSample u;
   const float s[3] = {p_m.x * vox_per_m - 0.5f, p_m.y * vox_per_m - 0.5f, p_m.z * vox_per_m - 0.5f};
   int lo[3], hi[3];  // voxels
@@ -183,7 +177,9 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, BlockMap
       for (int y = lo[1] >> kCoarseVoxelShift; coarse_untouched && y <= hi[1] >> kCoarseVoxelShift;
            ++y) {
         for (int x = lo[0] >> kCoarseVoxelShift; x <= hi[0] >> kCoarseVoxelShift; ++x) {
-          if (reader.coarse_is_touched(x, y, z)) {
+          const int32_t c =
+              block_coords_packable(x, y, z) ? map.coarse_hash.find(pack_block_key(x, y, z)) : -1;
+          if (c >= 0 && map.coarse_touched[c]) {
             coarse_untouched = false;
             break;
           }
@@ -206,7 +202,7 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, BlockMap
   for (int z = lo[2]; z <= hi[2]; ++z) {
     for (int y = lo[1]; y <= hi[1]; ++y) {
       for (int x = lo[0]; x <= hi[0]; ++x) {
-        const int32_t b = reader.block_index(x, y, z);
+        const int32_t b = map.find_block(x, y, z);
         if (b >= 0 && map.block_is_touched(b)) return u;
       }
     }
@@ -217,19 +213,6 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, BlockMap
     u.box_end_vox[i] = (hi[i] + 1) * kBlockSide;
   }
   return u;
-}
-
-/// untouched_sample of a block map without a reader kept across samples.
-KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m,
-                                               float vox_per_m) {
-  BlockMapReader reader = map_reader(map);
-  return untouched_sample(map, reader, p_m, vox_per_m);
-}
-
-/// The dense cube's test, given its reader (the cube itself: nothing to remember).
-KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, const VolumeView&, Vec3f p_m,
-                                               float vox_per_m) {
-  return untouched_sample(vol, p_m, vox_per_m);
 }
 
 /// Ray parameter (metres along `direction`, inv_dir = 1 / direction) before which every sample
@@ -314,13 +297,11 @@ KFX_HD inline float volume_interp_two_value(const Map& vol, Vec3f p_m) {
   return (lo * (1 - fz) + hi * fz) * kTsdfInvScale;
 }
 
-/// The sample the march uses: trilinear (exact) or two-value. `reader` (map_reader(a.volume))
-/// is kept across the ray's samples: on a block map it remembers the last block found, so
-/// consecutive samples in one block cost no hash lookup.
-template <class Map, class Reader>
-KFX_HD inline float raycast_sample(const RaycastArgsT<Map>& a, Reader& reader, Vec3f p_m) {
+/// The sample the march uses: trilinear (exact) or two-value.
+template <class Map>
+KFX_HD inline float raycast_sample(const RaycastArgsT<Map>& a, Vec3f p_m) {
   return a.interp == RaycastInterp::kTwoValue ? volume_interp_two_value(a.volume, p_m)
-                                              : volume_interp(a.volume, reader, p_m);
+                                              : volume_interp(a.volume, p_m);
 }
 
 /// Samples of a touched stretch of the march read at once (raycast_ray). On the GPU the march is
@@ -364,8 +345,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   float t = t_near;
   const bool constant_step = a.constant_step_m > 0.0f;
   float step = constant_step ? a.constant_step_m : a.large_step_m;
-  auto&& reader = map_reader(a.volume);  // the ray's lookups, remembered from sample to sample
-  float f_t = raycast_sample(a, reader, origin + direction * t);
+  float f_t = raycast_sample(a, origin + direction * t);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
   // Samples in untouched space are skipped: they are ≥ 0.8, so they would only have advanced t
@@ -377,7 +357,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const float vox_per_m = res / size, voxel_m = size / res;
   while (t < t_far) {
     const Vec3f p = origin + direction * t;
-    const UntouchedSample u = untouched_sample(a.volume, reader, p, vox_per_m);
+    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m);
     if (u.untouched) {
       f_t_skipped = true;
       // Fast-forward to the exit of the untouched box without testing each sample.
@@ -402,8 +382,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
       // volume, where a sample's voxel indices would leave it.
       float t_i = t;
       for (int i = 0; i < Batch; ++i) {
-        f_batch[i] =
-            i == 0 || t_i < t_far ? raycast_sample(a, reader, origin + direction * t_i) : 1.0f;
+        f_batch[i] = i == 0 || t_i < t_far ? raycast_sample(a, origin + direction * t_i) : 1.0f;
         t_i += step;
       }
     }
@@ -425,7 +404,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
     if (hit_found) break;
   }
   if (!(f_tt < 0.0f)) return 0.0f;
-  if (f_t_skipped) f_t = raycast_sample(a, reader, origin + direction * t_prev);
+  if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev);
   t = t + step * f_tt / (f_t - f_tt);  // secant refinement
   hit = origin + direction * t;
   return t;

@@ -109,37 +109,18 @@ KFX_HD inline float map_grid_size_m(const BlockMapView& v) { return v.grid_size_
 /// one hash lookup instead of one each.
 struct BlockMapReader {
   const BlockMapView* map;
-  Vec3i block{kBlockCoordMin - 1, 0, 0};   ///< the remembered block (none yet)
-  int32_t index = -1;                      ///< its index, −1 when unallocated
-  const Voxel* voxels = nullptr;           ///< its voxels, null when unallocated
-  Vec3i coarse{kBlockCoordMin - 1, 0, 0};  ///< the remembered coarse cell (none yet)
-  bool coarse_touched = false;             ///< whether it holds a touched block
+  Vec3i block{kBlockCoordMin - 1, 0, 0};  ///< the remembered block (none yet)
+  const Voxel* voxels = nullptr;          ///< its voxels, null when unallocated
 
-  /// Index of block (bx, by, bz), or −1 when it is not allocated.
-  KFX_HD int32_t block_index(int bx, int by, int bz) {
-    if (bx != block.x || by != block.y || bz != block.z) {
-      block = {bx, by, bz};
-      index = map->find_block(bx, by, bz);
-      voxels = index < 0 ? nullptr : map->block_voxels(index);
-    }
-    return index;
-  }
   /// Voxels of the block holding voxel (x, y, z), or null.
   KFX_HD const Voxel* block_voxels_of(int x, int y, int z) {
-    block_index(block_of_voxel(x), block_of_voxel(y), block_of_voxel(z));
-    return voxels;
-  }
-  /// True when coarse cell (cx, cy, cz) exists and holds a touched block. The flags do not
-  /// change while a reader is used (a raycast or render reads a map integration has finished).
-  KFX_HD bool coarse_is_touched(int cx, int cy, int cz) {
-    if (cx != coarse.x || cy != coarse.y || cz != coarse.z) {
-      coarse = {cx, cy, cz};
-      const int32_t c = block_coords_packable(cx, cy, cz)
-                            ? map->coarse_hash.find(pack_block_key(cx, cy, cz))
-                            : -1;
-      coarse_touched = c >= 0 && map->coarse_touched[c];
+    const int bx = block_of_voxel(x), by = block_of_voxel(y), bz = block_of_voxel(z);
+    if (bx != block.x || by != block.y || bz != block.z) {
+      block = {bx, by, bz};
+      const int32_t b = map->find_block(bx, by, bz);
+      voxels = b < 0 ? nullptr : map->block_voxels(b);
     }
-    return coarse_touched;
+    return voxels;
   }
   KFX_HD Voxel voxel(int x, int y, int z) {
     const Voxel* v = block_voxels_of(x, y, z);
