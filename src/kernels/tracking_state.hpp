@@ -41,6 +41,9 @@ struct TrackingState {
   // The block map (volume=blocks; 0 with the dense cube):
   int map_blocks;          ///< blocks allocated after this frame
   int map_blocks_dropped;  ///< blocks this frame's band reached that the map had no room for
+  /// CUDA only: this frame's band reached more new blocks than one frame may gather on the
+  /// device (its allocation would not be the CPU's); the pipeline turns it into an error.
+  int map_new_blocks_overflow;
 };
 
 }  // namespace kfx

@@ -207,8 +207,7 @@ std::vector<ConfigField> build_fields() {
     f.section = "volume";
     f.help =
         "the map: dense (one cube of volume_resolution^3 voxels over volume_size_m, "
-        "SLAMBench's) | blocks (8^3 voxel blocks allocated where depth lands, no cube; CPU "
-        "backend only so far)";
+        "SLAMBench's) | blocks (8^3 voxel blocks allocated where depth lands, no cube)";
     f.parse = [](C& c, const std::string& text) {
       if (text == "dense") {
         c.volume.kind = MapKind::kDense;
@@ -544,9 +543,6 @@ void set_config_assignment(PipelineConfig& config, const std::string& assignment
 }
 
 void PipelineConfig::validate() const {
-  KFX_CHECK(!(colour.fuse && volume.kind == MapKind::kBlocks),
-            "colour=on needs volume=dense: the block map (volume=blocks) carries no colour field "
-            "yet");
   const int r = input.compute_size_ratio;
   KFX_CHECK(r == 1 || r == 2 || r == 4 || r == 8,
             "compute_size_ratio must be 1, 2, 4 or 8, got " << r);

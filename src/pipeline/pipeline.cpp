@@ -30,8 +30,8 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   if (setup_.map_kind == MapKind::kBlocks) {
     setup_.volume_res_vox = config_.volume.grid_res();
     setup_.volume_size_m = config_.volume.grid_size_m();
-    setup_.block_capacity =
-        block_capacity_for_budget(static_cast<uint64_t>(config_.volume.map_budget_mb) << 20);
+    setup_.block_capacity = block_capacity_for_budget(
+        static_cast<uint64_t>(config_.volume.map_budget_mb) << 20, config_.colour.fuse);
   } else {
     setup_.volume_res_vox = config_.volume.resolution_vox;
     setup_.volume_size_m = config_.volume.size_m;
@@ -161,6 +161,12 @@ FrameReport Pipeline::collect() {
   const bool track = pending.track, may_integrate = pending.may_integrate;
   const bool always = pending.always;
   const TrackingState state = backend_->read_state();
+  KFX_CHECK(!state.map_new_blocks_overflow,
+            "frame " << report.index << ": its truncation band reaches more new blocks than one "
+                     << "frame may allocate on the GPU (4 per compute pixel); the voxels ("
+                     << config_.volume.grid_size_m() / config_.volume.grid_res()
+                     << " m) are too small for this depth and resolution: use a larger "
+                     << "voxel_size_m or --backend cpu");
   report.stage_ms = backend_->frame_stage_ms();
   // A frame that renders nothing spent no rendering time: the GPU's empty event pair can still
   // read a nanosecond, which would mark the frame as rendered in slambench.log.
@@ -170,6 +176,7 @@ FrameReport Pipeline::collect() {
   report.integrated = may_integrate && (always || state.tracked);
   report.T_world_cam = state.T_world_cam;
   report.map_blocks = state.map_blocks;
+  report.map_bytes = block_bytes(setup_.colour) * static_cast<uint64_t>(state.map_blocks);
   report.map_blocks_dropped = report.integrated ? state.map_blocks_dropped : 0;
   report.icp_iterations = track ? state.iterations_run : 0;
   report.inlier_fraction =

@@ -11,11 +11,11 @@
 #include <thread>
 
 #include "backend/backend.hpp"
+#include "backend/block_map_mesh.hpp"
 #include "backend/frame_buffers.hpp"
 #include "kernels/block_allocation.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/marching_cubes.hpp"
-#include "kernels/marching_cubes_blocks.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
@@ -75,7 +75,8 @@ class CpuBackend final : public Backend {
         buffers_(setup),
         row_partials_(static_cast<size_t>(setup.compute_height_px()) * kAccumulatorSize) {
     if (blocks()) {
-      blocks_ = HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m);
+      blocks_ = HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
+                             setup.colour);
     }
     auto& normals = buffers_.ref_normal.pixels();
     std::fill(normals.begin(), normals.end(), Vec3f{kInvalidNormal, 0, 0});
@@ -215,7 +216,7 @@ class CpuBackend final : public Backend {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
     if (blocks()) {
-      integrate_blocks(p);  // without colour: the colour field is the dense cube's so far
+      integrate_blocks(p);
       return;
     }
     const IntegrateArgs a{p,
@@ -268,12 +269,12 @@ class CpuBackend final : public Backend {
                                             &state_, p));
     }
     if (!setup_.colour) return;
-    const RenderColourArgs c =
-        make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
-                                buffers_.render_colour.view(), &state_, p);
-#pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) render_colour_pixel(x, y, c);
+    if (blocks()) {
+      render_colour(make_render_colour_args(blocks_.view(), ColourVolumeView{},
+                                            buffers_.render_colour.view(), &state_, p));
+    } else {
+      render_colour(make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
+                                            buffers_.render_colour.view(), &state_, p));
     }
   }
 
@@ -426,14 +427,25 @@ class CpuBackend final : public Backend {
     std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 1);
   }
 
+  void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
+    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
+    std::copy(colours.begin(), colours.end(), buffers_.colour_volume.begin());
+  }
+
  private:
   bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
 
   /// Integration over the block map: every allocated block in view, one block per task.
   void integrate_blocks(const IntegrateParams& p) {
     const BlockMapView map = blocks_.view();
-    IntegrateArgsT<OneBlockView> a{p, OneBlockView{}, buffers_.depth_m.view(), &state_,
-                                   buffers_.level_normal[0].view()};
+    // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
+    IntegrateArgsT<OneBlockView> a{p,
+                                   OneBlockView{},
+                                   buffers_.depth_m.view(),
+                                   &state_,
+                                   buffers_.level_normal[0].view(),
+                                   ColourVolumeView{},
+                                   input_rgb_.view()};
 #pragma omp parallel for schedule(dynamic, 16) firstprivate(a)
     for (int b = 0; b < map.block_count; ++b) {
       if (!block_in_view(map, b, a)) continue;
@@ -461,48 +473,18 @@ class CpuBackend final : public Backend {
     }
   }
 
+  template <class Args>
+  void render_colour(const Args& c) {
+    const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) render_colour_pixel(x, y, c);
+    }
+  }
+
   /// Marching cubes over the block map (kernels/marching_cubes_blocks.hpp).
   MeshView extract_block_mesh() {
-    const BlockMapView map = blocks_.view();
-    const int n = map.block_count;
-    std::vector<uint8_t> signs(static_cast<size_t>(n));
-#pragma omp parallel for schedule(static)
-    for (int b = 0; b < n; ++b) signs[b] = mc_map_block_sign_bits(map, b);
-    std::vector<int32_t> active;  // block indices, in increasing key order
-    std::vector<uint8_t> is_active(static_cast<size_t>(n));
-#pragma omp parallel for schedule(static)
-    for (int b = 0; b < n; ++b) is_active[b] = mc_map_block_active(map, signs.data(), b);
-    for (int b = 0; b < n; ++b) {
-      if (is_active[b]) active.push_back(b);
-    }
-    std::sort(active.begin(), active.end(),
-              [&](int32_t l, int32_t r) { return map.block_keys[l] < map.block_keys[r]; });
-    std::vector<int32_t> slot(static_cast<size_t>(n), -1);
-    for (size_t s = 0; s < active.size(); ++s) slot[active[s]] = static_cast<int32_t>(s);
-    const int slots = static_cast<int>(active.size());
-    std::vector<uint32_t> first_vertex(static_cast<size_t>(slots) * kBlockVoxels);
-    std::vector<uint32_t> vertex_offset(static_cast<size_t>(slots) + 1, 0);
-    std::vector<uint32_t> triangle_offset(static_cast<size_t>(slots) + 1, 0);
-    BlockMeshArgs a{map,
-                    &kMcTable,
-                    active.data(),
-                    slot.data(),
-                    first_vertex.data(),
-                    vertex_offset.data(),
-                    triangle_offset.data(),
-                    nullptr,
-                    nullptr};
-#pragma omp parallel for schedule(dynamic, 8)
-    for (int s = 0; s < slots; ++s) mc_count_block(s, a);
-    const size_t vertex_total = exclusive_scan(vertex_offset, "vertices");
-    const size_t triangle_total = exclusive_scan(triangle_offset, "triangles");
-    if (mesh_vertices_.size() < vertex_total) mesh_vertices_.resize(vertex_total);
-    if (mesh_triangles_.size() < triangle_total) mesh_triangles_.resize(triangle_total);
-    a.vertices = mesh_vertices_.data();
-    a.triangles = mesh_triangles_.data();
-#pragma omp parallel for schedule(dynamic, 8)
-    for (int s = 0; s < slots; ++s) mc_write_block(s, a);
-    return MeshView{mesh_vertices_.data(), vertex_total, mesh_triangles_.data(), triangle_total};
+    return extract_block_map_mesh(blocks_.view(), mesh_vertices_, mesh_triangles_);
   }
 
   /// The undistortion table as mm → m reads it; no data when there is none.
