@@ -43,19 +43,22 @@ struct Options {
   std::vector<std::pair<std::string, std::string>> sets;
   double sample_spacing_m = 0.03;
   int visibility_every = 10;
+  int first_frame = 0;  ///< frames before it are read and skipped (the map starts there)
   double coverage_m = 0.02;
   std::string json_path;
 };
 
 [[noreturn]] void usage(const char* why) {
-  std::fprintf(stderr,
-               "kfx_scale_bench: %s\n"
-               "usage: kfx_scale_bench [--backend cpu|cuda] [--preset NAME] [--input SPEC]\n"
-               "       [--set key=value]... [--sample-spacing M] [--visibility-every N]\n"
-               "       [--coverage M] [--json PATH]\n"
-               "  --input defaults to synthetic:scene=house (give width, height, frames, speed\n"
-               "  there); the house recommends volume=blocks, voxel_size_m=0.01.\n",
-               why);
+  std::fprintf(
+      stderr,
+      "kfx_scale_bench: %s\n"
+      "usage: kfx_scale_bench [--backend cpu|cuda] [--preset NAME] [--input SPEC]\n"
+      "       [--set key=value]... [--sample-spacing M] [--visibility-every N]\n"
+      "       [--coverage M] [--first N] [--json PATH]\n"
+      "  --input defaults to synthetic:scene=house (give width, height, frames, speed\n"
+      "  there); the house recommends volume=blocks, voxel_size_m=0.01. --first N starts the\n"
+      "  map at frame N (a stretch of the path, e.g. to study where tracking fails).\n",
+      why);
   std::exit(2);
 }
 
@@ -82,6 +85,8 @@ Options parse(int argc, char** argv) {
       o.sample_spacing_m = std::stod(next());
     } else if (a == "--visibility-every") {
       o.visibility_every = std::max(1, std::stoi(next()));
+    } else if (a == "--first") {
+      o.first_frame = std::max(0, std::stoi(next()));
     } else if (a == "--coverage") {
       o.coverage_m = std::stod(next());
     } else if (a == "--json") {
@@ -185,13 +190,13 @@ double percentile(std::vector<double> v, double q) {
 /// the true pose, an unoccluded ray).
 std::vector<char> observed_samples(const kfx::io::SyntheticScene& scene,
                                    const std::vector<kfx::io::synth::SurfaceSample>& samples,
-                                   int frames, int every) {
+                                   int first, int end, int every) {
   using kfx::io::KinectDepthModel;
   const auto& o = scene.options();
   const double f = 525.0 * o.width_px / 640.0, cx = (o.width_px - 1) / 2.0,
                cy = (o.height_px - 1) / 2.0;
   std::vector<char> seen(samples.size(), 0);
-  for (int frame = 0; frame < frames; frame += every) {
+  for (int frame = first; frame < end; frame += every) {
     double R[3][3], t[3];
     scene.pose(frame, R, t);
 #pragma omp parallel for schedule(dynamic, 4096)
@@ -251,6 +256,10 @@ int main(int argc, char** argv) try {
   long long blocks_dropped = 0;
   double computation_ms = 0;
   kfx::io::Frame frame;
+  for (int skipped = 0; skipped < opt.first_frame; ++skipped) {
+    KFX_CHECK(reader->next(frame).status == kfx::io::ReadStatus::kOk,
+              "--first " << opt.first_frame << " is beyond the input's frames");
+  }
   while (reader->next(frame).status == kfx::io::ReadStatus::kOk) {
     const kfx::FrameReport r = pipeline.process(frame.depth_mm);
     poses.push_back(r.T_world_cam);
@@ -264,8 +273,8 @@ int main(int argc, char** argv) try {
       if (first_short < 0) first_short = r.index;
     }
     if (r.index % 250 == 0) {
-      std::printf("  frame %d: %d blocks, %.1f ms computation a frame so far\n", r.index,
-                  map_blocks, computation_ms / poses.size());
+      std::printf("  frame %d: %d blocks, %.1f ms computation a frame so far\n",
+                  opt.first_frame + r.index, map_blocks, computation_ms / poses.size());
       std::fflush(stdout);
     }
   }
@@ -279,7 +288,7 @@ int main(int argc, char** argv) try {
   for (int i = 0; i < n; ++i) {
     for (int k = 0; k < 3; ++k) {
       est_m(k, i) = poses[i].m[k][3];
-      gt_m(k, i) = gt[i].t[k];
+      gt_m(k, i) = gt[opt.first_frame + i].t[k];
     }
   }
   const kfx::eval::AteResult ate = kfx::eval::compute_ate(est_m, gt_m);
@@ -287,12 +296,12 @@ int main(int argc, char** argv) try {
   // against the ground truth, every 250 frames: where along the path tracking went wrong.
   {
     double Ra[3][3], ta[3];
-    scene.pose(0, Ra, ta);
+    scene.pose(opt.first_frame, Ra, ta);
     const Rigid anchor = Rigid::from(Ra, ta) * Rigid::from(poses.front()).inverse();
     std::printf("drift (scene frame through frame 0, no alignment):");
-    for (int i = 0; i < n; i += 250) {
+    for (int i = 0; i<n; i += opt.first_frame> 0 ? 25 : 250) {
       const Vec3d p = anchor.apply(est_m(0, i), est_m(1, i), est_m(2, i));
-      std::printf(" %d: %.1f cm;", i,
+      std::printf(" %d: %.1f cm;", opt.first_frame + i,
                   100 * std::sqrt((p.x - gt_m(0, i)) * (p.x - gt_m(0, i)) +
                                   (p.y - gt_m(1, i)) * (p.y - gt_m(1, i)) +
                                   (p.z - gt_m(2, i)) * (p.z - gt_m(2, i))));
@@ -302,7 +311,7 @@ int main(int argc, char** argv) try {
 
   // ---- The mesh against the true surface ----
   double R0[3][3], t0_m[3];
-  scene.pose(0, R0, t0_m);
+  scene.pose(opt.first_frame, R0, t0_m);
   const Rigid scene_from_world = Rigid::from(R0, t0_m) * Rigid::from(poses.front()).inverse();
   std::vector<Vec3d> vertices;
   vertices.reserve(mesh.vertices.size());
@@ -322,7 +331,8 @@ int main(int argc, char** argv) try {
 
   // ---- The observed true surface, coverage, memory ----
   const auto samples = scene.geometry().sample_surface(opt.sample_spacing_m);
-  const std::vector<char> seen = observed_samples(scene, samples, n, opt.visibility_every);
+  const std::vector<char> seen =
+      observed_samples(scene, samples, opt.first_frame, opt.first_frame + n, opt.visibility_every);
   const NearGrid mesh_grid(vertices, opt.coverage_m);
   double total_area = 0, observed_area = 0, covered_area = 0;
   std::vector<char> covered(samples.size(), 0);
