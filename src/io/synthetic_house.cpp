@@ -163,6 +163,13 @@ void RoomGeometry::build_house() {
   box(6.2, 7.6, 0, 1.8, 8.3, 8.7);       // open shelf facing the door
   for (double h : {0.6, 1.2}) box(6.2, 7.6, h, h + 0.03, 8.1, 8.3);
   post(10.6, 9.0, 0.15, 0, kHeightM);  // a round column
+  // Beside E's door from the corridor, within 2 m of it: a tall cabinet to the east, a lamp
+  // and a plant to the west (what a camera passing the door sees before the room beyond).
+  box(7.9, 8.6, 0, 1.9, 5.62, 6.1);
+  post(5.9, 6.0, 0.03, 0, 1.5);
+  ball(5.9, 1.65, 6.0, 0.2);
+  post(5.5, 6.2, 0.18, 0, 0.4);
+  ball(5.5, 0.75, 6.2, 0.3);
 
   // The corridor (z 3.5 … 5.5): ceiling beams across it, a bench, a cabinet, a radiator,
   // pictures and plants.
