@@ -29,6 +29,9 @@ struct TrackingState {
   Mat4f T_world_raycast;     ///< pose of the last raycast (the ICP reference view)
   Mat4f raycast_view;        ///< T_world_raycast · K⁻¹ at compute size (ray directions)
   Mat4f project_reference;   ///< K · T_world_raycast⁻¹ at compute size (projection into it)
+  /// The photometric term's reference (kernels/photometric.hpp): world → camera of the frame
+  /// whose intensity was kept last, and 1 once one was kept.
+  Mat4f T_intensity_world;
   double accumulator[kAccumulatorSize];  ///< reduction of the last ICP iteration run
   double last_step_norm;                 ///< |x| of the last ICP update
   float max_depth_m;    ///< largest depth of the current frame (bounds integration)
@@ -39,8 +42,9 @@ struct TrackingState {
   int frame_index;      ///< frame number f, counted on the device (−1 before frame 0)
   int accepted_run;     ///< tracked frames accepted in a row, counted up to 2 (0 after a reject)
   // The block map (volume=blocks; 0 with the dense cube):
-  int map_blocks;          ///< blocks allocated after this frame
-  int map_blocks_dropped;  ///< blocks this frame's band reached that the map had no room for
+  int map_blocks;           ///< blocks allocated after this frame
+  int map_blocks_dropped;   ///< blocks this frame's band reached that the map had no room for
+  int intensity_reference;  ///< 1 once T_intensity_world and the reference intensity are set
 };
 
 }  // namespace kfx
