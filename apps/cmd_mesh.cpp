@@ -11,6 +11,7 @@
 #include "backend/backend.hpp"
 #include "commands.hpp"
 #include "output/block_map_file.hpp"
+#include "output/mesh_colour.hpp"
 #include "output/mesh_output.hpp"
 #include "output/volume_file.hpp"
 
@@ -54,6 +55,7 @@ void mesh_command(const MeshOptions& o) {
   setup.pyramid_levels = 1;
   std::unique_ptr<Backend> backend;
   Mat4f T_trajectory_volume;
+  output::ColourField colour;                      // a block map saved with colour colours its mesh
   if (output::is_block_map_file(o.volume_path)) {  // map.kfxblocks (volume=blocks)
     const output::SavedBlockMap saved = output::read_block_map_file(o.volume_path);
     setup.map_kind = MapKind::kBlocks;
@@ -63,6 +65,7 @@ void mesh_command(const MeshOptions& o) {
     backend = make_backend(parse_backend_kind(o.backend), setup);
     backend->upload_blocks(saved.map);
     T_trajectory_volume = saved.T_trajectory_map;
+    colour = output::ColourField(saved.map);
   } else {
     const output::SavedVolume volume = output::read_volume_file(o.volume_path);
     if (!output::any_observed(volume.voxels)) {
@@ -88,6 +91,11 @@ void mesh_command(const MeshOptions& o) {
   }
   std::vector<double> sorted = extraction_ms;
   std::sort(sorted.begin(), sorted.end());
+  std::vector<Rgb8> vertex_colours;  // sampled in the map's frame, before any move
+  if (!colour.empty()) {
+    vertex_colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
+    mesh.colours = vertex_colours.data();
+  }
   Mesh moved;  // a copy only when the mesh must move into the trajectory frame
   if (!is_identity(T_trajectory_volume)) {
     moved = Mesh(mesh);

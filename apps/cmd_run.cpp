@@ -142,29 +142,21 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   auto last_progress = Clock::now();
   const auto run_start = Clock::now();
   energy->start();  // the whole run, reading frames included
-  // What the host knows of each submitted frame until its result comes back.
-  struct Submitted {
-    double acquisition_s;
-    int input_index;    ///< the frame's number in the input (differs after skipped bad frames)
-    DepthSample depth;  ///< for the diagnostics, judged once the pose is known
-  };
-  // Says when the camera or the scene leaves the volume, or the depth scale looks wrong.
-  FrameDiagnostics diagnostics(pipeline.config(), prepared.input_intrinsics);
-  std::deque<Submitted> submitted;
+  // Each submitted frame's read time, until its result comes back.
+  std::deque<double> acquisition_s_in_flight;
   int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameResult& result) {
-    const Submitted s = std::move(submitted.front());
-    submitted.pop_front();
+    const double acquisition_s = acquisition_s_in_flight.front();
+    acquisition_s_in_flight.pop_front();
     // One numbering everywhere the user looks (warnings, progress, slambench.log, renders,
     // stats.json): the input's, so a skipped bad frame leaves a gap instead of renumbering.
     FrameReport report = ReconstructionAccess::last_report(reconstruction);
-    report.index = s.input_index;
-    // Warnings, not progress: said with -q too, before the tracking loss they may explain.
-    for (const auto& line : diagnostics.check(report.index, s.depth, report.T_world_cam)) {
-      std::cerr << "kfx run: warning: " << line << "\n";
-    }
-    log.add(report, s.acquisition_s);
+    report.index = result.input_index;
+    // The camera or the scene leaving the volume, or a depth scale that looks wrong: warnings,
+    // not progress, said with -q too, before the tracking loss they may explain.
+    for (const auto& line : result.warnings) std::cerr << "kfx run: warning: " << line << "\n";
+    log.add(report, acquisition_s);
     trajectory.push_back(io::to_stamped_pose(result.stamp_s, report.T_world_cam));
     summary.add(report);
     if (report.rendered) {
@@ -200,7 +192,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                 << " frames/s computation";
       if (report.map_blocks > 0) {
         std::cerr << ", map " << report.map_blocks << " blocks ("
-                  << static_cast<double>(report.map_blocks) * kBytesPerBlock / (1 << 20) << " MiB)";
+                  << static_cast<double>(report.map_bytes) / (1 << 20) << " MiB)";
       }
       std::cerr << "\n";
     }
@@ -221,8 +213,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
-    submitted.push_back(
-        Submitted{acquisition_s, frame.index, diagnostics.sample(frame.depth_mm.view())});
+    acquisition_s_in_flight.push_back(acquisition_s);
     const bool renders_now = pipeline.renders(pipeline.frame_count());
     ReconstructionAccess::submit(reconstruction, frame);
     // A rendering frame is collected at once: its renders are read before the next submit.
@@ -245,6 +236,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   stats["input_description"] = reader.description();
   stats["skipped_bad_frames"] = skipped;
   stats["skipped_frames"] = skipped_frames;
+  const FrameDiagnostics& diagnostics = ReconstructionAccess::diagnostics(reconstruction);
   for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
     const FrameCauseCount& count = diagnostics.count(static_cast<FrameCause>(c));
     stats["frame_warnings"][frame_cause_name(static_cast<FrameCause>(c))] = {
@@ -290,18 +282,13 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // Outputs become visible only now, stats.json last: it marks a complete run.
   std::string written = "trajectory.txt slambench.log stats.json config.txt";
   // The colour field, when fused, colours the mesh and the cloud.
-  std::vector<ColourVoxel> colour_field;
-  if (pipeline.config().colour.fuse && (outputs.mesh || outputs.cloud)) {
-    colour_field = pipeline.backend().read_colour_volume();
-  }
-  const ColourVolumeView colour{colour_field.empty() ? nullptr : colour_field.data(),
-                                pipeline.config().volume.resolution_vox,
-                                pipeline.config().volume.size_m};
+  const output::ColourField colour =
+      outputs.mesh || outputs.cloud ? output::read_colour_field(pipeline) : output::ColourField{};
   if (outputs.mesh) {
     const auto start = Clock::now();
     MeshView mesh = pipeline.backend().extract_mesh();
     std::vector<Rgb8> mesh_colours;
-    if (colour.data) {
+    if (!colour.empty()) {
       mesh_colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
       mesh.colours = mesh_colours.data();
     }

@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <numeric>
 
-#include "map/host_block_map.hpp"
 
 namespace kfx::cli {
 
@@ -36,6 +35,7 @@ void RunSummary::add(const FrameReport& report) {
   }
   computation_ms.push_back(report.computation_ms);
   map_blocks = report.map_blocks;
+  map_bytes = report.map_bytes;
   if (report.map_blocks_dropped > 0) {
     map_blocks_dropped += report.map_blocks_dropped;
     ++map_frames_short;
@@ -66,7 +66,7 @@ nlohmann::json RunSummary::to_json() const {
   j["computation_ms"] = {{"mean", mean_of(computation_ms)}, {"median", median_of(computation_ms)}};
   if (map_blocks > 0) {
     j["map_blocks"] = map_blocks;
-    j["map_bytes"] = static_cast<unsigned long long>(map_blocks) * kBytesPerBlock;
+    j["map_bytes"] = map_bytes;
     j["map_blocks_dropped"] = map_blocks_dropped;
     j["map_frames_short_of_blocks"] = map_frames_short;
     j["map_first_frame_short_of_blocks"] = map_first_short_frame;

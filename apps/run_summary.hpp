@@ -22,6 +22,7 @@ struct RunSummary {
   std::vector<double> computation_ms;
   // The block map (volume=blocks): its size after the last frame, and what did not fit.
   int map_blocks = 0;
+  unsigned long long map_bytes = 0;  ///< bytes those blocks take (colour included)
   long long map_blocks_dropped = 0;  ///< blocks frames needed that the budget had no room for
   int map_frames_short = 0;          ///< frames with blocks dropped
   int map_first_short_frame = -1;    ///< the first of them, −1 if none
@@ -32,7 +33,7 @@ struct RunSummary {
   double frames_per_second() const;
   /// {"frames", "tracked", "lost", "lost_frames", "integrated", "frames_per_second", "stages_ms":
   /// {name: {mean, median}}, "computation_ms": {mean, median}}; with a block map also
-  /// "map_blocks", "map_bytes" (blocks × kBytesPerBlock), "map_blocks_dropped",
+  /// "map_blocks", "map_bytes" (blocks × block_bytes(colour)), "map_blocks_dropped",
   /// "map_frames_short_of_blocks", "map_first_frame_short_of_blocks".
   nlohmann::json to_json() const;
   /// "500 frames, 496 tracked, 20.1 frames/s, ATE 0.84 cm".

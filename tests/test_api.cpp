@@ -225,7 +225,19 @@ TEST(Api, FrameResultsCarryTheVolumeAndDepthWarnings) {
   EXPECT_TRUE(r.process(v).warnings.empty());
   Reconstruction good(cpu_settings(), camera);
   v.depth.data = near_m.data();
-  for (int f = 0; f < 3; ++f) EXPECT_TRUE(good.process(v).warnings.empty()) << f;
+  for (int f = 0; f < 3; ++f) {
+    const FrameResult result = good.process(v);
+    EXPECT_TRUE(result.warnings.empty()) << f;
+    EXPECT_EQ(result.input_index, f);  // none given: the frame's count
+  }
+  // A frame carrying its number in the input (frames 3 to 40 skipped, say) is named by it.
+  v.depth.data = far_m.data();
+  v.input_index = 41;
+  const FrameResult numbered = good.process(v);
+  EXPECT_EQ(numbered.index, 3);
+  EXPECT_EQ(numbered.input_index, 41);
+  ASSERT_FALSE(numbered.warnings.empty());
+  EXPECT_EQ(numbered.warnings[0].rfind("frame 41: ", 0), 0u) << numbered.warnings[0];
 }
 
 TEST(Api, ResetRepeatsTheRun) {
@@ -309,15 +321,20 @@ TEST(Api, ColourFromASequenceColoursTheMeshAndCloud) {
   EXPECT_EQ(mesh.colours.size(), 3 * mesh.vertex_count());
   const PointCloud cloud = r.point_cloud();
   EXPECT_EQ(cloud.colours.size(), 3 * cloud.point_count());
-  // A frame without colour is an error naming the frame, and changes nothing.
+  // A frame without colour is an error naming the frame, and changes nothing: by its number in
+  // the input when the view carries one (the last frame read, 7), else by the frames before it.
   FrameView depth_only = frame.view();
   depth_only.colour = ColourView{};
-  try {
-    r.process(depth_only);
-    ADD_FAILURE() << "no error for a frame without colour";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("frame 8: the map fuses colour"), std::string::npos)
-        << e.what();
+  for (const int input_index : {7, -1}) {
+    depth_only.input_index = input_index;
+    const std::string expected =
+        input_index == 7 ? "frame 7: the map fuses colour" : "frame 8: the map fuses colour";
+    try {
+      r.process(depth_only);
+      ADD_FAILURE() << "no error for a frame without colour";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(expected), std::string::npos) << e.what();
+    }
   }
   EXPECT_EQ(r.frame_count(), 8);
   // colour=off: a grey map, colour images are not used.

@@ -164,11 +164,29 @@ HostImage<float> test_depth(int w, int h) {
 // (CMakeLists.txt), which can move a stored tsdf by a unit or two (1 unit = 3e-5 of mu).
 constexpr int kContractionUnits = 4;
 
+/// A smooth colour image (neighbouring pixels differ by at most 3 units per channel), so a
+/// voxel whose position the cube and the block compute a rounding apart, and which then picks
+/// the neighbouring pixel, differs by little.
+HostImage<Rgb8> test_colour(int w, int h) {
+  HostImage<Rgb8> rgb(w, h);
+  for (int y = 0; y < h; ++y) {
+    for (int x = 0; x < w; ++x) {
+      rgb(x, y) = Rgb8{static_cast<uint8_t>(3 * x), static_cast<uint8_t>(3 * y),
+                       static_cast<uint8_t>(x + y)};
+    }
+  }
+  return rgb;
+}
+
+/// Colour stored units (kColourScale per 8-bit unit) by which a neighbouring pixel may differ.
+constexpr int kNeighbourPixelColourUnits = 3 * static_cast<int>(kColourScale) + 1;
+
 TEST(BlockMap, AllocationCoversEveryVoxelTheCubeChangesAndIntegratesTheSameValues) {
   const int w = 80, h = 60, res = 128;
   const float size_m = 3.2f;
   const Intrinsics k{68.0f, 68.0f, 39.5f, 29.5f};
   const HostImage<float> depth = test_depth(w, h);
+  const HostImage<Rgb8> rgb = test_colour(w, h);
   for (const float yaw : {0.0f, 0.6f}) {
     Mat4f pose = Mat4f::translation(Vec3f{1.6f, 1.5f, 0.1f});  // turned by `yaw` about y
     pose.m[0][0] = pose.m[2][2] = std::cos(yaw);
@@ -181,15 +199,22 @@ TEST(BlockMap, AllocationCoversEveryVoxelTheCubeChangesAndIntegratesTheSameValue
     IntegrateParams p;
     p.k = k;
     p.mu_m = 0.1f;
-    // The dense cube, integrated row by row as the CPU backend does.
+    p.colour_camera.k = k;  // registered colour, as ICL-NUIM's and TUM's
+    // The dense cube, integrated row by row as the CPU backend does, with its colour field.
     std::vector<Voxel> cube(static_cast<size_t>(res) * res * res, empty_voxel());
-    const IntegrateArgs dense{p, VolumeView{cube.data(), res, size_m}, depth.view(), &state,
-                              ImageView<const Vec3f>{}};
+    std::vector<ColourVoxel> cube_colour(cube.size(), ColourVoxel{0, 0, 0, 0});
+    const IntegrateArgs dense{p,
+                              VolumeView{cube.data(), res, size_m},
+                              depth.view(),
+                              &state,
+                              ImageView<const Vec3f>{},
+                              ColourVolumeView{cube_colour.data(), res, size_m},
+                              rgb.view()};
     for (int z = 0; z < res; ++z) {
       for (int y = 0; y < res; ++y) integrate_row(y, z, dense);
     }
-    // The block map: allocate the band, integrate the blocks in view.
-    HostBlockMap map(40000, res, size_m);
+    // The block map (with colour): allocate the band, integrate the blocks in view.
+    HostBlockMap map(40000, res, size_m, true);
     std::vector<uint64_t> candidates;
     const BlockAllocArgs alloc{k, p.mu_m, map.view(), depth.view(), &state};
     for (int y = 0; y < h; ++y) {
@@ -199,16 +224,17 @@ TEST(BlockMap, AllocationCoversEveryVoxelTheCubeChangesAndIntegratesTheSameValue
     }
     EXPECT_EQ(map.allocate(candidates).dropped, 0);
     const BlockMapView view = map.view();
-    IntegrateArgsT<OneBlockView> a{p, OneBlockView{}, depth.view(), &state,
-                                   ImageView<const Vec3f>{}};
+    IntegrateArgsT<OneBlockView> a{p,         OneBlockView{},           depth.view(),
+                                   &state,    ImageView<const Vec3f>{}, ColourVolumeView{},
+                                   rgb.view()};
     for (int b = 0; b < view.block_count; ++b) {
       if (!block_in_view(view, b, a)) continue;
       a.volume = one_block_view(view, b);
       integrate_block(a);
     }
     // Every voxel the frame moved below +1 is in the map, with the same bits; every stored voxel
-    // inside the cube equals the cube's.
-    int changed = 0, worst = 0;
+    // inside the cube equals the cube's, and so does its colour.
+    int changed = 0, worst = 0, coloured = 0;
     for (int z = 0; z < res; ++z) {
       for (int y = 0; y < res; ++y) {
         for (int x = 0; x < res; ++x) {
@@ -223,10 +249,18 @@ TEST(BlockMap, AllocationCoversEveryVoxelTheCubeChangesAndIntegratesTheSameValue
             ASSERT_EQ(m.weight, c.weight) << "voxel " << x << "," << y << "," << z;
             worst = std::max(worst, std::abs(m.tsdf - c.tsdf));
           }
+          const ColourVoxel cc = cube_colour[x + y * res + static_cast<size_t>(z) * res * res];
+          const ColourVoxel mc = map_colour_voxel(view, x, y, z);
+          ASSERT_EQ(mc.weight, cc.weight) << "colour of voxel " << x << "," << y << "," << z;
+          ASSERT_NEAR(mc.r, cc.r, kNeighbourPixelColourUnits) << x << "," << y << "," << z;
+          ASSERT_NEAR(mc.g, cc.g, kNeighbourPixelColourUnits) << x << "," << y << "," << z;
+          ASSERT_NEAR(mc.b, cc.b, kNeighbourPixelColourUnits) << x << "," << y << "," << z;
+          coloured += cc.weight > 0;
         }
       }
     }
     EXPECT_GT(changed, 10000) << "the test frame should reach many voxels";
+    EXPECT_GT(coloured, 10000) << "the band should take colour";
     std::cout << "yaw " << yaw << ": " << changed << " voxels changed, " << map.block_count()
               << " blocks, largest tsdf difference " << worst << " stored units\n";
     EXPECT_LT(map.block_count(), res * res * res / kBlockVoxels / 4) << "blocks only near depth";
@@ -336,17 +370,6 @@ TEST(BlockMap, AFullBudgetIsReportedPerFrameNotSilent) {
   const int capacity = static_cast<int>(block_capacity_for_budget(1 << 20));
   EXPECT_GT(run.reports.front().map_blocks_dropped, 0);
   for (const auto& r : run.reports) EXPECT_EQ(r.map_blocks, capacity);
-}
-
-TEST(BlockMap, ColourIsRefusedUntilTheBlocksCarryIt) {
-  PipelineConfig c = with_blocks(PipelineConfig{});
-  set_config_value(c, "colour", "on");
-  try {
-    c.validate();
-    FAIL() << "colour with a block map was accepted";
-  } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("volume=dense"), std::string::npos) << e.what();
-  }
 }
 
 TEST(BlockMap, TheCudaBackendRefusesItWithAClearError) {

@@ -78,10 +78,12 @@ TEST_F(OutputsCli, SavedBlockMapMeshesToTheRunsOwnMeshAndStatsSayItsSize) {
   const auto stats = nlohmann::json::parse(std::ifstream(out / "stats.json"));
   const size_t blocks = stats["map_blocks"].get<size_t>();
   EXPECT_GT(blocks, 100u);
-  EXPECT_EQ(stats["map_bytes"].get<size_t>(), blocks * kBytesPerBlock);
+  // The synthetic room has colour, so the map carries it (8 bytes a voxel beside the TSDF's 4).
+  ASSERT_EQ(run_mesh.colours.size(), run_mesh.vertices.size());
+  EXPECT_EQ(stats["map_bytes"].get<size_t>(), blocks * block_bytes(true));
   EXPECT_EQ(stats["map_blocks_dropped"].get<long long>(), 0);
-  // 92 header bytes, then per block 3 coordinates and 8^3 voxels.
-  EXPECT_EQ(fs::file_size(out / "map.kfxblocks"), 92u + blocks * (12u + 4u * 512));
+  // 92 header bytes, then per block 3 coordinates, 8^3 voxels and 8^3 colours.
+  EXPECT_EQ(fs::file_size(out / "map.kfxblocks"), 92u + blocks * (12u + 4u * 512 + 8u * 512));
 
   r = run_kfx("mesh " + (out / "map.kfxblocks").string() + " " + (dir_ / "again.ply").string() +
               " --backend cpu");
@@ -94,6 +96,10 @@ TEST_F(OutputsCli, SavedBlockMapMeshesToTheRunsOwnMeshAndStatsSayItsSize) {
             0);
   EXPECT_EQ(std::memcmp(again.triangles.data(), run_mesh.triangles.data(),
                         again.triangles.size() * sizeof(MeshTriangle)),
+            0);
+  ASSERT_EQ(again.colours.size(), run_mesh.colours.size());
+  EXPECT_EQ(std::memcmp(again.colours.data(), run_mesh.colours.data(),
+                        again.colours.size() * sizeof(Rgb8)),
             0);
 }
 

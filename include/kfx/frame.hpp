@@ -36,6 +36,10 @@ struct FrameView {
   DepthView depth;
   ColourView colour;  ///< data == nullptr: none
   double stamp_s = 0.0;
+  /// The frame's number in its input (a reader's count, which skips no number when a bad frame
+  /// is left out), named in warnings and errors and returned as FrameResult::input_index;
+  /// −1: none given (the number of frames submitted before it is used).
+  int input_index = -1;
 };
 
 }  // namespace kfx

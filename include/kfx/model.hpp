@@ -16,6 +16,7 @@ using Pose = std::array<float, 16>;
 /// What happened to one frame.
 struct FrameResult {
   int index = 0;              ///< frame number, from 0 since the start or the last reset
+  int input_index = 0;        ///< FrameView::input_index when given, else `index`
   double stamp_s = 0.0;       ///< the frame's stamp, as given
   bool tracking_ran = false;  ///< tracking was attempted (a model existed, on the tracking rate)
   bool tracked = false;     ///< tracking held (tracking_ran && !tracked: tracking lost, pose kept)
@@ -23,9 +24,10 @@ struct FrameResult {
   Pose T_world_cam{};       ///< the camera's pose after the frame, in the map (volume) frame
   double computation_ms = 0;  ///< the frame's computation time (GPU time on CUDA)
   int icp_iterations = 0;     ///< ICP iterations run, all pyramid levels
-  /// Warnings that begin at this frame, one line each naming the frame and the cause: the
-  /// camera outside the map's volume, most depth outside it or beyond the far plane, depth
-  /// implausible for the depth scale (once per stretch, a few per cause and run). Usually empty.
+  /// Warnings that begin at this frame, one line each naming the frame (input_index) and the
+  /// cause: the camera outside the map's volume, most depth outside it or beyond the far plane,
+  /// depth implausible for the depth scale (once per stretch, a few per cause and run). Usually
+  /// empty.
   std::vector<std::string> warnings;
 };
 

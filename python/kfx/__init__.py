@@ -9,6 +9,9 @@
 
 Settings are keyword arguments checked by the one settings table (``kfx.settings_table()``,
 ``kfx settings`` on the command line); every error is a ``kfx.Error`` naming the problem.
+
+The tools above the library are imported on their own: ``kfx.study`` (sweep results, the
+search, the ATE breakdown, the soak benchmark) and ``kfx.plots`` (figures; matplotlib).
 """
 
 from __future__ import annotations
@@ -146,22 +149,24 @@ class Reconstruction(_Reconstruction):
             super().__init__(settings, camera)
 
     def process(self, frame: Any, stamp: float = 0.0, depth_scale: Optional[float] = None,
-                colour: Any = None) -> FrameResult:
+                colour: Any = None, input_index: Optional[int] = None) -> FrameResult:
         """Processes the next frame: a ``kfx.Frame`` from a Sequence, or a depth array (uint16
         in units of ``1/depth_scale`` m, millimetres by default; or float32 metres), its
-        ``stamp`` and optionally a uint8 (H, W, 3) colour image. Returns its FrameResult."""
+        ``stamp``, optionally a uint8 (H, W, 3) colour image and the frame's number in its
+        input (``input_index``: named in warnings, returned as ``FrameResult.input_index``; a
+        Sequence's frames carry theirs). Returns its FrameResult."""
         if isinstance(frame, Frame):
             return self.process_frame(frame)
-        return self.process_array(frame, stamp, depth_scale, colour)
+        return self.process_array(frame, stamp, depth_scale, colour, input_index)
 
     def submit(self, frame: Any, stamp: float = 0.0, depth_scale: Optional[float] = None,
-               colour: Any = None) -> None:
+               colour: Any = None, input_index: Optional[int] = None) -> None:
         """As process(), without waiting: collect() returns the result (on the GPU the frame
         computes while Python prepares the next)."""
         if isinstance(frame, Frame):
             self.submit_frame(frame)
         else:
-            self.submit_array(frame, stamp, depth_scale, colour)
+            self.submit_array(frame, stamp, depth_scale, colour, input_index)
 
     def mesh(self) -> Mesh:
         """The map as a triangle mesh (marching cubes)."""

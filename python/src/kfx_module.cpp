@@ -77,8 +77,12 @@ bool c_contiguous(const AnyArray& a) {
 
 /// A FrameView over numpy arrays, checked: dtype, shape, layout (no copy is made).
 kfx::FrameView frame_view(const AnyArray& depth, double stamp_s, std::optional<double> depth_scale,
-                          const std::optional<AnyArray>& colour) {
+                          const std::optional<AnyArray>& colour, std::optional<int> input_index) {
   kfx::FrameView v;
+  if (input_index && *input_index < 0) {
+    throw nb::value_error("input_index must be a frame number, 0 or more (None: not given)");
+  }
+  v.input_index = input_index.value_or(-1);
   if (depth.dtype() == nb::dtype<uint16_t>()) {
     v.depth.type = kfx::DepthType::kUint16;
     v.depth.units_per_m = depth_scale.value_or(1000.0);
@@ -125,6 +129,29 @@ kfx::FrameView frame_view(const AnyArray& depth, double stamp_s, std::optional<d
   }
   v.stamp_s = stamp_s;
   return v;
+}
+
+/// An image's pixels as a numpy array: (height, width, 4) uint8 RGBA, or (height, width) float32.
+nb::ndarray<nb::numpy, uint8_t> image_array(kfx::RgbaImage&& image) {
+  const size_t h = image.height_px, w = image.width_px;
+  return owned_array(std::move(image.rgba), {h, w, 4});
+}
+nb::ndarray<nb::numpy, float> image_array(kfx::FloatImage&& image) {
+  const size_t h = image.height_px, w = image.width_px;
+  return owned_array(std::move(image.values), {h, w});
+}
+
+/// `render(r, pose)` from `pose` (4x4; None: the current pose) with the GIL released, as a
+/// numpy array (made with the GIL held).
+template <class Render>
+auto render_array(kfx::Reconstruction& r, const std::optional<AnyArray>& pose, Render render) {
+  const kfx::Pose p = pose ? pose_from(*pose) : r.pose();
+  decltype(render(r, p)) image;
+  {
+    nb::gil_scoped_release release;
+    image = render(r, p);
+  }
+  return image_array(std::move(image));
 }
 
 }  // namespace
@@ -275,7 +302,11 @@ NB_MODULE(_kfx, m) {
           "Ground truth, (N, 8) float64: stamp tx ty tz qx qy qz qw (camera to world).");
 
   nb::class_<kfx::FrameResult>(m, "FrameResult", "What happened to one frame.")
-      .def_ro("index", &kfx::FrameResult::index)
+      .def_ro("index", &kfx::FrameResult::index,
+              "Frame number, from 0 since the start or the last reset.")
+      .def_ro("input_index", &kfx::FrameResult::input_index,
+              "The frame's number in its input (a Sequence's Frame.index, or the input_index "
+              "given with an array), else `index`; warnings name it.")
       .def_ro("stamp", &kfx::FrameResult::stamp_s)
       .def_ro("tracking_ran", &kfx::FrameResult::tracking_ran)
       .def_ro("tracked", &kfx::FrameResult::tracked, "Tracking held.")
@@ -293,8 +324,8 @@ NB_MODULE(_kfx, m) {
           "The camera's pose after the frame, 4x4 float32 (camera to map frame, metres).")
       .def("__repr__", [](const kfx::FrameResult& r) {
         std::ostringstream s;
-        s << "FrameResult(index=" << r.index << ", stamp=" << r.stamp_s
-          << ", tracked=" << (r.tracked ? "True" : "False")
+        s << "FrameResult(index=" << r.index << ", input_index=" << r.input_index
+          << ", stamp=" << r.stamp_s << ", tracked=" << (r.tracked ? "True" : "False")
           << ", integrated=" << (r.integrated ? "True" : "False") << ")";
         return s.str();
       });
@@ -312,21 +343,25 @@ NB_MODULE(_kfx, m) {
       .def(
           "process_array",
           [](kfx::Reconstruction& r, const AnyArray& depth, double stamp,
-             std::optional<double> depth_scale, std::optional<AnyArray> colour) {
-            const kfx::FrameView v = frame_view(depth, stamp, depth_scale, colour);
+             std::optional<double> depth_scale, std::optional<AnyArray> colour,
+             std::optional<int> input_index) {
+            const kfx::FrameView v = frame_view(depth, stamp, depth_scale, colour, input_index);
             nb::gil_scoped_release release;
             return r.process(v);
           },
-          "depth"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(), "colour"_a = nb::none())
+          "depth"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(), "colour"_a = nb::none(),
+          "input_index"_a = nb::none())
       .def(
           "submit_array",
           [](kfx::Reconstruction& r, const AnyArray& depth, double stamp,
-             std::optional<double> depth_scale, std::optional<AnyArray> colour) {
-            const kfx::FrameView v = frame_view(depth, stamp, depth_scale, colour);
+             std::optional<double> depth_scale, std::optional<AnyArray> colour,
+             std::optional<int> input_index) {
+            const kfx::FrameView v = frame_view(depth, stamp, depth_scale, colour, input_index);
             nb::gil_scoped_release release;
             r.submit(v);
           },
-          "depth"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(), "colour"_a = nb::none())
+          "depth"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(), "colour"_a = nb::none(),
+          "input_index"_a = nb::none())
       .def("collect", &kfx::Reconstruction::collect, nb::call_guard<nb::gil_scoped_release>(),
            "Waits for the oldest submitted frame and returns its FrameResult.")
       .def_prop_ro("frames_in_flight", &kfx::Reconstruction::frames_in_flight,
@@ -398,14 +433,8 @@ NB_MODULE(_kfx, m) {
       .def(
           "render",
           [](kfx::Reconstruction& r, std::optional<AnyArray> pose) {
-            const kfx::Pose p = pose ? pose_from(*pose) : r.pose();
-            kfx::RgbaImage image;
-            {
-              nb::gil_scoped_release release;
-              image = r.render(p);
-            }
-            const size_t h = image.height_px, w = image.width_px;
-            return owned_array(std::move(image.rgba), {h, w, 4});
+            return render_array(
+                r, pose, [](kfx::Reconstruction& r, const kfx::Pose& p) { return r.render(p); });
           },
           "pose"_a = nb::none(),
           "The map shaded (SLAMBench's renderVolume) from `pose` (4x4; None: the current one), "
@@ -413,14 +442,9 @@ NB_MODULE(_kfx, m) {
       .def(
           "render_depth",
           [](kfx::Reconstruction& r, std::optional<AnyArray> pose) {
-            const kfx::Pose p = pose ? pose_from(*pose) : r.pose();
-            kfx::FloatImage image;
-            {
-              nb::gil_scoped_release release;
-              image = r.render_depth(p);
-            }
-            const size_t h = image.height_px, w = image.width_px;
-            return owned_array(std::move(image.values), {h, w});
+            return render_array(r, pose, [](kfx::Reconstruction& r, const kfx::Pose& p) {
+              return r.render_depth(p);
+            });
           },
           "pose"_a = nb::none(),
           "Depth of the map (metres along the optical axis, 0: nothing) seen from `pose` (4x4; "

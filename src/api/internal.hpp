@@ -10,6 +10,7 @@
 #include "kfx/sequence.hpp"
 #include "kfx/settings.hpp"
 #include "pipeline/config.hpp"
+#include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
 
 namespace kfx {
@@ -41,6 +42,8 @@ struct ReconstructionAccess {
   static const FrameReport& last_report(const Reconstruction& reconstruction);
   /// Submits a frame a reader read (with its colour image, when it has one).
   static void submit(Reconstruction& reconstruction, const io::Frame& frame);
+  /// The volume and depth warnings counted so far, per cause (kfx run's stats.json).
+  static const FrameDiagnostics& diagnostics(const Reconstruction& reconstruction);
   /// Turns the renders of Pipeline::set_rendering on; frames that render are collected at once.
   static void set_rendering(Reconstruction& reconstruction, bool on);
 };

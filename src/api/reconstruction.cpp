@@ -43,8 +43,9 @@ struct Reconstruction::Impl {
   StageParams params;  ///< for renders from any pose
   std::vector<FrameResult> trajectory;
   std::deque<double> stamps_in_flight;
-  HostImage<uint16_t> scratch_mm;  ///< converted depth when the caller's is not packed mm
-  HostImage<Rgb8> scratch_rgb;     ///< the caller's colour, rows packed
+  std::deque<int> input_indices_in_flight;  ///< FrameView::input_index, −1 where not given
+  HostImage<uint16_t> scratch_mm;           ///< converted depth when the caller's is not packed mm
+  HostImage<Rgb8> scratch_rgb;              ///< the caller's colour, rows packed
   FrameReport last_report;
   std::string input;  ///< the sequence's name, when made for one (file headers name it)
   std::unique_ptr<FrameDiagnostics> diagnostics;  ///< warnings about the volume and the depth
@@ -109,18 +110,17 @@ struct Reconstruction::Impl {
     return scratch_rgb.view();
   }
 
-  /// The colour field as kernels read it, from a host copy in `field`; no data without colour.
-  ColourVolumeView colour_field(std::vector<ColourVoxel>& field) {
-    if (config.colour.fuse) field = pipeline->backend().read_colour_volume();
-    return ColourVolumeView{field.empty() ? nullptr : field.data(), config.volume.resolution_vox,
-                            config.volume.size_m};
-  }
+  /// The model's colour field, read from the backend; empty without colour.
+  output::ColourField colour_field() { return output::read_colour_field(*pipeline); }
 
-  std::string frame_label() const { return "frame " + std::to_string(pipeline->frame_count()); }
+  /// The frame's number as the user knows it: the input's when given, else the count so far.
+  int frame_number(const FrameView& frame) const {
+    return frame.input_index >= 0 ? frame.input_index : pipeline->frame_count();
+  }
 
   /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame.
   void submit(const FrameView& frame) {
-    const std::string label = frame_label();
+    const std::string label = "frame " + std::to_string(frame_number(frame));
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
                     << ", the reconstruction was made for " << camera.width_px << "x"
@@ -131,6 +131,7 @@ struct Reconstruction::Impl {
     samples_in_flight.push_back(diagnostics->sample(mm));
     pipeline->submit(mm, rgb);
     stamps_in_flight.push_back(frame.stamp_s);
+    input_indices_in_flight.push_back(frame.input_index);
   }
 
   FrameResult collect() {
@@ -140,13 +141,17 @@ struct Reconstruction::Impl {
     r.index = last_report.index;
     r.stamp_s = stamps_in_flight.front();
     stamps_in_flight.pop_front();
+    r.input_index =
+        input_indices_in_flight.front() >= 0 ? input_indices_in_flight.front() : r.index;
+    input_indices_in_flight.pop_front();
     r.tracking_ran = last_report.tracking_ran;
     r.tracked = last_report.tracked;
     r.integrated = last_report.integrated;
     r.T_world_cam = api::to_pose(last_report.T_world_cam);
     r.computation_ms = last_report.computation_ms;
     r.icp_iterations = last_report.icp_iterations;
-    r.warnings = diagnostics->check(r.index, samples_in_flight.front(), last_report.T_world_cam);
+    r.warnings =
+        diagnostics->check(r.input_index, samples_in_flight.front(), last_report.T_world_cam);
     samples_in_flight.pop_front();
     trajectory.push_back(r);
     return r;
@@ -221,9 +226,8 @@ TriangleMesh Reconstruction::mesh() {
   if (view.triangle_count > 0) {
     std::memcpy(mesh.triangles.data(), view.triangles, sizeof(MeshTriangle) * view.triangle_count);
   }
-  std::vector<ColourVoxel> field;
-  const ColourVolumeView colour = impl_->colour_field(field);
-  if (colour.data) {
+  const output::ColourField colour = impl_->colour_field();
+  if (!colour.empty()) {
     for (const Rgb8& c : output::vertex_colours(view.vertices, view.vertex_count, colour)) {
       mesh.colours.insert(mesh.colours.end(), {c.r, c.g, c.b});
     }
@@ -247,12 +251,11 @@ PointCloud Reconstruction::point_cloud() {
       points.push_back(MeshVertex{p, n});
     }
   }
-  std::vector<ColourVoxel> field;
-  const ColourVolumeView colour = impl_->colour_field(field);
-  for (size_t i = 0; colour.data && i < cloud.point_count(); ++i) {
+  const output::ColourField colour = impl_->colour_field();
+  for (size_t i = 0; !colour.empty() && i < cloud.point_count(); ++i) {
     Vec3f rgb;
     const Vec3f p{cloud.points_m[3 * i], cloud.points_m[3 * i + 1], cloud.points_m[3 * i + 2]};
-    if (!sample_colour(colour, p, rgb)) rgb = Vec3f{128.0f, 128.0f, 128.0f};  // no colour there
+    if (!colour.sample(p, rgb)) rgb = Vec3f{128.0f, 128.0f, 128.0f};  // no colour there
     cloud.colours.insert(cloud.colours.end(),
                          {static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
                           static_cast<uint8_t>(rgb.z + 0.5f)});
@@ -301,10 +304,9 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
   impl_->drain();
   MeshView mesh = impl_->pipeline->backend().extract_mesh();
-  std::vector<ColourVoxel> field;
-  const ColourVolumeView colour = impl_->colour_field(field);
+  const output::ColourField colour = impl_->colour_field();
   std::vector<Rgb8> colours;
-  if (colour.data) {
+  if (!colour.empty()) {
     colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
     mesh.colours = colours.data();
   }
@@ -363,6 +365,9 @@ const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
 }
 void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
   r.impl_->submit(api::frame_view(frame));
+}
+const FrameDiagnostics& ReconstructionAccess::diagnostics(const Reconstruction& r) {
+  return *r.impl_->diagnostics;
 }
 void ReconstructionAccess::set_rendering(Reconstruction& r, bool on) {
   r.impl_->pipeline->set_rendering(on);

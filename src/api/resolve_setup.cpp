@@ -21,11 +21,9 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
     run.settings.set(key, value);
     run.settings_from_input.push_back(key);
   }
-  // Colour is fused whenever the input has it, in every preset, unless the user says otherwise.
-  // A block map carries no colour field yet: colour stays off there unless asked for (which
-  // validate() then refuses with a clear error).
-  if (sequence.has_colour() && !user.is_set("colour") &&
-      api::make_config(user).volume.kind == MapKind::kDense) {
+  // Colour is fused whenever the input has it, in every preset and map kind, unless the user
+  // says otherwise.
+  if (sequence.has_colour() && !user.is_set("colour")) {
     run.settings.set("colour", "on");
     run.settings_from_input.push_back("colour");
   }

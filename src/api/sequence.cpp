@@ -30,6 +30,7 @@ FrameView SequenceFrame::view() const {
     v.colour.height_px = height_px;
   }
   v.stamp_s = stamp_s;
+  v.input_index = index;
   return v;
 }
 
@@ -46,6 +47,7 @@ FrameView frame_view(const io::Frame& frame) {
     v.colour.height_px = frame.rgb.height();
   }
   v.stamp_s = frame.stamp_s;
+  v.input_index = frame.index;
   return v;
 }
 

@@ -27,6 +27,7 @@ std::string gib(uint64_t bytes) {
 }
 
 uint64_t volume_bytes(const BackendSetup& setup) {
+  // Without the blocks' colours: colour_bytes counts them.
   if (setup.map_kind == MapKind::kBlocks) return setup.block_capacity * kBytesPerBlock;
   const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
   return res * res * res * sizeof(Voxel);
@@ -48,12 +49,14 @@ uint64_t photometric_bytes(const BackendSetup& setup) {
 uint64_t colour_bytes(const BackendSetup& setup) {
   if (!setup.colour) return 0;
   const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
+  const uint64_t field_bytes = setup.map_kind == MapKind::kBlocks
+                                   ? setup.block_capacity * (block_bytes(true) - kBytesPerBlock)
+                                   : res * res * res * sizeof(ColourVoxel);
   const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
   const uint64_t compute_px =
       static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
   // The colour field, the double-buffered colour input and its staging, the colour render.
-  return res * res * res * sizeof(ColourVoxel) + 4 * input_px * sizeof(Rgb8) +
-         compute_px * sizeof(Rgba8);
+  return field_bytes + 4 * input_px * sizeof(Rgb8) + compute_px * sizeof(Rgba8);
 }
 
 uint64_t backend_bytes_needed(const BackendSetup& setup) {

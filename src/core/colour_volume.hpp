@@ -34,11 +34,13 @@ struct ColourVolumeView {
   }
 };
 
-/// Colour at volume-frame point p_m: the trilinear mean of the eight voxels around it that hold
-/// colour (weight > 0), their weights renormalised; false where none of them does. Values are
-/// 0..255 floats.
-KFX_HD inline bool sample_colour(const ColourVolumeView& c, Vec3f p_m, Vec3f& rgb) {
-  const float vox_per_m = c.res / c.size_m;
+/// Colour at point p_m of a colour field with `vox_per_m` voxels per metre whose voxel (x, y, z)
+/// is `colour_at(x, y, z)` (weight 0 where there is none): the trilinear mean of the eight
+/// voxels around p that hold colour (weight > 0), their weights renormalised; false where none
+/// of them does. Values are 0..255 floats. Shared by the dense cube and the block map.
+template <class ColourAt>
+KFX_HD inline bool sample_colour_field(float vox_per_m, Vec3f p_m, Vec3f& rgb,
+                                       const ColourAt& colour_at) {
   // Voxel centres lie at (i + 0.5) voxels: the eight around p are base + {0, 1}³.
   const float gx = p_m.x * vox_per_m - 0.5f, gy = p_m.y * vox_per_m - 0.5f,
               gz = p_m.z * vox_per_m - 0.5f;
@@ -47,9 +49,7 @@ KFX_HD inline bool sample_colour(const ColourVolumeView& c, Vec3f p_m, Vec3f& rg
   const float fx = gx - x0, fy = gy - y0, fz = gz - z0;
   float sum_w = 0.0f, r = 0.0f, g = 0.0f, b = 0.0f;
   for (int k = 0; k < 8; ++k) {
-    const int x = x0 + (k & 1), y = y0 + ((k >> 1) & 1), z = z0 + (k >> 2);
-    if (x < 0 || y < 0 || z < 0 || x >= c.res || y >= c.res || z >= c.res) continue;
-    const ColourVoxel v = c.at(x, y, z);
+    const ColourVoxel v = colour_at(x0 + (k & 1), y0 + ((k >> 1) & 1), z0 + (k >> 2));
     if (v.weight == 0) continue;
     const float w = ((k & 1) ? fx : 1.0f - fx) * (((k >> 1) & 1) ? fy : 1.0f - fy) *
                     ((k >> 2) ? fz : 1.0f - fz);
@@ -62,6 +62,15 @@ KFX_HD inline bool sample_colour(const ColourVolumeView& c, Vec3f p_m, Vec3f& rg
   const float scale = 1.0f / (sum_w * kColourScale);
   rgb = Vec3f{r * scale, g * scale, b * scale};
   return true;
+}
+
+/// Colour at volume-frame point p_m of the dense cube's colour field (sample_colour_field);
+/// voxels outside the cube hold none.
+KFX_HD inline bool sample_colour(const ColourVolumeView& c, Vec3f p_m, Vec3f& rgb) {
+  return sample_colour_field(c.res / c.size_m, p_m, rgb, [&](int x, int y, int z) {
+    const bool inside = x >= 0 && y >= 0 && z >= 0 && x < c.res && y < c.res && z < c.res;
+    return inside ? c.at(x, y, z) : ColourVoxel{0, 0, 0, 0};
+  });
 }
 
 }  // namespace kfx

@@ -78,8 +78,9 @@ struct IntegrateArgsT : IntegrateParams {
   /// Compute-size normals of this frame (camera frame) for IntegrationWeight::kDepthAngle; may
   /// be empty (the angle term is then left out).
   ImageView<const Vec3f> normal;
-  /// Colour fusion (setting colour): the colour field and this frame's colour image (input
-  /// size). Null colour_volume.data: no colour, and integration is exactly the depth-only one.
+  /// Colour fusion (setting colour): the dense cube's colour field (a block map carries its own
+  /// in OneBlockView::colour) and this frame's colour image (input size). No colour field: no
+  /// colour, and integration is exactly the depth-only one.
   ColourVolumeView colour_volume;
   ImageView<const Rgb8> colour_image;
 };
@@ -230,13 +231,21 @@ KFX_HD inline bool truncated_sdf(Vec3f p, float depth_minus_z_m, const Integrate
   return true;
 }
 
+/// The colour of voxel (x, y, z) that integration writes, or null without colour: the dense
+/// cube's colour field, or the colour of the block being integrated.
+KFX_HD inline ColourVoxel* colour_target(const IntegrateArgsT<VolumeView>& a, int x, int y, int z) {
+  return a.colour_volume.data ? &a.colour_volume.at(x, y, z) : nullptr;
+}
+KFX_HD inline ColourVoxel* colour_target(const IntegrateArgsT<OneBlockView>& a, int x, int y,
+                                         int z) {
+  return a.volume.colour ? &a.volume.colour_at(x, y, z) : nullptr;
+}
+
 /// Fuses the colour the colour camera sees at the voxel's camera-frame point p into its running
-/// mean (each measurement counts 1, up to max_weight, like the constant TSDF weight). Called
-/// for voxels inside the truncation band only (sdf < 1): free space has no colour.
-/// (The colour field is the dense cube's so far: a block map runs without colour, so its
-/// instantiation never reaches here.)
+/// mean `voxel` (each measurement counts 1, up to max_weight, like the constant TSDF weight).
+/// Called for voxels inside the truncation band only (sdf < 1): free space has no colour.
 template <class Map>
-KFX_HD inline void fuse_colour(Vec3f p, int x, int y, int z, const IntegrateArgsT<Map>& a) {
+KFX_HD inline void fuse_colour(Vec3f p, ColourVoxel& voxel, const IntegrateArgsT<Map>& a) {
   const Vec3f q = a.colour_camera.T_colour_cam * p;
   if (q.z < kIntegrateMinZ_m) return;
   const ColourCamera& c = a.colour_camera;
@@ -245,13 +254,21 @@ KFX_HD inline void fuse_colour(Vec3f p, int x, int y, int z, const IntegrateArgs
   const float v = (c.k.fy * q.y + c.k.cy * q.z) / q.z + 0.5f;
   if (!(u >= 0.0f && v >= 0.0f && u < a.colour_image.width && v < a.colour_image.height)) return;
   const Rgb8 m = a.colour_image(static_cast<int>(u), static_cast<int>(v));
-  ColourVoxel& voxel = a.colour_volume.at(x, y, z);
   const float w = voxel.weight;
   const float inv = 1.0f / (w + 1.0f);
   voxel.r = static_cast<uint16_t>((voxel.r * w + m.r * kColourScale) * inv + 0.5f);
   voxel.g = static_cast<uint16_t>((voxel.g * w + m.g * kColourScale) * inv + 0.5f);
   voxel.b = static_cast<uint16_t>((voxel.b * w + m.b * kColourScale) * inv + 0.5f);
   if (voxel.weight < a.max_weight) ++voxel.weight;
+}
+
+/// fuse_colour into voxel (x, y, z)'s colour where the map has colour and the voxel lies in the
+/// truncation band (sdf < 1).
+template <class Map>
+KFX_HD inline void fuse_colour_if_any(Vec3f p, int x, int y, int z, float sdf,
+                                      const IntegrateArgsT<Map>& a) {
+  if (!(sdf < 1.0f)) return;
+  if (ColourVoxel* voxel = colour_target(a, x, y, z)) fuse_colour(p, *voxel, a);
 }
 
 /// integrate_voxel with a weighted measurement (IntegrationWeight other than kConstant): the same
@@ -276,7 +293,7 @@ KFX_HD inline void integrate_voxel_weighted(Vec3f p, int x, int y, int z,
     voxel.weight = static_cast<int16_t>(
         min_f(weight + w, static_cast<float>(a.max_weight) * static_cast<float>(kWeightUnits)));
     if (voxel.tsdf < kMarkBelowTsdfStored) a.volume.mark_touched(x, y, z);
-    if (a.colour_volume.data && sdf < 1.0f) fuse_colour(p, x, y, z, a);
+    fuse_colour_if_any(p, x, y, z, sdf, a);
   }
 }
 
@@ -306,7 +323,7 @@ KFX_HD inline void integrate_voxel(Vec3f p, int x, int y, int z, const Integrate
     voxel.tsdf = static_cast<int16_t>(tsdf * kTsdfScale);
     voxel.weight = static_cast<int16_t>(min_f(weight + 1.0f, static_cast<float>(a.max_weight)));
     if (voxel.tsdf < kMarkBelowTsdfStored) a.volume.mark_touched(x, y, z);
-    if (a.colour_volume.data && sdf < 1.0f) fuse_colour(p, x, y, z, a);
+    fuse_colour_if_any(p, x, y, z, sdf, a);
   }
 }
 

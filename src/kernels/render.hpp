@@ -136,25 +136,38 @@ KFX_HD inline void render_volume_pixel(int x, int y, const RenderVolumeArgsT<Map
   a.out(x, y) = c;
 }
 
-/// Arguments of render_colour_pixel.
-struct RenderColourArgs {
-  RaycastArgs ray;  ///< volume and march settings (vertex/normal views unused)
-  Intrinsics k;     ///< compute-size intrinsics
-  ColourVolumeView colour;
+/// Arguments of render_colour_pixel over map `Map` (VolumeView or BlockMapView).
+template <class Map>
+struct RenderColourArgsT {
+  RaycastArgsT<Map> ray;    ///< map and march settings (vertex/normal views unused)
+  Intrinsics k;             ///< compute-size intrinsics
+  ColourVolumeView colour;  ///< the dense cube's colour field (a block map carries its own)
   ImageView<Rgba8> out;
 };
+
+/// Colour render arguments over the dense cube.
+using RenderColourArgs = RenderColourArgsT<VolumeView>;
+
+/// The model's colour at surface point p_m: the dense cube's colour field, or the block map's.
+KFX_HD inline bool model_colour(const RenderColourArgsT<VolumeView>& a, Vec3f p_m, Vec3f& rgb) {
+  return sample_colour(a.colour, p_m, rgb);
+}
+KFX_HD inline bool model_colour(const RenderColourArgsT<BlockMapView>& a, Vec3f p_m, Vec3f& rgb) {
+  return sample_colour(a.ray.volume, p_m, rgb);
+}
 
 /// The model's colour seen from the current camera: the ray's first surface point coloured by
 /// the colour field there (sample_colour); transparent black (alpha 0) where the ray misses or
 /// no colour was fused, so a comparison can tell "not covered" from a black surface.
-KFX_HD inline void render_colour_pixel(int x, int y, const RenderColourArgs& a) {
+template <class Map>
+KFX_HD inline void render_colour_pixel(int x, int y, const RenderColourArgsT<Map>& a) {
   const Mat4f view = a.ray.state->T_world_cam * a.k.inverse_matrix();
   const Vec3f origin = view.translation_part();
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
   Vec3f hit{0.0f, 0.0f, 0.0f};
   Rgba8 c{0, 0, 0, 0};
   Vec3f rgb;
-  if (raycast_ray(a.ray, origin, direction, hit) > 0.0f && sample_colour(a.colour, hit, rgb)) {
+  if (raycast_ray(a.ray, origin, direction, hit) > 0.0f && model_colour(a, hit, rgb)) {
     c = Rgba8{static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
               static_cast<uint8_t>(rgb.z + 0.5f), 255};
   }
@@ -201,12 +214,15 @@ inline RenderVolumeArgsT<Map> make_render_volume_args(Map volume, ImageView<Rgba
   return a;
 }
 
-/// The colour render from the current pose into `out`.
-inline RenderColourArgs make_render_colour_args(VolumeView volume, ColourVolumeView colour,
-                                                ImageView<Rgba8> out, const TrackingState* state,
-                                                const RenderParams& p) {
-  RenderColourArgs a;
-  a.ray = RaycastArgs{p.volume_ray, volume, ImageView<Vec3f>{}, ImageView<Vec3f>{}, state};
+/// The colour render from the current pose into `out` (`colour`: the dense cube's colour field;
+/// unused for a block map, which carries its own).
+template <class Map>
+inline RenderColourArgsT<Map> make_render_colour_args(Map volume, ColourVolumeView colour,
+                                                      ImageView<Rgba8> out,
+                                                      const TrackingState* state,
+                                                      const RenderParams& p) {
+  RenderColourArgsT<Map> a;
+  a.ray = RaycastArgsT<Map>{p.volume_ray, volume, ImageView<Vec3f>{}, ImageView<Vec3f>{}, state};
   a.k = p.volume_ray.k;
   a.colour = colour;
   a.out = out;

@@ -13,6 +13,7 @@
 
 #include <cstdint>
 
+#include "core/colour_volume.hpp"
 #include "core/math.hpp"
 #include "core/volume.hpp"
 #include "map/block_hash.hpp"
@@ -61,6 +62,9 @@ struct BlockMapView {
   /// Voxel size = grid_size_m / grid_res (kept as this ratio: see the file comment).
   int grid_res = 1;
   float grid_size_m = 0.01f;
+  /// The colour field (setting colour): block i's colours at [i·kBlockVoxels, (i+1)·kBlockVoxels),
+  /// laid out as its voxels; null when the map carries no colour.
+  ColourVoxel* colours = nullptr;
 
   KFX_HD float voxel_m() const { return grid_size_m / grid_res; }
   /// Voxel centre in the map frame, metres (VolumeView::centre_m's arithmetic).
@@ -144,6 +148,7 @@ struct OneBlockView {
   Vec3i origin_vox{0, 0, 0};          ///< voxel coordinates of the block's voxel 0
   int grid_res = 1;
   float grid_size_m = 0.01f;
+  ColourVoxel* colour = nullptr;  ///< the block's kBlockVoxels colours; null without colour
 
   KFX_HD float voxel_m() const { return grid_size_m / grid_res; }
   KFX_HD Vec3f centre_m(int x, int y, int z) const {
@@ -152,6 +157,10 @@ struct OneBlockView {
   }
   /// Voxel (x, y, z), which must lie in this block.
   KFX_HD Voxel& at(int x, int y, int z) const { return data[voxel_in_block(x, y, z)]; }
+  /// Colour of voxel (x, y, z), which must lie in this block (colour non-null).
+  KFX_HD ColourVoxel& colour_at(int x, int y, int z) const {
+    return colour[voxel_in_block(x, y, z)];
+  }
   /// Marks the block touched (one writer per block: no race) and its coarse cell (shared with
   /// other blocks: set_shared_flag).
   KFX_HD void mark_touched(int, int, int) const {
@@ -165,12 +174,30 @@ struct OneBlockView {
 /// The block view of block index b of `map`.
 KFX_HD inline OneBlockView one_block_view(const BlockMapView& map, int32_t b) {
   const Vec3i c = map.block_coords(b);
-  return OneBlockView{map.block_voxels(b),
-                      map.block_touched + b,
-                      map.coarse_touched + map.block_coarse[b],
-                      Vec3i{c.x * kBlockSide, c.y * kBlockSide, c.z * kBlockSide},
-                      map.grid_res,
-                      map.grid_size_m};
+  return OneBlockView{
+      map.block_voxels(b),
+      map.block_touched + b,
+      map.coarse_touched + map.block_coarse[b],
+      Vec3i{c.x * kBlockSide, c.y * kBlockSide, c.z * kBlockSide},
+      map.grid_res,
+      map.grid_size_m,
+      map.colours ? map.colours + static_cast<long long>(b) * kBlockVoxels : nullptr};
+}
+
+/// The colour of voxel (x, y, z) of a block map; weight 0 (no colour) where no block holds it
+/// or the map has no colour field.
+KFX_HD inline ColourVoxel map_colour_voxel(const BlockMapView& map, int x, int y, int z) {
+  const int32_t b = map.colours ? map.block_of(x, y, z) : -1;
+  return b < 0 ? ColourVoxel{0, 0, 0, 0}
+               : map.colours[static_cast<long long>(b) * kBlockVoxels + voxel_in_block(x, y, z)];
+}
+
+/// Colour at map-frame point p_m (sample_colour's trilinear rule over the block map's colour
+/// field); false where none of the eight voxels around it holds colour.
+KFX_HD inline bool sample_colour(const BlockMapView& map, Vec3f p_m, Vec3f& rgb) {
+  if (!map.colours) return false;
+  return sample_colour_field(map.grid_res / map.grid_size_m, p_m, rgb,
+                             [&](int x, int y, int z) { return map_colour_voxel(map, x, y, z); });
 }
 
 }  // namespace kfx

@@ -6,17 +6,19 @@
 
 namespace kfx {
 
-uint32_t block_capacity_for_budget(uint64_t budget_bytes) {
-  const uint64_t blocks = budget_bytes / kBytesPerBlock;
+uint32_t block_capacity_for_budget(uint64_t budget_bytes, bool colour) {
+  const uint64_t blocks = budget_bytes / block_bytes(colour);
   // The hash's slot count (a power of two ≥ 2 × capacity) must fit 32 bits.
   constexpr uint64_t kMaxBlocks = uint64_t{1} << 30;
   return static_cast<uint32_t>(std::max<uint64_t>(1, std::min(blocks, kMaxBlocks)));
 }
 
-HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m)
+HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour)
     : hash_keys_(block_hash_slot_count(block_capacity), kEmptyBlockKey),
       hash_values_(hash_keys_.size(), -1),
       voxels_(new Voxel[static_cast<size_t>(block_capacity) * kBlockVoxels]),
+      colours_(colour ? new ColourVoxel[static_cast<size_t>(block_capacity) * kBlockVoxels]
+                      : nullptr),
       block_keys_(block_capacity, kEmptyBlockKey),
       block_touched_(block_capacity, 0),
       block_coarse_(block_capacity, -1),
@@ -52,22 +54,28 @@ BlockAllocation HostBlockMap::allocate(std::vector<uint64_t>& candidates) {
       ++result.dropped;
       continue;
     }
-    Voxel* voxels = voxels_.get() + static_cast<size_t>(block_count_) * kBlockVoxels;
-    std::fill(voxels, voxels + kBlockVoxels, empty_voxel());
+    const size_t first = static_cast<size_t>(block_count_) * kBlockVoxels;
+    std::fill(voxels_.get() + first, voxels_.get() + first + kBlockVoxels, empty_voxel());
+    if (colours_) std::fill_n(colours_.get() + first, kBlockVoxels, ColourVoxel{0, 0, 0, 0});
     insert_new_block(key);
     ++result.allocated;
   }
   return result;
 }
 
-void HostBlockMap::add_block(uint64_t key, const Voxel* voxels) {
+void HostBlockMap::add_block(uint64_t key, const Voxel* voxels, const ColourVoxel* colours) {
   KFX_CHECK(block_count_ < static_cast<int>(block_capacity()),
             "the map holds " << block_capacity() << " blocks; one more does not fit");
   const Vec3i c = unpack_block_key(key);
   KFX_CHECK(view().hash.find(key) < 0,
             "block (" << c.x << ", " << c.y << ", " << c.z << ") is in the map twice");
-  std::copy(voxels, voxels + kBlockVoxels,
-            voxels_.get() + static_cast<size_t>(block_count_) * kBlockVoxels);
+  const size_t first = static_cast<size_t>(block_count_) * kBlockVoxels;
+  std::copy(voxels, voxels + kBlockVoxels, voxels_.get() + first);
+  if (colours_ && colours) {
+    std::copy(colours, colours + kBlockVoxels, colours_.get() + first);
+  } else if (colours_) {
+    std::fill_n(colours_.get() + first, kBlockVoxels, ColourVoxel{0, 0, 0, 0});
+  }
   const int b = block_count_;
   insert_new_block(key);
   block_touched_[b] = 1;  // unknown contents: never skipped
@@ -103,8 +111,12 @@ BlockMapContents HostBlockMap::contents() const {
   c.voxels.reserve(order.size() * kBlockVoxels);
   for (const int32_t b : order) {
     c.keys.push_back(block_keys_[b]);
-    const Voxel* v = voxels_.get() + static_cast<size_t>(b) * kBlockVoxels;
-    c.voxels.insert(c.voxels.end(), v, v + kBlockVoxels);
+    const size_t first = static_cast<size_t>(b) * kBlockVoxels;
+    c.voxels.insert(c.voxels.end(), voxels_.get() + first, voxels_.get() + first + kBlockVoxels);
+    if (colours_) {
+      c.colours.insert(c.colours.end(), colours_.get() + first,
+                       colours_.get() + first + kBlockVoxels);
+    }
   }
   return c;
 }
@@ -116,8 +128,13 @@ void HostBlockMap::load(const BlockMapContents& c) {
                                    << " m");
   KFX_CHECK(c.voxels.size() == c.keys.size() * kBlockVoxels,
             "a map of " << c.keys.size() << " blocks with " << c.voxels.size() << " voxels");
+  KFX_CHECK(c.colours.empty() || c.colours.size() == c.voxels.size(),
+            "a map of " << c.keys.size() << " blocks with " << c.colours.size() << " colours");
   clear();
-  for (size_t i = 0; i < c.keys.size(); ++i) add_block(c.keys[i], &c.voxels[i * kBlockVoxels]);
+  for (size_t i = 0; i < c.keys.size(); ++i) {
+    add_block(c.keys[i], &c.voxels[i * kBlockVoxels],
+              c.colours.empty() ? nullptr : &c.colours[i * kBlockVoxels]);
+  }
 }
 
 BlockMapView HostBlockMap::view() {
@@ -135,13 +152,15 @@ BlockMapView HostBlockMap::view() {
   v.block_count = block_count_;
   v.grid_res = grid_res_;
   v.grid_size_m = grid_size_m_;
+  v.colours = colours_.get();
   return v;
 }
 
 uint64_t HostBlockMap::reserved_bytes() const {
   return (hash_keys_.size() + coarse_keys_.size()) * (sizeof(uint64_t) + sizeof(int32_t)) +
          block_keys_.size() *
-             (sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 + sizeof(int32_t) + 1);
+             (sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 + sizeof(int32_t) + 1 +
+              (colours_ ? sizeof(ColourVoxel) * kBlockVoxels : 0));
 }
 
 }  // namespace kfx

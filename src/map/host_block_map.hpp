@@ -11,16 +11,19 @@
 
 namespace kfx {
 
-/// Bytes one block costs in a map: its voxels, its key, its touched flag and two hash slots
-/// (the table is kept at most half full).
 /// Bytes one block costs in a map: its voxels, its key, its touched flag, its coarse index and
 /// two hash slots in each of the two tables (kept at most half full), and a coarse flag (the
-/// coarse level is sized for one cell per block, its worst case).
+/// coarse level is sized for one cell per block, its worst case). Without colour.
 constexpr uint64_t kBytesPerBlock = sizeof(Voxel) * kBlockVoxels + sizeof(uint64_t) + 1 +
                                     sizeof(int32_t) + 4 * (sizeof(uint64_t) + sizeof(int32_t)) + 1;
 
-/// Blocks a memory budget of `budget_bytes` holds (at least 1).
-uint32_t block_capacity_for_budget(uint64_t budget_bytes);
+/// Bytes one block costs, with its colour field when `colour` (setting colour).
+constexpr uint64_t block_bytes(bool colour) {
+  return kBytesPerBlock + (colour ? sizeof(ColourVoxel) * kBlockVoxels : 0);
+}
+
+/// Blocks a memory budget of `budget_bytes` holds (at least 1), with colour when `colour`.
+uint32_t block_capacity_for_budget(uint64_t budget_bytes, bool colour = false);
 
 /// What one allocation pass did.
 struct BlockAllocation {
@@ -35,14 +38,17 @@ struct BlockMapContents {
   float grid_size_m = 0.01f;
   std::vector<uint64_t> keys;
   std::vector<Voxel> voxels;  ///< kBlockVoxels per key, in the keys' order
+  /// kBlockVoxels per key, in the keys' order; empty when the map carries no colour.
+  std::vector<ColourVoxel> colours;
 };
 
 /// An owning block map in host memory.
 class HostBlockMap {
  public:
   HostBlockMap() = default;
-  /// An empty map of `block_capacity` blocks and voxel size grid_size_m / grid_res.
-  HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m);
+  /// An empty map of `block_capacity` blocks and voxel size grid_size_m / grid_res, with a colour
+  /// field when `colour`.
+  HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour = false);
 
   /// Removes every block (the arrays are kept).
   void clear();
@@ -51,24 +57,29 @@ class HostBlockMap {
   /// order, so the same candidates give the same block indices whatever order they came in.
   /// Once the capacity is reached the rest are dropped and counted.
   BlockAllocation allocate(std::vector<uint64_t>& candidates);
-  /// Adds block `key` with the given voxels (loading a saved map); throws kfx::Error when the
-  /// key is present already or the map is full.
-  void add_block(uint64_t key, const Voxel* voxels);
+  /// Adds block `key` with the given voxels and colours (null: none yet) (loading a saved map);
+  /// throws kfx::Error when the key is present already or the map is full.
+  void add_block(uint64_t key, const Voxel* voxels, const ColourVoxel* colours = nullptr);
   /// Coarse cells in use.
   int coarse_count() const { return coarse_count_; }
 
   /// The blocks in increasing key order (independent of the order they were allocated in).
   BlockMapContents contents() const;
   /// Replaces the map by `contents` (same voxel size; blocks must fit the capacity); every block
-  /// is marked touched. Throws kfx::Error on a duplicate key or too many blocks.
+  /// is marked touched. Throws kfx::Error on a duplicate key or too many blocks. Colours the
+  /// contents lack read as none yet; colours the map has no field for are dropped.
   void load(const BlockMapContents& contents);
+  /// True when the map carries a colour field.
+  bool has_colour() const { return colours_ != nullptr; }
 
   BlockMapView view();
   /// Blocks allocated.
   int block_count() const { return block_count_; }
   uint32_t block_capacity() const { return static_cast<uint32_t>(block_keys_.size()); }
-  /// Bytes the allocated blocks take (kBytesPerBlock each).
-  uint64_t used_bytes() const { return kBytesPerBlock * static_cast<uint64_t>(block_count_); }
+  /// Bytes the allocated blocks take (block_bytes each).
+  uint64_t used_bytes() const {
+    return block_bytes(has_colour()) * static_cast<uint64_t>(block_count_);
+  }
   /// Bytes the map holds allocated for its capacity.
   uint64_t reserved_bytes() const;
   int grid_res() const { return grid_res_; }
@@ -83,6 +94,7 @@ class HostBlockMap {
   /// capacity × kBlockVoxels voxels, left uninitialised until a block is allocated (so a large
   /// budget costs address space, not memory, until blocks are used).
   std::unique_ptr<Voxel[]> voxels_;
+  std::unique_ptr<ColourVoxel[]> colours_;  ///< as voxels_, when the map carries colour
   std::vector<uint64_t> block_keys_;
   std::vector<uint8_t> block_touched_;
   std::vector<int32_t> block_coarse_;

@@ -17,6 +17,8 @@ static_assert(sizeof(Voxel) == 4, "a voxel is two int16");
 constexpr char kMagic[8] = {'K', 'F', 'X', 'B', 'L', 'K', 'S', '\0'};
 constexpr size_t kHeaderBytes = 92;
 constexpr size_t kBlockBytes = 3 * sizeof(int32_t) + kBlockVoxels * sizeof(Voxel);
+constexpr size_t kBlockColourBytes = kBlockVoxels * sizeof(ColourVoxel);
+static_assert(sizeof(ColourVoxel) == 8, "a colour is four uint16");
 
 }  // namespace
 
@@ -31,9 +33,13 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
   const BlockMapContents& m = saved.map;
   KFX_CHECK(m.voxels.size() == m.keys.size() * kBlockVoxels,
             path << ": " << m.keys.size() << " blocks with " << m.voxels.size() << " voxels");
+  const bool colour = !m.colours.empty();
+  KFX_CHECK(!colour || m.colours.size() == m.voxels.size(),
+            path << ": " << m.keys.size() << " blocks with " << m.colours.size() << " colours");
   io::BinaryOutputFile file(path, "block map");
   unsigned char header[kHeaderBytes];
-  const uint32_t version = kBlockMapFileVersion, res = static_cast<uint32_t>(m.grid_res);
+  const uint32_t version = colour ? kBlockMapFileVersionColour : kBlockMapFileVersion;
+  const uint32_t res = static_cast<uint32_t>(m.grid_res);
   const uint64_t count = m.keys.size();
   std::memcpy(header, kMagic, 8);
   std::memcpy(header + 8, &version, 4);
@@ -47,6 +53,9 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
     const int32_t coords[3] = {c.x, c.y, c.z};
     std::fwrite(coords, sizeof(int32_t), 3, file.file());
     std::fwrite(&m.voxels[i * kBlockVoxels], sizeof(Voxel), kBlockVoxels, file.file());
+    if (colour) {
+      std::fwrite(&m.colours[i * kBlockVoxels], sizeof(ColourVoxel), kBlockVoxels, file.file());
+    }
   }
   file.commit();
 }
@@ -68,8 +77,11 @@ SavedBlockMap read_block_map_file(const std::string& path) {
   std::memcpy(&m.grid_size_m, header + 16, 4);
   std::memcpy(saved.T_trajectory_map.m, header + 20, 64);
   std::memcpy(&count, header + 84, 8);
-  KFX_CHECK(version == kBlockMapFileVersion, path << ": block map format version " << version
-                                                  << ", this kfx reads " << kBlockMapFileVersion);
+  KFX_CHECK(version == kBlockMapFileVersion || version == kBlockMapFileVersionColour,
+            path << ": block map format version " << version << ", this kfx reads "
+                 << kBlockMapFileVersion << " and " << kBlockMapFileVersionColour);
+  const bool colour = version == kBlockMapFileVersionColour;
+  const size_t block_bytes = kBlockBytes + (colour ? kBlockColourBytes : 0);
   KFX_CHECK(res >= 1 && res <= 1 << 20, path << ": grid_res " << res << " outside 1 to 2^20");
   KFX_CHECK(std::isfinite(m.grid_size_m) && m.grid_size_m > 0,
             path << ": grid size " << m.grid_size_m << " m is not a positive number");
@@ -80,16 +92,20 @@ SavedBlockMap read_block_map_file(const std::string& path) {
   in.seekg(0, std::ios::end);
   const uint64_t size = static_cast<uint64_t>(in.tellg());
   KFX_CHECK(
-      count <= (size - kHeaderBytes) / kBlockBytes && size == kHeaderBytes + count * kBlockBytes,
-      path << ": " << size << " bytes, a map of " << count << " blocks has "
-           << kHeaderBytes + count * kBlockBytes);
+      count <= (size - kHeaderBytes) / block_bytes && size == kHeaderBytes + count * block_bytes,
+      path << ": " << size << " bytes, a map of " << count << " blocks"
+           << (colour ? " with colour" : "") << " has " << kHeaderBytes + count * block_bytes);
   in.seekg(static_cast<std::streamoff>(kHeaderBytes));
   m.keys.resize(count);
   m.voxels.resize(count * kBlockVoxels);
+  if (colour) m.colours.resize(count * kBlockVoxels);
   for (uint64_t i = 0; i < count; ++i) {
     int32_t c[3];
     in.read(reinterpret_cast<char*>(c), sizeof(c));
     in.read(reinterpret_cast<char*>(&m.voxels[i * kBlockVoxels]), kBlockVoxels * sizeof(Voxel));
+    if (colour) {
+      in.read(reinterpret_cast<char*>(&m.colours[i * kBlockVoxels]), kBlockColourBytes);
+    }
     KFX_CHECK(in, path << ": cannot read block " << i);
     KFX_CHECK(block_coords_packable(c[0], c[1], c[2]),
               path << ": block " << i << " at (" << c[0] << ", " << c[1] << ", " << c[2]

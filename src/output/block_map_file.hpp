@@ -4,7 +4,7 @@
 ///
 ///   offset  size  field
 ///        0     8  magic "KFXBLKS\0"
-///        8     4  uint32 format version (1)
+///        8     4  uint32 format version: 1 without colour, 2 with colour
 ///       12     4  uint32 grid_res   } the voxel size is grid_size_m / grid_res metres; voxel
 ///       16     4  float32 grid_size_m } (x, y, z) is centred at ((x, y, z) + 0.5) · that size
 ///       20    64  float32[4][4] T_trajectory_map, row-major: map-frame points into the frame of
@@ -12,7 +12,9 @@
 ///       84     8  uint64 block count n
 ///       92        n blocks in increasing key order, each: int32 bx, by, bz (block coordinates:
 ///                 the block holds voxels 8·b … 8·b + 7 per axis), then 8³ voxels, x fastest:
-///                 int16 tsdf (value · 32766), int16 weight (0 = never observed)
+///                 int16 tsdf (value · 32766), int16 weight (0 = never observed); in version
+///                 2 then 8³ colours, x fastest: uint16 r, g, b (value · 256, 0..255 each),
+///                 uint16 weight (measurements in the mean; 0 = no colour)
 
 #include <string>
 
@@ -21,8 +23,9 @@
 
 namespace kfx::output {
 
-/// Current format version of block map files.
+/// Format version of block map files without colour, and with colour.
 constexpr uint32_t kBlockMapFileVersion = 1;
+constexpr uint32_t kBlockMapFileVersionColour = 2;
 
 /// The 8 bytes a block map file starts with.
 bool is_block_map_file(const std::string& path);

@@ -10,7 +10,7 @@ namespace kfx::output {
 
 size_t write_cloud_ply(const std::string& path, const HostImage<Vec3f>& vertex_m,
                        const HostImage<Vec3f>& normal, const std::string& comment,
-                       const ColourVolumeView& colour) {
+                       const ColourField& colour) {
   KFX_CHECK(vertex_m.width() == normal.width() && vertex_m.height() == normal.height(),
             "cloud: vertex and normal maps differ in size");
   std::vector<MeshVertex> points;
@@ -27,10 +27,10 @@ size_t write_cloud_ply(const std::string& path, const HostImage<Vec3f>& vertex_m
   header += "element vertex " + std::to_string(points.size()) +
             "\nproperty float x\nproperty float y\nproperty float z\n"
             "property float nx\nproperty float ny\nproperty float nz\n";
-  if (colour.data) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
+  if (!colour.empty()) header += "property uchar red\nproperty uchar green\nproperty uchar blue\n";
   header += "end_header\n";
   std::fwrite(header.data(), 1, header.size(), file.file());
-  if (colour.data) {
+  if (!colour.empty()) {
     const std::vector<Rgb8> colours = vertex_colours(points.data(), points.size(), colour);
     write_coloured_vertices(file.file(), points.data(), colours.data(), points.size());
   } else if (!points.empty()) {

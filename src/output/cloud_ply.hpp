@@ -5,17 +5,17 @@
 
 #include <string>
 
-#include "core/colour_volume.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "output/colour_field.hpp"
 
 namespace kfx::output {
 
 /// Writes every pixel of the raycast maps that holds a surface point (valid normal) to `path`
-/// (temporary name, renamed when complete), coloured from `colour` when it has data. Returns
+/// (temporary name, renamed when complete), coloured from `colour` unless it is empty. Returns
 /// the number of points written.
 size_t write_cloud_ply(const std::string& path, const HostImage<Vec3f>& vertex_m,
                        const HostImage<Vec3f>& normal, const std::string& comment,
-                       const ColourVolumeView& colour = {});
+                       const ColourField& colour = {});
 
 }  // namespace kfx::output

@@ -3,8 +3,8 @@
 
 #include <vector>
 
-#include "core/colour_volume.hpp"
 #include "core/mesh.hpp"
+#include "output/colour_field.hpp"
 
 namespace kfx::output {
 
@@ -14,6 +14,6 @@ constexpr Rgb8 kNoColour{128, 128, 128};
 /// The colour field's colour at each vertex position (sample_colour: trilinear over the voxels
 /// around it that hold colour, rounded to 8 bits); kNoColour where none does.
 std::vector<Rgb8> vertex_colours(const MeshVertex* vertices, size_t count,
-                                 const ColourVolumeView& colour);
+                                 const ColourField& colour);
 
 }  // namespace kfx::output

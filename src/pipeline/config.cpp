@@ -553,9 +553,6 @@ void set_config_assignment(PipelineConfig& config, const std::string& assignment
 }
 
 void PipelineConfig::validate() const {
-  KFX_CHECK(!(colour.fuse && volume.kind == MapKind::kBlocks),
-            "colour=on needs volume=dense: the block map (volume=blocks) carries no colour field "
-            "yet");
   const int r = input.compute_size_ratio;
   KFX_CHECK(r == 1 || r == 2 || r == 4 || r == 8,
             "compute_size_ratio must be 1, 2, 4 or 8, got " << r);

@@ -30,8 +30,8 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   if (setup_.map_kind == MapKind::kBlocks) {
     setup_.volume_res_vox = config_.volume.grid_res();
     setup_.volume_size_m = config_.volume.grid_size_m();
-    setup_.block_capacity =
-        block_capacity_for_budget(static_cast<uint64_t>(config_.volume.map_budget_mb) << 20);
+    setup_.block_capacity = block_capacity_for_budget(
+        static_cast<uint64_t>(config_.volume.map_budget_mb) << 20, config_.colour.fuse);
   } else {
     setup_.volume_res_vox = config_.volume.resolution_vox;
     setup_.volume_size_m = config_.volume.size_m;
@@ -178,6 +178,7 @@ FrameReport Pipeline::collect() {
   report.integrated = may_integrate && (always || state.tracked);
   report.T_world_cam = state.T_world_cam;
   report.map_blocks = state.map_blocks;
+  report.map_bytes = block_bytes(setup_.colour) * static_cast<uint64_t>(state.map_blocks);
   report.map_blocks_dropped = report.integrated ? state.map_blocks_dropped : 0;
   report.icp_iterations = track ? state.iterations_run : 0;
   report.inlier_fraction =

@@ -32,6 +32,7 @@ struct FrameReport {
   /// the frame's surface was not stored).
   int map_blocks = 0;
   int map_blocks_dropped = 0;
+  uint64_t map_bytes = 0;  ///< bytes the allocated blocks take (block_bytes each)
 };
 
 /// A KinectFusion pipeline over one backend.

@@ -181,3 +181,19 @@ def test_open3d_helper(reconstruction, frames):
         return
     o3d_mesh = kfx.to_open3d(mesh)
     assert len(o3d_mesh.triangles) == len(mesh.triangles)
+
+
+def test_warnings_name_the_frame_by_its_number_in_the_input(frames):
+    # A wall 7.5 m away (a depth scale off by 5): beyond the volume and implausible.
+    camera = kfx.Camera(160, 120, 100.0, 100.0, 79.5, 59.5)
+    r = kfx.Reconstruction(camera=camera, backend="cpu", volume_resolution=64)
+    near = np.full((120, 160), 1.0, np.float32)
+    assert r.process(near).input_index == 0  # none given: the frame's count
+    result = r.process(near * 7.5, input_index=41)
+    assert (result.index, result.input_index) == (1, 41)
+    assert result.warnings and all(w.startswith("frame 41: ") for w in result.warnings)
+    with pytest.raises(ValueError, match="input_index"):
+        r.process(near, input_index=-2)
+    # A Sequence's frames carry their own numbers.
+    s = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    assert [s.process(f).input_index for f in frames[:3]] == [f.index for f in frames[:3]]

@@ -1,5 +1,6 @@
 #!/usr/bin/env python3
-"""End-to-end test of the search mode (scripts/kfx_search, docs/sweep.md "Search") on the CPU.
+"""End-to-end test of the search mode (scripts/kfx_search, which runs kfx.study.search;
+docs/sweep.md "Search") on the CPU.
 
 A tiny search: two knobs, two 20-frame synthetic sequences at 128x96 in a 64^3 volume, one held
 out. The first two trials are queued: the baseline's own configuration (must be feasible) and
@@ -14,8 +15,7 @@ Exit status: 0 pass, 1 failure, 77 skipped (optuna not importable).
 """
 
 import csv
-import importlib.machinery
-import importlib.util
+import importlib
 import json
 import os
 import subprocess
@@ -49,12 +49,12 @@ def expect(condition, message):
 
 
 def load_search_module(source_dir):
-    path = os.path.join(source_dir, "scripts", "kfx_search")
-    loader = importlib.machinery.SourceFileLoader("kfx_search", path)
-    spec = importlib.util.spec_from_loader("kfx_search", loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
+    """kfx.study.search from the checkout's python/kfx (as scripts/kfx_search runs it)."""
+    sys.path.insert(0, os.path.join(source_dir, "scripts"))
+    import checkout_package
+
+    checkout_package.use_checkout_package()
+    return importlib.import_module("kfx.study.search")
 
 
 PLAN = {

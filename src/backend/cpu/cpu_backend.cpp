@@ -76,7 +76,8 @@ class CpuBackend final : public Backend {
         buffers_(setup),
         row_partials_(static_cast<size_t>(setup.compute_height_px()) * kAccumulatorSize) {
     if (blocks()) {
-      blocks_ = HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m);
+      blocks_ = HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
+                             setup.colour);
     }
     auto& normals = buffers_.ref_normal.pixels();
     std::fill(normals.begin(), normals.end(), Vec3f{kInvalidNormal, 0, 0});
@@ -228,7 +229,7 @@ class CpuBackend final : public Backend {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
     if (blocks()) {
-      integrate_blocks(p);  // without colour: the colour field is the dense cube's so far
+      integrate_blocks(p);
       return;
     }
     const IntegrateArgs a{p,
@@ -281,12 +282,12 @@ class CpuBackend final : public Backend {
                                             &state_, p));
     }
     if (!setup_.colour) return;
-    const RenderColourArgs c =
-        make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
-                                buffers_.render_colour.view(), &state_, p);
-#pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < h; ++y) {
-      for (int x = 0; x < w; ++x) render_colour_pixel(x, y, c);
+    if (blocks()) {
+      render_colour(make_render_colour_args(blocks_.view(), ColourVolumeView{},
+                                            buffers_.render_colour.view(), &state_, p));
+    } else {
+      render_colour(make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
+                                            buffers_.render_colour.view(), &state_, p));
     }
   }
 
@@ -445,8 +446,14 @@ class CpuBackend final : public Backend {
   /// Integration over the block map: every allocated block in view, one block per task.
   void integrate_blocks(const IntegrateParams& p) {
     const BlockMapView map = blocks_.view();
-    IntegrateArgsT<OneBlockView> a{p, OneBlockView{}, buffers_.depth_m.view(), &state_,
-                                   buffers_.level_normal[0].view()};
+    // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
+    IntegrateArgsT<OneBlockView> a{p,
+                                   OneBlockView{},
+                                   buffers_.depth_m.view(),
+                                   &state_,
+                                   buffers_.level_normal[0].view(),
+                                   ColourVolumeView{},
+                                   input_rgb_.view()};
 #pragma omp parallel for schedule(dynamic, 16) firstprivate(a)
     for (int b = 0; b < map.block_count; ++b) {
       if (!block_in_view(map, b, a)) continue;
@@ -471,6 +478,15 @@ class CpuBackend final : public Backend {
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < h; ++y) {
       for (int x = 0; x < w; ++x) render_volume_pixel(x, y, v);
+    }
+  }
+
+  template <class Args>
+  void render_colour(const Args& c) {
+    const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
+#pragma omp parallel for schedule(dynamic, 2)
+    for (int y = 0; y < h; ++y) {
+      for (int x = 0; x < w; ++x) render_colour_pixel(x, y, c);
     }
   }
 

@@ -1,6 +1,7 @@
 """The readings and the side-by-side tables of docs/thesis-study.md, computed from the results.
 
-Loaded by scripts/plot_sweep.py (--values-module) when scripts/thesis_study writes the report:
+Loaded by kfx.plots.sweep (--values-module kfx.study.thesis) when scripts/thesis_study writes the
+report:
 extra_values(res, figures) returns the placeholders {{reading:SECTION}} and
 {{thesis_table:SECTION}}. Every number in the text comes from the sweep results (`res`) or from
 docs/thesis-study/thesis_tables.json (the thesis's own tables, typed once with their source);
@@ -12,7 +13,8 @@ regenerating from other results keeps the text true. A run the results lack is s
 import json
 import os
 
-from plot_sweep import STAGES, ate_cm, computation_ms, stage_ms
+from . import ToolError, default_path
+from .results import STAGES, ate_cm, computation_ms, stage_ms
 
 # A run "breaks" a sequence when its ATE RMSE exceeds the divergence bound (then frames lie
 # beyond it) or, where the divergence measure was recorded, more than this share of its frames
@@ -20,8 +22,9 @@ from plot_sweep import STAGES, ate_cm, computation_ms, stage_ms
 BOUND_CM = 10.0
 BROKEN_FRAME_SHARE = 0.05
 NOT_MEASURED = "not measured in this results set"
-THESIS_TABLES = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "docs",
-                             "thesis-study", "thesis_tables.json")
+# The thesis's tables: the checkout's copy (KFX_THESIS_TABLES names another).
+THESIS_TABLES = os.environ.get("KFX_THESIS_TABLES",
+                               default_path("docs", "thesis-study", "thesis_tables.json"))
 SHORT = {"icl_office_kt0": "ICL", "tum_fr1_xyz": "TUM"}
 
 
@@ -533,8 +536,12 @@ def size_evidence(f, stage):
 
 
 def extra_values(res, figures):
-    with open(THESIS_TABLES) as fh:
-        thesis = json.load(fh)
+    try:
+        with open(THESIS_TABLES) as fh:
+            thesis = json.load(fh)
+    except (OSError, ValueError) as e:
+        raise ToolError(f"{THESIS_TABLES}: cannot read the thesis's tables ({e}); set "
+                        "KFX_THESIS_TABLES to docs/thesis-study/thesis_tables.json of a checkout")
     f = Facts(res)
     values = {
         "reading:presets": reading_presets(f, thesis),
