@@ -60,29 +60,15 @@ extern "C" void read_from_memory(png_structp png, png_bytep out, size_t count) {
   source->offset += count;
 }
 
-/// Reads the header and sets the transforms that yield 8-bit or native-endian 16-bit gray
-/// samples. Returns false after a libpng error (message in the error state).
-bool png_read_header_steps(png_structp png, png_infop info, PngHeader* header) {
-  if (setjmp(png_jmpbuf(png))) return false;
-  png_set_user_limits(png, kMaxPngSide, kMaxPngSide);
-  png_read_info(png, info);
-  header->width_px = static_cast<int>(png_get_image_width(png, info));
-  header->height_px = static_cast<int>(png_get_image_height(png, info));
-  header->bit_depth = png_get_bit_depth(png, info);
-  const int color_type = png_get_color_type(png, info);
-  header->channels = color_type == PNG_COLOR_TYPE_PALETTE ? 3 : png_get_channels(png, info);
-  if (color_type == PNG_COLOR_TYPE_GRAY && header->bit_depth < 8) {
-    png_set_expand_gray_1_2_4_to_8(png);
-  }
-  if (header->bit_depth == 16) png_set_swap(png);  // PNG stores big-endian samples
-  png_set_interlace_handling(png);
-  png_read_update_info(png, info);
-  return true;
-}
+/// The samples a reader asks libpng for.
+enum class PngSamples {
+  kGray,  ///< 8-bit or native-endian 16-bit gray, as stored
+  kRgb8,  ///< 8-bit RGB from any PNG: palette and gray expanded, alpha dropped, 16 bits reduced
+};
 
-/// Reads the header and sets the transforms that yield 8-bit RGB from any PNG (palette and gray
-/// expanded, alpha dropped, 16-bit samples reduced). Returns false after a libpng error.
-bool png_read_header_rgb_steps(png_structp png, png_infop info, PngHeader* header) {
+/// Reads the header and sets the transforms that yield `samples`. Returns false after a libpng
+/// error (message in the error state), or when RGB rows would not be 3 bytes a pixel.
+bool png_read_header_steps(png_structp png, png_infop info, PngSamples samples, PngHeader* header) {
   if (setjmp(png_jmpbuf(png))) return false;
   png_set_user_limits(png, kMaxPngSide, kMaxPngSide);
   png_read_info(png, info);
@@ -91,18 +77,23 @@ bool png_read_header_rgb_steps(png_structp png, png_infop info, PngHeader* heade
   header->bit_depth = png_get_bit_depth(png, info);
   const int color_type = png_get_color_type(png, info);
   header->channels = color_type == PNG_COLOR_TYPE_PALETTE ? 3 : png_get_channels(png, info);
-  if (color_type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
   if (color_type == PNG_COLOR_TYPE_GRAY && header->bit_depth < 8) {
     png_set_expand_gray_1_2_4_to_8(png);
   }
-  if (color_type == PNG_COLOR_TYPE_GRAY || color_type == PNG_COLOR_TYPE_GRAY_ALPHA) {
-    png_set_gray_to_rgb(png);
+  if (samples == PngSamples::kGray) {
+    if (header->bit_depth == 16) png_set_swap(png);  // PNG stores big-endian samples
+  } else {
+    if (color_type == PNG_COLOR_TYPE_PALETTE) png_set_palette_to_rgb(png);
+    if (color_type == PNG_COLOR_TYPE_GRAY || color_type == PNG_COLOR_TYPE_GRAY_ALPHA) {
+      png_set_gray_to_rgb(png);
+    }
+    png_set_strip_alpha(png);  // also drops the alpha a palette's tRNS chunk expands to
+    if (header->bit_depth == 16) png_set_strip_16(png);
   }
-  png_set_strip_alpha(png);  // also drops the alpha a palette's tRNS chunk expands to
-  if (header->bit_depth == 16) png_set_strip_16(png);
   png_set_interlace_handling(png);
   png_read_update_info(png, info);
-  return png_get_rowbytes(png, info) == 3 * static_cast<size_t>(header->width_px);
+  return samples == PngSamples::kGray ||
+         png_get_rowbytes(png, info) == 3 * static_cast<size_t>(header->width_px);
 }
 
 /// Decodes all rows into `rows` and reads to the end of the file, so that truncation after the
@@ -190,16 +181,19 @@ std::vector<unsigned char> read_whole_file(const std::string& path) {
   return bytes;
 }
 
-/// Checks the signature, reads the header and prepares transforms on `handle`.
+/// Checks the signature, reads the header and prepares transforms on `handle` for `samples`.
 PngHeader start_reading(const PngReadHandle& handle, PngMemorySource* source,
-                        const PngErrorState& state, const std::string& path) {
+                        const PngErrorState& state, const std::string& path,
+                        PngSamples samples = PngSamples::kGray) {
   KFX_CHECK(source->size >= 8 && png_sig_cmp(source->data, 0, 8) == 0,
             "cannot read PNG '" << path << "': not a PNG file ("
                                 << (source->size < 8 ? "too short" : "bad signature") << ")");
   png_set_read_fn(handle.png(), source, read_from_memory);
   PngHeader header;
-  KFX_CHECK(png_read_header_steps(handle.png(), handle.info(), &header),
-            "cannot read PNG '" << path << "': " << state.message);
+  KFX_CHECK(png_read_header_steps(handle.png(), handle.info(), samples, &header),
+            "cannot read PNG '" << path << "'" << (samples == PngSamples::kRgb8 ? " as RGB" : "")
+                                << ": "
+                                << (state.message[0] ? state.message : "unsupported pixel layout"));
   return header;
 }
 
@@ -251,14 +245,7 @@ HostImage<Rgb8> read_png_rgb8(const std::string& path) {
   PngErrorState state{};
   PngReadHandle handle(&state, path);
   PngMemorySource source{bytes.data(), bytes.size(), 0};
-  KFX_CHECK(source.size >= 8 && png_sig_cmp(source.data, 0, 8) == 0,
-            "cannot read PNG '" << path << "': not a PNG file ("
-                                << (source.size < 8 ? "too short" : "bad signature") << ")");
-  png_set_read_fn(handle.png(), &source, read_from_memory);
-  PngHeader header;
-  KFX_CHECK(png_read_header_rgb_steps(handle.png(), handle.info(), &header),
-            "cannot read PNG '" << path << "' as RGB: "
-                                << (state.message[0] ? state.message : "unsupported pixel layout"));
+  const PngHeader header = start_reading(handle, &source, state, path, PngSamples::kRgb8);
   HostImage<Rgb8> image(header.width_px, header.height_px);
   std::vector<png_bytep> rows(static_cast<size_t>(header.height_px));
   for (int y = 0; y < header.height_px; ++y) rows[y] = reinterpret_cast<png_bytep>(&image(0, y));
