@@ -201,10 +201,9 @@ TEST(Photometric, AnInputWithoutColourIsAClearError) {
   // tum_fr1_xyz here has no rgb/ images: kfx run names the input and the setting.
   if (!test::shared_exists("data/tum_fr1_xyz")) GTEST_SKIP() << "needs ../shared/data";
   const auto out = test::fresh_test_dir("photometric_no_colour") / "run";
-  const test::CommandResult r =
-      test::run_kfx("run " + test::shared_path("data/tum_fr1_xyz") +
-                    " --backend cpu --frames 2 --set photometric_weight=0.01 --out " +
-                    out.string());
+  const test::CommandResult r = test::run_kfx(
+      "run " + test::shared_path("data/tum_fr1_xyz") +
+      " --backend cpu --frames 2 --set photometric_weight=0.01 --out " + out.string());
   EXPECT_NE(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("photometric_weight > 0 tracks with colour but this input has no colour"),
             std::string::npos)
