@@ -55,7 +55,7 @@ void mesh_command(const MeshOptions& o) {
   setup.pyramid_levels = 1;
   std::unique_ptr<Backend> backend;
   Mat4f T_trajectory_volume;
-  output::ColourField colour;                      // a block map saved with colour colours its mesh
+  output::ColourField colour;                      // a map saved with colour colours its mesh
   if (output::is_block_map_file(o.volume_path)) {  // map.kfxblocks (volume=blocks)
     const output::SavedBlockMap saved = output::read_block_map_file(o.volume_path);
     setup.map_kind = MapKind::kBlocks;
@@ -77,6 +77,7 @@ void mesh_command(const MeshOptions& o) {
     backend = make_backend(parse_backend_kind(o.backend), setup);
     backend->upload_volume(volume.voxels);
     T_trajectory_volume = volume.T_trajectory_volume;
+    colour = output::ColourField(volume.colours, volume.res, volume.size_m);
   }
   backend->reserve_mesh_extraction();
   // Timed as a benchmark would: extraction, compaction and the copy to the host, per repeat.

@@ -20,7 +20,6 @@
 #include "io/trajectory.hpp"
 #include "kfx/reconstruction.hpp"
 #include "map/host_block_map.hpp"
-#include "output/block_map_file.hpp"
 #include "output/cloud_ply.hpp"
 #include "output/host_memory.hpp"
 #include "output/mesh_colour.hpp"
@@ -31,7 +30,6 @@
 #include "output/run_folder.hpp"
 #include "output/slambench_log_writer.hpp"
 #include "output/stats_json.hpp"
-#include "output/volume_file.hpp"
 #include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
@@ -307,18 +305,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                                 colour);
     written += " cloud.ply";
   }
-  if (outputs.save_volume && blocks) {
-    output::SavedBlockMap map;
-    map.map = pipeline.backend().read_blocks();
-    output::write_block_map_file(out_dir + "/map.kfxblocks", map);
-    written += " map.kfxblocks";
-  } else if (outputs.save_volume) {
-    output::SavedVolume volume;
-    volume.res = pipeline.config().volume.resolution_vox;
-    volume.size_m = pipeline.config().volume.size_m;
-    volume.voxels = pipeline.backend().read_volume();
-    output::write_volume_file(out_dir + "/volume.kfxtsdf", volume);
-    written += " volume.kfxtsdf";
+  if (outputs.save_volume) {  // the map as Reconstruction::save_map writes it, colour included
+    const std::string name = blocks ? "map.kfxblocks" : "volume.kfxtsdf";
+    reconstruction.save_map(out_dir + "/" + name);
+    written += " " + name;
   }
   output::write_run_config(out_dir + "/config.txt", pipeline.config(), options.preset);
   reconstruction.save_trajectory(out_dir + "/trajectory.txt", options.input);

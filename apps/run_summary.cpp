@@ -4,7 +4,6 @@
 #include <cstdio>
 #include <numeric>
 
-
 namespace kfx::cli {
 
 double median_of(std::vector<double> values) {

@@ -275,6 +275,7 @@ TEST(Api, MapSavesLoadsAndRenders) {
   const TriangleMesh again = loaded.mesh();
   EXPECT_EQ(again.vertices_m, mesh.vertices_m);
   EXPECT_EQ(again.triangles, mesh.triangles);
+  EXPECT_EQ(again.colours, mesh.colours);  // the map file carries the colour field
   EXPECT_THROW(Reconstruction(Settings(cpu_settings()).set("volume_resolution", "32"), sequence)
                    .load_map((dir / "map.kfxtsdf").string()),
                Error);

@@ -1,7 +1,7 @@
 /// The block map (volume=blocks, map/ and the block paths of the CPU backend): its allocation
 /// covers every voxel the dense cube changes, and where both fit it gives the dense run's
-/// trajectory and mesh; it repeats bit for bit, reaches outside any cube, reports a full budget,
-/// and is refused by the CUDA backend until that has it.
+/// trajectory and mesh; it repeats bit for bit, reaches outside any cube and reports a full
+/// budget. The CUDA backend's block map: test_block_map_cuda.cpp.
 
 #include <gtest/gtest.h>
 
@@ -370,22 +370,6 @@ TEST(BlockMap, AFullBudgetIsReportedPerFrameNotSilent) {
   const int capacity = static_cast<int>(block_capacity_for_budget(1 << 20));
   EXPECT_GT(run.reports.front().map_blocks_dropped, 0);
   for (const auto& r : run.reports) EXPECT_EQ(r.map_blocks, capacity);
-}
-
-TEST(BlockMap, TheCudaBackendRefusesItWithAClearError) {
-  BackendSetup setup;
-  setup.map_kind = MapKind::kBlocks;
-  setup.block_capacity = 16;
-  try {
-    make_backend(BackendKind::kCuda, setup);
-    FAIL() << "the CUDA backend accepted a block map";
-  } catch (const Error& e) {
-    // Without a GPU the message says that instead; with one, it names the block map.
-    const std::string message = e.what();
-    EXPECT_TRUE(message.find("volume=blocks") != std::string::npos ||
-                message.find("CUDA backend was requested") != std::string::npos)
-        << message;
-  }
 }
 
 }  // namespace

@@ -168,6 +168,7 @@ struct Reconstruction::Impl {
     v.res = config.volume.resolution_vox;
     v.size_m = config.volume.size_m;
     v.voxels = pipeline->backend().read_volume();
+    if (config.colour.fuse) v.colours = pipeline->backend().read_colour_volume();
     return v;
   }
 };
@@ -346,6 +347,10 @@ void Reconstruction::load_map(const std::string& path) {
                  << " m (set volume_resolution and volume_size_m to match)");
   impl_->drain();
   impl_->pipeline->backend().upload_volume(v.voxels);
+  // A map saved with colour gives it back where this reconstruction fuses colour.
+  if (impl_->config.colour.fuse && !v.colours.empty()) {
+    impl_->pipeline->backend().upload_colour_volume(v.colours);
+  }
 }
 
 std::string Reconstruction::settings_dump() const { return impl_->pipeline->config().dump(); }

@@ -76,6 +76,16 @@ void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup) {
                                << " (the depth image's size)");
 }
 
+void check_colour_volume_upload(const std::vector<ColourVoxel>& colours, size_t field_size,
+                                const BackendSetup& setup) {
+  KFX_CHECK(setup.colour, "a colour field was given but the pipeline was set up without colour");
+  KFX_CHECK(setup.map_kind == MapKind::kDense,
+            "a dense colour field cannot be loaded into a block map (its blocks carry colour)");
+  KFX_CHECK(colours.size() == field_size, "colour field of " << colours.size()
+                                                             << " voxels given, the backend holds "
+                                                             << field_size);
+}
+
 BackendKind parse_backend_kind(const std::string& text) {
   if (text == "cpu") return BackendKind::kCpu;
   if (text == "cuda") return BackendKind::kCuda;
@@ -109,13 +119,6 @@ std::unique_ptr<Backend> make_backend(BackendKind kind, const BackendSetup& setu
             "a GPU index (" << setup.device_index << ") was given for the CPU backend; GPU "
                             << "indices apply to the CUDA backend only");
   if (kind == BackendKind::kCpu) return make_checked_cpu_backend(setup);
-  // Until the CUDA backend has the block map, blocks run on the CPU ("auto" picks it).
-  KFX_CHECK(!(kind == BackendKind::kCuda && setup.map_kind == MapKind::kBlocks),
-            "volume=blocks is not supported by the CUDA backend yet; use --backend cpu (or auto, "
-            "which picks the CPU for it)");
-  if (setup.map_kind == MapKind::kBlocks && setup.device_index < 0) {
-    return make_checked_cpu_backend(setup);
-  }
   std::string why_not;
   const bool have_cuda = cuda_available(&why_not);
   if (kind == BackendKind::kCuda || setup.device_index >= 0) {

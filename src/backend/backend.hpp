@@ -206,6 +206,9 @@ class Backend {
   /// Replaces the volume by `voxels` (res³ of them, x fastest), e.g. a saved volume; marks
   /// every brick touched.
   virtual void upload_volume(const std::vector<Voxel>& voxels) = 0;
+  /// Replaces the dense cube's colour field by `colours` (res³, as read_colour_volume gives);
+  /// throws kfx::Error without colour (BackendSetup::colour) or with a block map.
+  virtual void upload_colour_volume(const std::vector<ColourVoxel>& colours) = 0;
   /// Block map only (MapKind::kBlocks): a host copy of its blocks in key order, and replacing
   /// them (e.g. by a saved map). The dense cube throws kfx::Error.
   virtual BlockMapContents read_blocks() {

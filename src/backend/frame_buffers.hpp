@@ -129,5 +129,9 @@ void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& s
 
 /// Throws kfx::Error unless colour is on and `rgb` has the input size.
 void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup);
+/// Throws kfx::Error unless `colours` can replace a colour field of `field_size` voxels: colour
+/// on, the dense cube, and the same size.
+void check_colour_volume_upload(const std::vector<ColourVoxel>& colours, size_t field_size,
+                                const BackendSetup& setup);
 
 }  // namespace kfx

@@ -1,5 +1,6 @@
 #include "backend/memory_budget.hpp"
 
+#include <algorithm>
 #include <fstream>
 #include <iomanip>
 #include <sstream>
@@ -27,8 +28,15 @@ std::string gib(uint64_t bytes) {
 }
 
 uint64_t volume_bytes(const BackendSetup& setup) {
-  // Without the blocks' colours: colour_bytes counts them.
-  if (setup.map_kind == MapKind::kBlocks) return setup.block_capacity * kBytesPerBlock;
+  if (setup.map_kind == MapKind::kBlocks) {
+    // The blocks without their colours (colour_bytes counts them), and the GPU's per-frame
+    // allocation buffers: a visible-block list entry per block, and per compute pixel 4 new-key
+    // list entries with their key set (about 64 bytes).
+    const uint64_t compute_px =
+        static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
+    return static_cast<uint64_t>(setup.block_capacity) * (kBytesPerBlock + sizeof(int32_t)) +
+           std::max<uint64_t>(65536, 4 * compute_px) * 64;
+  }
   const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
   return res * res * res * sizeof(Voxel);
 }

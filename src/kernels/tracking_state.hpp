@@ -42,8 +42,11 @@ struct TrackingState {
   int frame_index;      ///< frame number f, counted on the device (−1 before frame 0)
   int accepted_run;     ///< tracked frames accepted in a row, counted up to 2 (0 after a reject)
   // The block map (volume=blocks; 0 with the dense cube):
-  int map_blocks;           ///< blocks allocated after this frame
-  int map_blocks_dropped;   ///< blocks this frame's band reached that the map had no room for
+  int map_blocks;          ///< blocks allocated after this frame
+  int map_blocks_dropped;  ///< blocks this frame's band reached that the map had no room for
+  /// CUDA only: this frame's band reached more new blocks than one frame may gather on the
+  /// device (its allocation would not be the CPU's); the pipeline turns it into an error.
+  int map_new_blocks_overflow;
   int intensity_reference;  ///< 1 once T_intensity_world and the reference intensity are set
 };
 

@@ -92,8 +92,9 @@ struct BlockHashView {
   /// time. Device: distinct keys may be inserted concurrently (one compare-and-swap claims a
   /// slot); the same key from two threads at once returns kPresent to one of them, which must
   /// then not rely on the other's value before the kernel ends (the map inserts deduplicated
-  /// keys only).
-  KFX_HD BlockInsert insert(uint64_t key, int32_t value) const {
+  /// keys only). With `slot_out`, the slot that now holds the key (kInserted) is written there,
+  /// so a caller may later empty exactly the slots it filled.
+  KFX_HD BlockInsert insert(uint64_t key, int32_t value, uint32_t* slot_out = nullptr) const {
     uint32_t slot = static_cast<uint32_t>(block_key_hash(key)) & slot_mask;
     for (uint32_t probe = 0; probe <= slot_mask; ++probe) {
 #if defined(__CUDA_ARCH__)
@@ -106,6 +107,7 @@ struct BlockHashView {
 #endif
       if (old == kEmptyBlockKey) {
         values[slot] = value;
+        if (slot_out) *slot_out = slot;
         return BlockInsert::kInserted;
       }
       if (old == key) return BlockInsert::kPresent;

@@ -13,6 +13,7 @@ namespace {
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__,
               "volume files are copied as they lie in memory (little-endian)");
 static_assert(sizeof(Voxel) == 4, "a voxel is two int16");
+static_assert(sizeof(ColourVoxel) == 8, "a colour is four uint16");
 
 constexpr char kMagic[8] = {'K', 'F', 'X', 'T', 'S', 'D', 'F', '\0'};
 /// Largest resolution accepted when reading (2048³ voxels are 32 GiB).
@@ -24,9 +25,13 @@ void write_volume_file(const std::string& path, const SavedVolume& v) {
   const size_t count = static_cast<size_t>(v.res) * v.res * v.res;
   KFX_CHECK(v.voxels.size() == count,
             path << ": " << v.voxels.size() << " voxels for resolution " << v.res);
+  const bool colour = !v.colours.empty();
+  KFX_CHECK(!colour || v.colours.size() == count,
+            path << ": " << v.colours.size() << " colours for resolution " << v.res);
   io::BinaryOutputFile file(path, "volume");
   unsigned char header[kVolumeHeaderBytes];
-  const uint32_t version = kVolumeFileVersion, res = static_cast<uint32_t>(v.res);
+  const uint32_t version = colour ? kVolumeFileVersionColour : kVolumeFileVersion;
+  const uint32_t res = static_cast<uint32_t>(v.res);
   std::memcpy(header, kMagic, 8);
   std::memcpy(header + 8, &version, 4);
   std::memcpy(header + 12, &res, 4);
@@ -34,6 +39,7 @@ void write_volume_file(const std::string& path, const SavedVolume& v) {
   std::memcpy(header + 20, v.T_trajectory_volume.m, 64);
   std::fwrite(header, 1, sizeof(header), file.file());
   std::fwrite(v.voxels.data(), sizeof(Voxel), v.voxels.size(), file.file());
+  if (colour) std::fwrite(v.colours.data(), sizeof(ColourVoxel), v.colours.size(), file.file());
   file.commit();
 }
 
@@ -52,8 +58,10 @@ SavedVolume read_volume_file(const std::string& path) {
   std::memcpy(&res, header + 12, 4);
   std::memcpy(&v.size_m, header + 16, 4);
   std::memcpy(v.T_trajectory_volume.m, header + 20, 64);
-  KFX_CHECK(version == kVolumeFileVersion, path << ": volume format version " << version
-                                                << ", this kfx reads " << kVolumeFileVersion);
+  KFX_CHECK(version == kVolumeFileVersion || version == kVolumeFileVersionColour,
+            path << ": volume format version " << version << ", this kfx reads "
+                 << kVolumeFileVersion << " and " << kVolumeFileVersionColour);
+  const bool colour = version == kVolumeFileVersionColour;
   KFX_CHECK(res >= 2 && res <= kMaxResolution,
             path << ": resolution " << res << " outside 2 to " << kMaxResolution);
   KFX_CHECK(std::isfinite(v.size_m) && v.size_m > 0,
@@ -65,14 +73,21 @@ SavedVolume read_volume_file(const std::string& path) {
   const size_t count = static_cast<size_t>(res) * res * res;
   in.seekg(0, std::ios::end);
   const std::streamoff size = in.tellg();
-  const std::streamoff want =
-      static_cast<std::streamoff>(kVolumeHeaderBytes + count * sizeof(Voxel));
-  KFX_CHECK(size == want, path << ": " << size << " bytes, a " << res << "^3 volume has " << want);
+  const std::streamoff want = static_cast<std::streamoff>(
+      kVolumeHeaderBytes + count * (sizeof(Voxel) + (colour ? sizeof(ColourVoxel) : 0)));
+  KFX_CHECK(size == want, path << ": " << size << " bytes, a " << res << "^3 volume"
+                               << (colour ? " with colour" : "") << " has " << want);
   in.seekg(static_cast<std::streamoff>(kVolumeHeaderBytes));
   v.voxels.resize(count);
   in.read(reinterpret_cast<char*>(v.voxels.data()),
           static_cast<std::streamsize>(count * sizeof(Voxel)));
   KFX_CHECK(in, path << ": cannot read the voxels");
+  if (colour) {
+    v.colours.resize(count);
+    in.read(reinterpret_cast<char*>(v.colours.data()),
+            static_cast<std::streamsize>(count * sizeof(ColourVoxel)));
+    KFX_CHECK(in, path << ": cannot read the colours");
+  }
   return v;
 }
 

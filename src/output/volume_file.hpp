@@ -3,7 +3,7 @@
 ///
 ///   offset  size  field
 ///        0     8  magic "KFXTSDF\0"
-///        8     4  uint32 format version (1)
+///        8     4  uint32 format version: 1 without colour, 2 with colour
 ///       12     4  uint32 resolution: voxels per side, res
 ///       16     4  float32 size_m: side of the cube in metres
 ///       20    64  float32[4][4] T_trajectory_volume, row-major: maps volume-frame points (metres,
@@ -11,17 +11,22 @@
 ///                 of trajectory.txt; kfx's trajectory is in the volume frame, so it is identity
 ///       84  4·res³  voxels, x fastest then y then z: int16 tsdf (value · 32766, in [−1, 1] of
 ///                 the truncation distance), int16 weight (0 = never observed)
+///  version 2 then:
+///   84 + 4·res³  8·res³  colours in the same order: uint16 r, g, b (value · 256), uint16 weight
+///                 (measurements in the mean; 0 = no colour)
 
 #include <string>
 #include <vector>
 
+#include "core/colour_volume.hpp"
 #include "core/math.hpp"
 #include "core/volume.hpp"
 
 namespace kfx::output {
 
-/// Current format version of volume files.
+/// Format version of volume files without colour, and with colour.
 constexpr uint32_t kVolumeFileVersion = 1;
+constexpr uint32_t kVolumeFileVersionColour = 2;
 /// Bytes before the voxels.
 constexpr size_t kVolumeHeaderBytes = 84;
 
@@ -30,7 +35,8 @@ struct SavedVolume {
   int res = 0;
   float size_m = 0.0f;
   Mat4f T_trajectory_volume = Mat4f::identity();
-  std::vector<Voxel> voxels;  ///< res³
+  std::vector<Voxel> voxels;         ///< res³
+  std::vector<ColourVoxel> colours;  ///< res³ (the colour field), or empty without colour
 };
 
 /// Writes `volume` to `path` (temporary name, renamed when complete).

@@ -207,8 +207,7 @@ std::vector<ConfigField> build_fields() {
     f.section = "volume";
     f.help =
         "the map: dense (one cube of volume_resolution^3 voxels over volume_size_m, "
-        "SLAMBench's) | blocks (8^3 voxel blocks allocated where depth lands, no cube; CPU "
-        "backend only so far)";
+        "SLAMBench's) | blocks (8^3 voxel blocks allocated where depth lands, no cube)";
     f.parse = [](C& c, const std::string& text) {
       if (text == "dense") {
         c.volume.kind = MapKind::kDense;

@@ -169,6 +169,12 @@ FrameReport Pipeline::collect() {
   const bool track = pending.track, may_integrate = pending.may_integrate;
   const bool always = pending.always;
   const TrackingState state = backend_->read_state();
+  KFX_CHECK(!state.map_new_blocks_overflow,
+            "frame " << report.index << ": its truncation band reaches more new blocks than one "
+                     << "frame may allocate on the GPU (4 per compute pixel); the voxels ("
+                     << config_.volume.grid_size_m() / config_.volume.grid_res()
+                     << " m) are too small for this depth and resolution: use a larger "
+                     << "voxel_size_m or --backend cpu");
   report.stage_ms = backend_->frame_stage_ms();
   // A frame that renders nothing spent no rendering time: the GPU's empty event pair can still
   // read a nanosecond, which would mark the frame as rendered in slambench.log.

@@ -11,11 +11,11 @@
 #include <thread>
 
 #include "backend/backend.hpp"
+#include "backend/block_map_mesh.hpp"
 #include "backend/frame_buffers.hpp"
 #include "kernels/block_allocation.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/marching_cubes.hpp"
-#include "kernels/marching_cubes_blocks.hpp"
 #include "kernels/photometric.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
@@ -440,6 +440,11 @@ class CpuBackend final : public Backend {
     std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 1);
   }
 
+  void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
+    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
+    std::copy(colours.begin(), colours.end(), buffers_.colour_volume.begin());
+  }
+
  private:
   bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
 
@@ -492,46 +497,7 @@ class CpuBackend final : public Backend {
 
   /// Marching cubes over the block map (kernels/marching_cubes_blocks.hpp).
   MeshView extract_block_mesh() {
-    const BlockMapView map = blocks_.view();
-    const int n = map.block_count;
-    std::vector<uint8_t> signs(static_cast<size_t>(n));
-#pragma omp parallel for schedule(static)
-    for (int b = 0; b < n; ++b) signs[b] = mc_map_block_sign_bits(map, b);
-    std::vector<int32_t> active;  // block indices, in increasing key order
-    std::vector<uint8_t> is_active(static_cast<size_t>(n));
-#pragma omp parallel for schedule(static)
-    for (int b = 0; b < n; ++b) is_active[b] = mc_map_block_active(map, signs.data(), b);
-    for (int b = 0; b < n; ++b) {
-      if (is_active[b]) active.push_back(b);
-    }
-    std::sort(active.begin(), active.end(),
-              [&](int32_t l, int32_t r) { return map.block_keys[l] < map.block_keys[r]; });
-    std::vector<int32_t> slot(static_cast<size_t>(n), -1);
-    for (size_t s = 0; s < active.size(); ++s) slot[active[s]] = static_cast<int32_t>(s);
-    const int slots = static_cast<int>(active.size());
-    std::vector<uint32_t> first_vertex(static_cast<size_t>(slots) * kBlockVoxels);
-    std::vector<uint32_t> vertex_offset(static_cast<size_t>(slots) + 1, 0);
-    std::vector<uint32_t> triangle_offset(static_cast<size_t>(slots) + 1, 0);
-    BlockMeshArgs a{map,
-                    &kMcTable,
-                    active.data(),
-                    slot.data(),
-                    first_vertex.data(),
-                    vertex_offset.data(),
-                    triangle_offset.data(),
-                    nullptr,
-                    nullptr};
-#pragma omp parallel for schedule(dynamic, 8)
-    for (int s = 0; s < slots; ++s) mc_count_block(s, a);
-    const size_t vertex_total = exclusive_scan(vertex_offset, "vertices");
-    const size_t triangle_total = exclusive_scan(triangle_offset, "triangles");
-    if (mesh_vertices_.size() < vertex_total) mesh_vertices_.resize(vertex_total);
-    if (mesh_triangles_.size() < triangle_total) mesh_triangles_.resize(triangle_total);
-    a.vertices = mesh_vertices_.data();
-    a.triangles = mesh_triangles_.data();
-#pragma omp parallel for schedule(dynamic, 8)
-    for (int s = 0; s < slots; ++s) mc_write_block(s, a);
-    return MeshView{mesh_vertices_.data(), vertex_total, mesh_triangles_.data(), triangle_total};
+    return extract_block_map_mesh(blocks_.view(), mesh_vertices_, mesh_triangles_);
   }
 
   /// This frame's intensity pyramid (photometric term) from its colour image.

@@ -15,6 +15,8 @@
 #include <map>
 
 #include "backend/backend.hpp"
+#include "backend/block_map_mesh.hpp"
+#include "backend/cuda/cuda_block_map.cuh"
 #include "backend/cuda/cuda_icp_persistent.cuh"
 #include "backend/cuda/cuda_kernels.cuh"
 #include "backend/cuda/cuda_memory.hpp"
@@ -136,6 +138,12 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0, buffers_.track_outcome.bytes(),
                                    stream_.get()));
     state_ = DeviceBuffer<TrackingState>(1);
+    if (blocks()) {
+      block_map_ = DeviceBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
+                                  setup.colour, new_key_capacity_for(w * h));
+      block_map_.clear(stream_.get());
+      map_grid_ = std::max(1, properties_.multiProcessorCount * kMapBlocksPerSm);
+    }
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
         stage[0] = std::make_unique<Event>();
@@ -165,13 +173,17 @@ class CudaBackend final : public Backend {
 
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    const long long voxels = static_cast<long long>(buffers_.volume.size());
-    launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
-           buffers_.volume.data(), voxels);
-    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0, buffers_.brick_touched.bytes(),
-                                   stream_.get()));
-    KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.super_brick_touched.data(), 0,
-                                   buffers_.super_brick_touched.bytes(), stream_.get()));
+    if (blocks()) {
+      block_map_.clear(stream_.get());
+    } else {
+      const long long voxels = static_cast<long long>(buffers_.volume.size());
+      launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
+             buffers_.volume.data(), voxels);
+      KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0,
+                                     buffers_.brick_touched.bytes(), stream_.get()));
+      KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.super_brick_touched.data(), 0,
+                                     buffers_.super_brick_touched.bytes(), stream_.get()));
+    }
     if (setup_.colour) {  // all zero bytes: colour 0, weight 0
       KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.colour_volume.data(), 0,
                                      buffers_.colour_volume.bytes(), stream_.get()));
@@ -368,12 +380,40 @@ class CudaBackend final : public Backend {
     launch(skip_tracking_kernel, dim3(1), dim3(1), state_.data());
   }
 
+  void allocate_blocks(const IntegrateParams& p, bool always) override {
+    if (replaying_ || !blocks()) return;
+    const DeviceBlockMapArgs m = block_map_.args();
+    launch(begin_block_allocation_kernel, dim3(1), dim3(1), state_.data(), always, m.counts);
+    const BlockAllocArgs a{p.k, p.mu_m, m.map, buffers_.depth_m.view(), state_.data()};
+    const dim3 block(32, 8);
+    launch(gather_new_blocks_kernel, grid_for(a.depth_m.width, a.depth_m.height, block), block, a,
+           m);
+    launch(allocate_new_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), m);
+    launch(init_new_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), m);
+    launch(finish_block_allocation_kernel, dim3(1), dim3(1), state_.data(), m);
+  }
+
   void integrate(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
     launch(prepare_integration_kernel, dim3(1), dim3(1), state_.data(), always);
     const ImageView<const Rgb8> colour_image{
         input_rgb_[parity_].data(), setup_.colour ? setup_.input_width_px : 0,
         setup_.colour ? setup_.input_height_px : 0, setup_.input_width_px};
+    if (blocks()) {
+      // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
+      const DeviceBlockMapArgs m = block_map_.args();
+      const IntegrateArgsT<OneBlockView> a{p,
+                                           OneBlockView{},
+                                           buffers_.depth_m.view(),
+                                           state_.data(),
+                                           buffers_.level_normal[0].view(),
+                                           ColourVolumeView{},
+                                           colour_image};
+      launch(find_visible_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), m, a);
+      const dim3 rows(kBlockSide * kBlockSide, kMapThreads / (kBlockSide * kBlockSide));
+      launch(integrate_blocks_kernel, dim3(map_grid_), rows, m, a);
+      return;
+    }
     const IntegrateArgs a{p,
                           buffers_.volume_view(),
                           buffers_.depth_m.view(),
@@ -391,12 +431,19 @@ class CudaBackend final : public Backend {
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
     launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
-    const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(),
-                        buffers_.ref_normal.view(), state_.data()};
+    if (blocks()) return raycast_map(p, block_map_.view());
+    raycast_map(p, buffers_.volume_view());
+  }
+
+  template <class Map>
+  void raycast_map(const RaycastParams& p, const Map& map) {
+    const RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
+                              state_.data()};
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
-    launch(pixel_kernel<RaycastBlockBody, RaycastArgs>, grid_for(w, h, block), block, a, w, h);
+    launch(pixel_kernel<RaycastBlockBodyT<Map>, RaycastArgsT<Map>>, grid_for(w, h, block), block, a,
+           w, h);
   }
 
   void render(const RenderParams& p) override {
@@ -409,12 +456,26 @@ class CudaBackend final : public Backend {
     const RenderTrackArgs t =
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     launch(pixel_kernel<RenderTrackBody, RenderTrackArgs>, grid_for(w, h, block), block, t, w, h);
-    const RenderVolumeArgs v = make_render_volume_args(
-        buffers_.volume_view(), buffers_.render_volume.view(), state_.data(), p);
     const dim3 ray_block(16, 8);
-    launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
-           v, w, h);
+    if (blocks()) {
+      const auto v = make_render_volume_args(block_map_.view(), buffers_.render_volume.view(),
+                                             state_.data(), p);
+      launch(pixel_kernel<RenderVolumeBodyT<BlockMapView>, RenderVolumeArgsT<BlockMapView>>,
+             grid_for(w, h, ray_block), ray_block, v, w, h);
+    } else {
+      const RenderVolumeArgs v = make_render_volume_args(
+          buffers_.volume_view(), buffers_.render_volume.view(), state_.data(), p);
+      launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
+             v, w, h);
+    }
     if (!setup_.colour) return;
+    if (blocks()) {
+      const auto c = make_render_colour_args(block_map_.view(), ColourVolumeView{},
+                                             buffers_.render_colour.view(), state_.data(), p);
+      launch(pixel_kernel<RenderColourBodyT<BlockMapView>, RenderColourArgsT<BlockMapView>>,
+             grid_for(w, h, ray_block), ray_block, c, w, h);
+      return;
+    }
     const RenderColourArgs c =
         make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
                                 buffers_.render_colour.view(), state_.data(), p);
@@ -479,6 +540,7 @@ class CudaBackend final : public Backend {
   }
 
   std::vector<Voxel> read_volume() override {
+    KFX_CHECK(!blocks(), "volume=blocks: the map has no dense cube to read (read_blocks())");
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     std::vector<Voxel> voxels(buffers_.volume.size());
     KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), buffers_.volume.data(), buffers_.volume.bytes(),
@@ -486,14 +548,39 @@ class CudaBackend final : public Backend {
     return voxels;
   }
 
-  void reserve_mesh_extraction() override { mesh_.reserve(setup_.volume_res_vox, stream_.get()); }
+  void reserve_mesh_extraction() override {
+    if (blocks()) return;  // meshed on the host, sized per call by the blocks in the map
+    mesh_.reserve(setup_.volume_res_vox, stream_.get());
+  }
 
   MeshView extract_mesh() override {
+    if (blocks()) {
+      // The host's marching cubes over a host copy of the blocks (block_map_mesh.hpp): the
+      // CPU's bodies and order, so both backends give the same bytes for the same map.
+      const BlockMapContents contents = block_map_.download(stream_.get());
+      HostBlockMap host(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
+                        contents.grid_res, contents.grid_size_m, !contents.colours.empty());
+      host.load(contents);
+      return extract_block_map_mesh(host.view(), block_mesh_vertices_, block_mesh_triangles_);
+    }
     // In stream order after any submitted frame.
     return mesh_.extract(buffers_.volume_view(), stream_.get(), debug_sync_);
   }
 
+  BlockMapContents read_blocks() override {
+    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
+    return block_map_.download(stream_.get());
+  }
+
+  void upload_blocks(const BlockMapContents& contents) override {
+    KFX_CHECK(blocks(), "upload_blocks(): the map is the dense cube (volume=dense)");
+    const int count = block_map_.upload(contents, stream_.get());
+    KFX_CUDA_CHECK(
+        cudaMemcpy(&state_.data()->map_blocks, &count, sizeof(int), cudaMemcpyHostToDevice));
+  }
+
   void upload_volume(const std::vector<Voxel>& voxels) override {
+    KFX_CHECK(!blocks(), "volume=blocks: a dense volume cannot be loaded into a block map");
     KFX_CHECK(voxels.size() == buffers_.volume.size(),
               "volume of " << voxels.size() << " voxels given, the backend holds "
                            << buffers_.volume.size());
@@ -505,7 +592,16 @@ class CudaBackend final : public Backend {
         cudaMemset(buffers_.super_brick_touched.data(), 1, buffers_.super_brick_touched.bytes()));
   }
 
+  void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
+    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    KFX_CUDA_CHECK(cudaMemcpy(buffers_.colour_volume.data(), colours.data(),
+                              buffers_.colour_volume.bytes(), cudaMemcpyHostToDevice));
+  }
+
  private:
+  bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
+
   /// Blocks of one ICP iteration's reduction: one per kReduceBlock samples, at most
   /// reduce_blocks_. Both ICP paths use it: it fixes the order of the float sums.
   int icp_reduce_blocks(const TrackArgs& a) const {
@@ -587,6 +683,12 @@ class CudaBackend final : public Backend {
   DeviceBuffer<unsigned int> level_barrier_;
   DeviceBuffer<TrackingState> state_;
   MeshExtractor mesh_;  ///< its buffers are allocated on first use
+  /// The block map (MapKind::kBlocks), else unallocated; its grid-stride kernels' grid, and
+  /// the host mesh of its blocks (grows to the largest so far).
+  DeviceBlockMap block_map_;
+  int map_grid_ = 1;
+  std::vector<MeshVertex> block_mesh_vertices_;
+  std::vector<MeshTriangle> block_mesh_triangles_;
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;
   std::array<double, kStages> last_stage_ms_{};
   std::array<bool, kStages> stage_timed_{};
@@ -603,8 +705,6 @@ class CudaBackend final : public Backend {
 }  // namespace cuda
 
 std::unique_ptr<Backend> make_cuda_backend(const BackendSetup& setup) {
-  KFX_CHECK(setup.map_kind == MapKind::kDense,
-            "volume=blocks is not supported by the CUDA backend yet; use --backend cpu");
   return std::make_unique<cuda::CudaBackend>(setup);
 }
 

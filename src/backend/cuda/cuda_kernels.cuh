@@ -71,9 +71,14 @@ struct KeepIntensityBody {
     keep_intensity_pixel(x, y, a);
   }
 };
-struct RaycastBlockBody {
-  __device__ void operator()(int x, int y, const RaycastArgs& a) const { raycast_block(x, y, a); }
+/// `Map`: VolumeView (the dense cube) or BlockMapView.
+template <class Map>
+struct RaycastBlockBodyT {
+  __device__ void operator()(int x, int y, const RaycastArgsT<Map>& a) const {
+    raycast_block(x, y, a);
+  }
 };
+using RaycastBlockBody = RaycastBlockBodyT<VolumeView>;
 struct RenderDepthBody {
   __device__ void operator()(int x, int y, const RenderDepthArgs& a) const {
     render_depth_pixel(x, y, a);
@@ -84,16 +89,20 @@ struct RenderTrackBody {
     render_track_pixel(x, y, a);
   }
 };
-struct RenderColourBody {
-  __device__ void operator()(int x, int y, const RenderColourArgs& a) const {
+template <class Map>
+struct RenderColourBodyT {
+  __device__ void operator()(int x, int y, const RenderColourArgsT<Map>& a) const {
     render_colour_pixel(x, y, a);
   }
 };
-struct RenderVolumeBody {
-  __device__ void operator()(int x, int y, const RenderVolumeArgs& a) const {
+using RenderColourBody = RenderColourBodyT<VolumeView>;
+template <class Map>
+struct RenderVolumeBodyT {
+  __device__ void operator()(int x, int y, const RenderVolumeArgsT<Map>& a) const {
     render_volume_pixel(x, y, a);
   }
 };
+using RenderVolumeBody = RenderVolumeBodyT<VolumeView>;
 
 /// The largest of every thread's `value` (≥ 0) in the block; valid in thread (0, 0). A max is
 /// exact whatever the order, so this stays repeatable.

@@ -1,0 +1,383 @@
+#pragma once
+/// The block map (volume=blocks) on the device: its storage, sized once from the memory budget,
+/// and the thin kernels of its frame stages. Counts stay in device memory, so a frame remains a
+/// fixed sequence of launches (one CUDA graph): kernels read the counts and grid-stride over
+/// them, and nothing is read back on the host inside a frame.
+///
+/// Allocation gives the CPU's blocks and indices (HostBlockMap::allocate): the candidate keys of
+/// the frame's band (band_blocks_of_pixel, the CPU's body) that the map lacks go through a
+/// per-frame key set, so each distinct key is listed once whatever the thread schedule; each
+/// listed key's rank among them (its place in increasing key order) makes its block index
+/// block_count + rank, exactly the CPU's order; keys ranked beyond the capacity are dropped and
+/// counted. Only the slots a key lands in depend on the schedule, never a lookup's answer.
+/// Coarse cells (the raycast's 4³-block flags) get their indices in arrival order: they address
+/// flags only, so nothing a run outputs depends on them.
+
+#include <cuda_runtime.h>
+
+#include <algorithm>
+#include <numeric>
+#include <vector>
+
+#include "backend/cuda/cuda_kernels.cuh"
+#include "backend/cuda/cuda_memory.hpp"
+#include "kernels/block_allocation.hpp"
+#include "kernels/integrate.hpp"
+#include "map/host_block_map.hpp"
+
+namespace kfx::cuda {
+
+/// The device map's counters (device memory; the frame never reads them on the host).
+struct BlockMapCounts {
+  int blocks;    ///< blocks allocated
+  int coarse;    ///< coarse cells in use
+  int new_keys;  ///< distinct keys this frame's band reached that the map lacked, all of them
+  int listed;    ///< of those, the ones in the new-key list (at most its capacity)
+  int visible;   ///< blocks in this frame's view
+};
+
+/// What the block-map kernels read and write.
+struct DeviceBlockMapArgs {
+  BlockMapView map;  ///< device arrays; its block_count is unused (counts->blocks is the count)
+  BlockMapCounts* counts;
+  BlockHashView frame_keys;  ///< this frame's new keys as a set (emptied after each frame)
+  uint64_t* new_keys;        ///< the same keys as a list, in arrival order
+  uint32_t* new_key_slots;   ///< each listed key's slot in frame_keys
+  int new_key_capacity;      ///< entries of the list
+  int32_t* visible_blocks;   ///< block indices in this frame's view (block_capacity entries)
+};
+
+/// Keys one frame may add on the device: 4 per compute pixel (at least 65,536). A frame's band
+/// reaches far fewer distinct blocks unless voxels are tiny against the depth (a block narrower
+/// than a pixel); a frame beyond it is reported (map_new_blocks_overflow), never cut silently.
+inline int new_key_capacity_for(int compute_pixels) { return std::max(65536, 4 * compute_pixels); }
+
+/// Threads per block of the grid-stride block-map kernels, and their grid (per SM).
+constexpr int kMapThreads = 256;
+constexpr int kMapBlocksPerSm = 8;
+
+/// Start of a frame's allocation: the integration gate (prepare_integration, as integrate()
+/// does again) and the frame's counts at zero.
+__global__ void begin_block_allocation_kernel(TrackingState* state, bool always,
+                                              BlockMapCounts* counts) {
+  wait_for_previous_kernel();
+  prepare_integration(*state, always);
+  state->map_blocks_dropped = 0;
+  state->map_new_blocks_overflow = 0;
+  counts->new_keys = 0;
+  counts->listed = 0;
+  counts->visible = 0;
+}
+
+/// One thread per compute pixel: the blocks its truncation band reaches that the map lacks go
+/// into the frame's key set, and the thread that adds a key lists it.
+__global__ void gather_new_blocks_kernel(BlockAllocArgs alloc, DeviceBlockMapArgs m) {
+  wait_for_previous_kernel();
+  if (!alloc.state->integrate_now) return;
+  const int x = blockIdx.x * blockDim.x + threadIdx.x;
+  const int y = blockIdx.y * blockDim.y + threadIdx.y;
+  if (x >= alloc.depth_m.width || y >= alloc.depth_m.height) return;
+  uint64_t last = kEmptyBlockKey;
+  band_blocks_of_pixel(x, y, alloc, [&](uint64_t key) {
+    if (key == last) return;
+    last = key;
+    if (alloc.map.hash.find(key) >= 0 || m.frame_keys.find(key) >= 0) return;
+    // Once the list is full the frame has overflowed: stop adding, so the set (twice the list's
+    // slots) never fills up, which would make every lookup probe the whole table. Each thread
+    // adds at most one key after the count reached the capacity (read through L2: __ldcg).
+    if (__ldcg(&m.counts->new_keys) > m.new_key_capacity) return;
+    uint32_t slot = 0;
+    const BlockInsert outcome = m.frame_keys.insert(key, 0, &slot);
+    if (outcome == BlockInsert::kPresent) return;
+    // kFull cannot happen below the list's capacity (the set has twice its slots): counted, so
+    // the frame reports an overflow.
+    const int i = atomicAdd(&m.counts->new_keys, 1);
+    if (outcome == BlockInsert::kInserted && i < m.new_key_capacity) {
+      m.new_keys[i] = key;
+      m.new_key_slots[i] = slot;
+      atomicAdd(&m.counts->listed, 1);
+    }
+  });
+}
+
+/// Stores new block `key` as block index b (one thread per key; keys distinct): the hash entry,
+/// its key, an untouched flag, and its coarse cell when that is new.
+__device__ inline void add_new_block(const DeviceBlockMapArgs& m, uint64_t key, int32_t b) {
+  m.map.hash.insert(key, b);
+  m.map.block_keys[b] = key;
+  m.map.block_touched[b] = 0;
+  const Vec3i c = unpack_block_key(key);
+  const uint64_t coarse =
+      pack_block_key(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift);
+  uint32_t slot = 0;
+  if (m.map.coarse_hash.find(coarse) < 0 &&
+      m.map.coarse_hash.insert(coarse, -1, &slot) == BlockInsert::kInserted) {
+    const int cell = atomicAdd(&m.counts->coarse, 1);
+    m.map.coarse_touched[cell] = 0;
+    m.map.coarse_hash.values[slot] = cell;  // read by later launches only
+  }
+}
+
+/// Each listed key's rank among the listed keys (how many are smaller) is its place in
+/// increasing key order: it becomes block block_count + rank while that is below the capacity
+/// (HostBlockMap::allocate's order). The ranks come from tiles of the list in shared memory.
+/// Also empties the frame's key set for the next frame (nothing reads it after the gather).
+__global__ void __launch_bounds__(kMapThreads) allocate_new_blocks_kernel(DeviceBlockMapArgs m) {
+  wait_for_previous_kernel();
+  const int listed = m.counts->listed;
+  const int blocks = m.counts->blocks;
+  const int room = m.map.block_capacity - blocks;
+  const int stride = gridDim.x * kMapThreads;
+  const int thread = blockIdx.x * kMapThreads + threadIdx.x;
+  if (m.counts->new_keys > m.new_key_capacity) {  // unlisted keys in the set: empty every slot
+    for (uint32_t s = thread; s <= m.frame_keys.slot_mask; s += stride) {
+      m.frame_keys.keys[s] = kEmptyBlockKey;
+    }
+  } else {
+    for (int i = thread; i < listed; i += stride) {
+      m.frame_keys.keys[m.new_key_slots[i]] = kEmptyBlockKey;
+    }
+  }
+  __shared__ uint64_t tile[kMapThreads];
+  for (int base = blockIdx.x * kMapThreads; base < listed; base += stride) {
+    const int i = base + threadIdx.x;
+    const uint64_t key = i < listed ? m.new_keys[i] : kEmptyBlockKey;
+    int rank = 0;
+    for (int t = 0; t < listed; t += kMapThreads) {
+      __syncthreads();
+      tile[threadIdx.x] = t + threadIdx.x < listed ? m.new_keys[t + threadIdx.x] : kEmptyBlockKey;
+      __syncthreads();
+      const int n = min(kMapThreads, listed - t);
+      for (int k = 0; k < n; ++k) rank += tile[k] < key ? 1 : 0;
+    }
+    if (i < listed && rank < room) add_new_block(m, key, blocks + rank);
+  }
+}
+
+/// Blocks this frame adds: the listed keys while the capacity lasts.
+__device__ inline int blocks_added(const DeviceBlockMapArgs& m) {
+  return max(0, min(m.counts->listed, m.map.block_capacity - m.counts->blocks));
+}
+
+/// The new blocks' voxels (empty), colours (none) and coarse indices (their cells were all
+/// stored by the launch before).
+__global__ void init_new_blocks_kernel(DeviceBlockMapArgs m) {
+  wait_for_previous_kernel();
+  const int first = m.counts->blocks;
+  const long long voxels = static_cast<long long>(blocks_added(m)) * kBlockVoxels;
+  for (long long v = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x; v < voxels;
+       v += static_cast<long long>(gridDim.x) * blockDim.x) {
+    const int32_t b = first + static_cast<int32_t>(v / kBlockVoxels);
+    m.map.voxels[static_cast<long long>(first) * kBlockVoxels + v] = empty_voxel();
+    if (m.map.colours)
+      m.map.colours[static_cast<long long>(first) * kBlockVoxels + v] = {0, 0, 0, 0};
+    if (v % kBlockVoxels == 0) {
+      const Vec3i c = unpack_block_key(m.map.block_keys[b]);
+      m.map.block_coarse[b] = m.map.coarse_hash.find(
+          pack_block_key(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift));
+    }
+  }
+}
+
+/// End of a frame's allocation (one thread): the new count, and the frame's report in the state
+/// (blocks, dropped, overflow), as HostBlockMap::allocate reports it on the CPU.
+__global__ void finish_block_allocation_kernel(TrackingState* state, DeviceBlockMapArgs m) {
+  wait_for_previous_kernel();
+  const int added = blocks_added(m);
+  m.counts->blocks += added;
+  state->map_blocks = m.counts->blocks;
+  state->map_blocks_dropped = m.counts->new_keys - added;
+  state->map_new_blocks_overflow = m.counts->new_keys > m.new_key_capacity ? 1 : 0;
+}
+
+/// Lists the allocated blocks integration may change (block_in_view), in any order: each
+/// block is then integrated by its own threads alone, so the order changes no result.
+__global__ void find_visible_blocks_kernel(DeviceBlockMapArgs m, IntegrateArgsT<OneBlockView> a) {
+  wait_for_previous_kernel();
+  if (!a.state->integrate_now) return;
+  const int blocks = m.counts->blocks;
+  for (int b = blockIdx.x * blockDim.x + threadIdx.x; b < blocks; b += gridDim.x * blockDim.x) {
+    if (block_in_view(m.map, b, a)) m.visible_blocks[atomicAdd(&m.counts->visible, 1)] = b;
+  }
+}
+
+/// Integration over the visible blocks: 64 threads per block, one x-row each (integrate_block's
+/// rows, integrate_row_range over the block's 8 voxels), blockDim.y blocks per thread block.
+__global__ void integrate_blocks_kernel(DeviceBlockMapArgs m, IntegrateArgsT<OneBlockView> a) {
+  wait_for_previous_kernel();
+  if (!a.state->integrate_now) return;
+  const int visible = m.counts->visible;
+  const int row = threadIdx.x;  // 0 .. kBlockSide² − 1
+  for (int v = blockIdx.x * blockDim.y + threadIdx.y; v < visible; v += gridDim.x * blockDim.y) {
+    a.volume = one_block_view(m.map, m.visible_blocks[v]);
+    const Vec3i o = a.volume.origin_vox;
+    integrate_row_range(o.y + row % kBlockSide, o.z + row / kBlockSide, o.x, o.x + kBlockSide, a);
+  }
+}
+
+/// The device block map's storage: every array allocated once, for `block_capacity` blocks.
+class DeviceBlockMap {
+ public:
+  DeviceBlockMap() = default;
+  /// With `colour`, each block carries kBlockVoxels colours beside its voxels.
+  DeviceBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour,
+                 int new_key_capacity)
+      : hash_keys_(block_hash_slot_count(block_capacity)),
+        hash_values_(hash_keys_.size()),
+        voxels_(static_cast<size_t>(block_capacity) * kBlockVoxels),
+        colours_(colour ? static_cast<size_t>(block_capacity) * kBlockVoxels : 0),
+        block_keys_(block_capacity),
+        block_touched_(block_capacity),
+        block_coarse_(block_capacity),
+        coarse_keys_(block_hash_slot_count(block_capacity)),
+        coarse_values_(coarse_keys_.size()),
+        coarse_touched_(block_capacity),
+        counts_(1),
+        frame_keys_(block_hash_slot_count(static_cast<uint32_t>(new_key_capacity))),
+        frame_values_(frame_keys_.size()),
+        new_keys_(static_cast<size_t>(new_key_capacity)),
+        new_key_slots_(static_cast<size_t>(new_key_capacity)),
+        visible_(block_capacity),
+        capacity_(block_capacity),
+        new_key_capacity_(new_key_capacity),
+        grid_res_(grid_res),
+        grid_size_m_(grid_size_m) {}
+
+  /// Empties the map (in stream order): every hash slot free, every count 0.
+  void clear(cudaStream_t stream) {
+    for (const auto* keys : {&hash_keys_, &coarse_keys_, &frame_keys_}) {
+      KFX_CUDA_CHECK(cudaMemsetAsync(keys->data(), 0xff, keys->bytes(), stream));  // kEmptyBlockKey
+    }
+    for (const auto* values : {&hash_values_, &coarse_values_, &frame_values_}) {
+      KFX_CUDA_CHECK(cudaMemsetAsync(values->data(), 0xff, values->bytes(), stream));  // −1
+    }
+    KFX_CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, counts_.bytes(), stream));
+  }
+
+  /// The map as the kernels see it.
+  DeviceBlockMapArgs args() const {
+    DeviceBlockMapArgs a;
+    a.map = view();
+    a.counts = counts_.data();
+    a.frame_keys = BlockHashView{frame_keys_.data(), frame_values_.data(),
+                                 static_cast<uint32_t>(frame_keys_.size() - 1)};
+    a.new_keys = new_keys_.data();
+    a.new_key_slots = new_key_slots_.data();
+    a.new_key_capacity = new_key_capacity_;
+    a.visible_blocks = visible_.data();
+    return a;
+  }
+  BlockMapView view() const {
+    BlockMapView v;
+    v.hash = BlockHashView{hash_keys_.data(), hash_values_.data(),
+                           static_cast<uint32_t>(hash_keys_.size() - 1)};
+    v.voxels = voxels_.data();
+    v.block_keys = block_keys_.data();
+    v.block_touched = block_touched_.data();
+    v.coarse_hash = BlockHashView{coarse_keys_.data(), coarse_values_.data(),
+                                  static_cast<uint32_t>(coarse_keys_.size() - 1)};
+    v.coarse_touched = coarse_touched_.data();
+    v.block_coarse = block_coarse_.data();
+    v.block_capacity = static_cast<int>(capacity_);
+    v.block_count = 0;  // on the device only: counts->blocks
+    v.grid_res = grid_res_;
+    v.grid_size_m = grid_size_m_;
+    v.colours = colours_.size() > 0 ? colours_.data() : nullptr;
+    return v;
+  }
+
+  /// A host copy of the blocks in increasing key order (HostBlockMap::contents' form). Waits
+  /// for `stream`.
+  BlockMapContents download(cudaStream_t stream) const {
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
+    BlockMapCounts counts{};
+    KFX_CUDA_CHECK(cudaMemcpy(&counts, counts_.data(), sizeof(counts), cudaMemcpyDeviceToHost));
+    const size_t n = static_cast<size_t>(counts.blocks);
+    std::vector<uint64_t> keys(n);
+    std::vector<Voxel> voxels(n * kBlockVoxels);
+    std::vector<ColourVoxel> colours(colours_.size() > 0 ? n * kBlockVoxels : 0);
+    if (!colours.empty()) {
+      KFX_CUDA_CHECK(cudaMemcpy(colours.data(), colours_.data(),
+                                colours.size() * sizeof(ColourVoxel), cudaMemcpyDeviceToHost));
+    }
+    if (n > 0) {
+      KFX_CUDA_CHECK(cudaMemcpy(keys.data(), block_keys_.data(), n * sizeof(uint64_t),
+                                cudaMemcpyDeviceToHost));
+      KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), voxels_.data(), voxels.size() * sizeof(Voxel),
+                                cudaMemcpyDeviceToHost));
+    }
+    std::vector<size_t> order(n);
+    std::iota(order.begin(), order.end(), size_t{0});
+    std::sort(order.begin(), order.end(), [&](size_t l, size_t r) { return keys[l] < keys[r]; });
+    BlockMapContents c;
+    c.grid_res = grid_res_;
+    c.grid_size_m = grid_size_m_;
+    c.keys.reserve(n);
+    c.voxels.reserve(voxels.size());
+    for (const size_t b : order) {
+      c.keys.push_back(keys[b]);
+      c.voxels.insert(c.voxels.end(), voxels.begin() + b * kBlockVoxels,
+                      voxels.begin() + (b + 1) * kBlockVoxels);
+      if (!colours.empty()) {
+        c.colours.insert(c.colours.end(), colours.begin() + b * kBlockVoxels,
+                         colours.begin() + (b + 1) * kBlockVoxels);
+      }
+    }
+    return c;
+  }
+
+  /// Replaces the map by `contents` (HostBlockMap::load's checks and layout: every block
+  /// touched), copied whole to the device. Returns the block count. Waits for `stream`.
+  int upload(const BlockMapContents& contents, cudaStream_t stream) {
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
+    HostBlockMap host(capacity_, grid_res_, grid_size_m_, colours_.size() > 0);
+    host.load(contents);
+    const BlockMapView h = host.view();
+    const size_t n = static_cast<size_t>(host.block_count());
+    copy_up(hash_keys_.data(), h.hash.keys, hash_keys_.size());
+    copy_up(hash_values_.data(), h.hash.values, hash_values_.size());
+    copy_up(coarse_keys_.data(), h.coarse_hash.keys, coarse_keys_.size());
+    copy_up(coarse_values_.data(), h.coarse_hash.values, coarse_values_.size());
+    copy_up(block_keys_.data(), h.block_keys, n);
+    copy_up(block_touched_.data(), h.block_touched, n);
+    copy_up(block_coarse_.data(), h.block_coarse, n);
+    copy_up(coarse_touched_.data(), h.coarse_touched, static_cast<size_t>(host.coarse_count()));
+    copy_up(voxels_.data(), h.voxels, n * kBlockVoxels);
+    if (h.colours) copy_up(colours_.data(), h.colours, n * kBlockVoxels);
+    const BlockMapCounts counts{host.block_count(), host.coarse_count(), 0, 0, 0};
+    copy_up(counts_.data(), &counts, 1);
+    return host.block_count();
+  }
+
+  uint32_t capacity() const { return capacity_; }
+
+ private:
+  template <class T>
+  static void copy_up(T* device, const T* host, size_t count) {
+    if (count == 0) return;
+    KFX_CUDA_CHECK(cudaMemcpy(device, host, count * sizeof(T), cudaMemcpyHostToDevice));
+  }
+
+  DeviceBuffer<uint64_t> hash_keys_;
+  DeviceBuffer<int32_t> hash_values_;
+  DeviceBuffer<Voxel> voxels_;
+  DeviceBuffer<ColourVoxel> colours_;  ///< empty without colour
+  DeviceBuffer<uint64_t> block_keys_;
+  DeviceBuffer<uint8_t> block_touched_;
+  DeviceBuffer<int32_t> block_coarse_;
+  DeviceBuffer<uint64_t> coarse_keys_;
+  DeviceBuffer<int32_t> coarse_values_;
+  DeviceBuffer<uint8_t> coarse_touched_;
+  DeviceBuffer<BlockMapCounts> counts_;
+  DeviceBuffer<uint64_t> frame_keys_;
+  DeviceBuffer<int32_t> frame_values_;
+  DeviceBuffer<uint64_t> new_keys_;
+  DeviceBuffer<uint32_t> new_key_slots_;
+  DeviceBuffer<int32_t> visible_;
+  uint32_t capacity_ = 0;
+  int new_key_capacity_ = 0;
+  int grid_res_ = 1;
+  float grid_size_m_ = 0.01f;
+};
+
+}  // namespace kfx::cuda
