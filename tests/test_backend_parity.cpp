@@ -229,6 +229,17 @@ void expect_identical_runs(const test::SequenceRun& a, const test::SequenceRun& 
   }
 }
 
+// The photometric tracking term (photometric_weight) runs the same kernel bodies on both
+// backends: intensity pyramids, the kept reference and the rows beside the ICP's.
+TEST(BackendParity, PhotometricTrajectoriesAgree) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=60,width=320,height=240,speed=2";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "photometric_weight", "0.001");
+  const auto cpu = test::expect_backends_agree(input, config, 60, "photometric_weight=0.001");
+  EXPECT_GT(cpu.tracked, 50);
+}
+
 void expect_repeatable(BackendKind kind) {
   const std::string input = "synthetic:frames=25,width=320,height=240";
   const PipelineConfig config = synthetic_config(input);

@@ -83,12 +83,16 @@ struct Reconstruction::Impl {
     diagnostics = std::make_unique<FrameDiagnostics>(config, intrinsics);
   }
 
-  /// The frame's colour, rows packed, when the map fuses colour (setting colour); none else
-  /// (a colour image given to a map without colour is not used).
+  /// The frame's colour, rows packed, when the map fuses colour (setting colour) or tracking
+  /// uses it (photometric_weight > 0); none else (a colour image nothing reads is not used).
   ImageView<const Rgb8> colour_view(const ColourView& colour, const std::string& label) {
-    if (!config.colour.fuse) return {};
-    KFX_CHECK(colour.data != nullptr, label << ": the map fuses colour (setting colour=on) but "
-                                            << "the frame has no colour image");
+    const bool photometric = config.quality.photometric_weight > 0.0f;
+    if (!config.colour.fuse && !photometric) return {};
+    KFX_CHECK(colour.data != nullptr,
+              label << ": "
+                    << (config.colour.fuse ? "the map fuses colour (setting colour=on)"
+                                           : "tracking uses colour (photometric_weight > 0)")
+                    << " but the frame has no colour image");
     KFX_CHECK(colour.width_px == camera.width_px && colour.height_px == camera.height_px,
               label << ": colour image is " << colour.width_px << "x" << colour.height_px
                     << ", the reconstruction was made for " << camera.width_px << "x"

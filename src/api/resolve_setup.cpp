@@ -32,6 +32,10 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
   KFX_CHECK(!config.colour.fuse || sequence.has_colour(),
             sequence.input() << ": colour=on but this input has no colour ("
                              << sequence.description() << ")");
+  KFX_CHECK(config.quality.photometric_weight == 0.0f || sequence.has_colour(),
+            sequence.input() << ": photometric_weight > 0 tracks with colour but this input has "
+                                "no colour ("
+                             << sequence.description() << "); set photometric_weight=0");
   config.validate();
 
   const io::Reader& reader = SequenceAccess::reader(sequence);

@@ -66,7 +66,9 @@ void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& s
 }
 
 void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup) {
-  KFX_CHECK(setup.colour, "a colour image was given but the pipeline was set up without colour");
+  KFX_CHECK(setup.colour || setup.photometric,
+            "a colour image was given but the pipeline was set up without colour (colour off, "
+            "photometric_weight 0)");
   KFX_CHECK(rgb.width == setup.input_width_px && rgb.height == setup.input_height_px &&
                 rgb.pitch == rgb.width,
             "colour image is " << rgb.width << "x" << rgb.height << ", the pipeline was set up for "

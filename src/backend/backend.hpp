@@ -69,6 +69,10 @@ struct BackendSetup {
   /// Colour fusion (setting colour): a colour field beside the TSDF, a colour input image of
   /// the input size per frame (upload_colour) and a colour render.
   bool colour = false;
+  /// The photometric tracking term (setting photometric_weight > 0): a colour input image per
+  /// frame (upload_colour, with colour on or off), intensity pyramids of this frame and of the
+  /// kept reference frame, and keep_intensity() at the end of every frame.
+  bool photometric = false;
   /// The undistortion table (pipeline/depth_undistortion.hpp), compute size: the input pixel
   /// each compute pixel reads. Empty: input (x·ratio, y·ratio), as KFusion.
   HostImage<SourcePixel> depth_source_px;
@@ -128,15 +132,16 @@ class Backend {
   /// the backend; the caller's memory is read during the call only.
   virtual void upload_depth(ImageView<const uint16_t> depth_mm) = 0;
   /// Copies the next frame's colour image (input size, rows packed) to the backend; with colour
-  /// on, call it after upload_depth() for every frame. Throws kfx::Error on a wrong size or with
-  /// colour off.
+  /// or the photometric term on, call it after upload_depth() for every frame. Throws
+  /// kfx::Error on a wrong size or with both off.
   virtual void upload_colour(ImageView<const Rgb8> rgb) = 0;
   /// Brackets one frame's stage calls. `shape` identifies which stages the frame runs (the
   /// pipeline derives it from the frame number alone), so the GPU can record the sequence once
   /// per shape as a graph and replay it. end_frame() submits the frame; read_state() waits.
   virtual void begin_frame(int shape) = 0;
   virtual void end_frame() = 0;
-  /// mm → metres at compute size (and the frame's largest depth), then the bilateral filter.
+  /// mm → metres at compute size (and the frame's largest depth), then the bilateral filter;
+  /// with the photometric term, also this frame's intensity pyramid from its colour image.
   virtual void preprocess(const BilateralParams& params) = 0;
   /// Builds every pyramid level's depth, vertex and normal maps.
   virtual void build_pyramid(const PyramidParams& params) = 0;
@@ -154,6 +159,10 @@ class Backend {
   virtual void accept_or_revert(const AcceptParams& params) = 0;
   /// Marks this frame as not tracked (tracking skipped).
   virtual void skip_tracking() = 0;
+  /// Photometric term only (BackendSetup::photometric): after the frame's tracking, makes this
+  /// frame's intensity pyramid and pose the reference of the next frame's photometric rows when
+  /// `always` (a bootstrap frame) or the frame was tracked (kernels/photometric.hpp).
+  virtual void keep_intensity(bool always) = 0;
   /// Block map only (MapKind::kBlocks; a no-op for the dense cube): allocates the blocks this
   /// frame's truncation band reaches when it will be integrated (`always` or tracked), and
   /// counts in the state the blocks allocated and those dropped for lack of room.

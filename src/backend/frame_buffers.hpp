@@ -47,6 +47,10 @@ struct FrameBuffers {
       level_depth[l] = Image<float>(w >> l, h >> l);
       level_vertex[l] = Image<Vec3f>(w >> l, h >> l);
       level_normal[l] = Image<Vec3f>(w >> l, h >> l);
+      if (setup.photometric) {
+        level_intensity[l] = Image<float>(w >> l, h >> l);
+        ref_intensity[l] = Image<float>(w >> l, h >> l);
+      }
     }
   }
 
@@ -82,19 +86,26 @@ struct FrameBuffers {
   /// level 0 writes its per-pixel outcome (kept for read_maps() and the track render).
   TrackArgs track_args(int level, const IcpParams& p, const TrackingState* state) {
     const ImageView<int8_t> outcome = level == 0 ? track_outcome.view() : ImageView<int8_t>{};
-    return TrackArgs{p,
-                     level_vertex[level].view(),
-                     level_normal[level].view(),
-                     ref_vertex.view(),
-                     ref_normal.view(),
-                     state,
-                     outcome};
+    return TrackArgs{
+        p,
+        level_vertex[level].view(),
+        level_normal[level].view(),
+        ref_vertex.view(),
+        ref_normal.view(),
+        state,
+        outcome,
+        PhotometricLevel{level_intensity[level].view(), ref_intensity[level].view(),
+                         p.photometric.colour_k.scaled_down(static_cast<float>(1 << level))}};
   }
 
   Image<float> depth_m;  ///< unfiltered compute-size depth, metres
   std::array<Image<float>, kMaxPyramidLevels> level_depth;   ///< level 0: bilateral output
   std::array<Image<Vec3f>, kMaxPyramidLevels> level_vertex;  ///< camera-frame vertices
   std::array<Image<Vec3f>, kMaxPyramidLevels> level_normal;  ///< camera-frame normals
+  /// The photometric term (BackendSetup::photometric), else empty: luminance pyramids of this
+  /// frame and of the kept reference frame, the depth pyramid's sizes.
+  std::array<Image<float>, kMaxPyramidLevels> level_intensity;
+  std::array<Image<float>, kMaxPyramidLevels> ref_intensity;
   Image<Vec3f> ref_vertex;      ///< raycast vertices (volume frame): the ICP reference
   Image<Vec3f> ref_normal;      ///< raycast normals (volume frame)
   Image<int8_t> track_outcome;  ///< last level-0 ICP outcome per pixel

@@ -41,6 +41,17 @@ uint64_t volume_bytes(const BackendSetup& setup) {
   return res * res * res * sizeof(Voxel);
 }
 
+/// The photometric term's buffers: two float intensity pyramids (under 4/3 of level 0 each)
+/// and, when colour fusion does not hold them already, the colour input and its staging.
+uint64_t photometric_bytes(const BackendSetup& setup) {
+  if (!setup.photometric) return 0;
+  const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
+  const uint64_t compute_px =
+      static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
+  const uint64_t pyramids = 2 * (compute_px * sizeof(float) * 4 / 3 + 1);
+  return pyramids + (setup.colour ? 0 : 4 * input_px * sizeof(Rgb8));
+}
+
 }  // namespace
 
 uint64_t colour_bytes(const BackendSetup& setup) {
@@ -61,7 +72,7 @@ uint64_t backend_bytes_needed(const BackendSetup& setup) {
       static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
   const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
   return volume_bytes(setup) + compute_px * kBytesPerComputePixel + input_px * kBytesPerInputPixel +
-         colour_bytes(setup);
+         colour_bytes(setup) + photometric_bytes(setup);
 }
 
 uint64_t host_bytes_available() {

@@ -53,6 +53,13 @@ KFX_HD inline void set_shared_flag(uint8_t& flag) {
 #endif
 }
 
+/// Centre of voxel (x, y, z) in metres, for voxels `voxel_m` metres wide: every map's rule (the
+/// cube's and the blocks' views compute positions with these same float operations, so both
+/// integrate the same values where both hold a voxel).
+KFX_HD inline Vec3f voxel_centre_m(int x, int y, int z, float voxel_m) {
+  return {(x + 0.5f) * voxel_m, (y + 0.5f) * voxel_m, (z + 0.5f) * voxel_m};
+}
+
 /// A non-owning view of a cubic TSDF volume (host or device memory).
 struct VolumeView {
   Voxel* data = nullptr;
@@ -94,10 +101,7 @@ struct VolumeView {
   /// Stored tsdf of a voxel as a float in [−1, 1].
   KFX_HD float tsdf(int x, int y, int z) const { return at(x, y, z).tsdf * kTsdfInvScale; }
   /// Voxel centre in the volume frame, metres.
-  KFX_HD Vec3f centre_m(int x, int y, int z) const {
-    const float v = voxel_m();
-    return {(x + 0.5f) * v, (y + 0.5f) * v, (z + 0.5f) * v};
-  }
+  KFX_HD Vec3f centre_m(int x, int y, int z) const { return voxel_centre_m(x, y, z, voxel_m()); }
   /// Total number of voxels.
   KFX_HD long long voxel_count() const { return static_cast<long long>(res) * res * res; }
 

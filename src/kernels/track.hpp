@@ -4,6 +4,7 @@
 
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "kernels/photometric.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/tracking_state.hpp"
 
@@ -51,6 +52,7 @@ struct IcpParams {
   IcpRobust robust = IcpRobust::kNone;                 ///< robust weight of the residual
   float robust_scale_m = 0.01f;                        ///< its scale c, metres
   IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
+  PhotometricParams photometric;  ///< the photometric term beside the ICP (weight 0: off)
 };
 
 /// Arguments of track_pixel and track_sample: the settings and the buffers.
@@ -61,6 +63,7 @@ struct TrackArgs : IcpParams {
   ImageView<const Vec3f> ref_normal;  ///< raycast normals (volume frame), compute size
   const TrackingState* state;         ///< T_world_cam and project_reference
   ImageView<int8_t> outcome;          ///< per-pixel TrackOutcome, written where data is set
+  PhotometricLevel intensity;         ///< this level's intensity images (photometric term)
 };
 
 /// Projective data association and point-to-plane residual of one pixel.
@@ -183,8 +186,19 @@ KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
   const bool weighted = a.robust != IcpRobust::kNone || a.noise_weight != IcpNoiseWeight::kOff;
   const float fit =
       weighted && row.outcome == kTrackInlier ? icp_fit_weight(row, a.in_vertex(x, y).z, a) : 1.0f;
-  accumulate_row(acc, row, static_cast<double>(a.stride_px) * a.stride_px, fit);
+  const double sample_weight = static_cast<double>(a.stride_px) * a.stride_px;
+  accumulate_row(acc, row, sample_weight, fit);
   if (a.outcome.data) a.outcome(x, y) = static_cast<int8_t>(row.outcome);
+  // The photometric row of an ICP inlier: the inlier test is its occlusion test (the reference
+  // view sees the same surface there). Weight 0 adds nothing: the ICP's sums stay bit for bit.
+  if (a.photometric.weight > 0.0f && row.outcome == kTrackInlier && a.state->intensity_reference) {
+    const PhotometricRow photo =
+        photometric_row(a.in_vertex(x, y), a.state->T_world_cam, a.state->T_intensity_world,
+                        a.photometric, a.intensity);
+    if (photo.outcome == 1) {
+      accumulate_photometric_row(acc, photo, sample_weight * a.photometric.weight);
+    }
+  }
 }
 
 }  // namespace kfx

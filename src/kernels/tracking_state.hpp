@@ -29,6 +29,9 @@ struct TrackingState {
   Mat4f T_world_raycast;     ///< pose of the last raycast (the ICP reference view)
   Mat4f raycast_view;        ///< T_world_raycast · K⁻¹ at compute size (ray directions)
   Mat4f project_reference;   ///< K · T_world_raycast⁻¹ at compute size (projection into it)
+  /// The photometric term's reference (kernels/photometric.hpp): world → camera of the frame
+  /// whose intensity was kept last, and 1 once one was kept.
+  Mat4f T_intensity_world;
   double accumulator[kAccumulatorSize];  ///< reduction of the last ICP iteration run
   double last_step_norm;                 ///< |x| of the last ICP update
   float max_depth_m;    ///< largest depth of the current frame (bounds integration)
@@ -44,6 +47,7 @@ struct TrackingState {
   /// CUDA only: this frame's band reached more new blocks than one frame may gather on the
   /// device (its allocation would not be the CPU's); the pipeline turns it into an error.
   int map_new_blocks_overflow;
+  int intensity_reference;  ///< 1 once T_intensity_world and the reference intensity are set
 };
 
 }  // namespace kfx

@@ -67,11 +67,8 @@ struct BlockMapView {
   ColourVoxel* colours = nullptr;
 
   KFX_HD float voxel_m() const { return grid_size_m / grid_res; }
-  /// Voxel centre in the map frame, metres (VolumeView::centre_m's arithmetic).
-  KFX_HD Vec3f centre_m(int x, int y, int z) const {
-    const float v = voxel_m();
-    return {(x + 0.5f) * v, (y + 0.5f) * v, (z + 0.5f) * v};
-  }
+  /// Voxel centre in the map frame, metres (voxel_centre_m, as the cube).
+  KFX_HD Vec3f centre_m(int x, int y, int z) const { return voxel_centre_m(x, y, z, voxel_m()); }
   /// Index of block (bx, by, bz), or −1 when it is not allocated (or cannot be).
   KFX_HD int32_t find_block(int bx, int by, int bz) const {
     if (!block_coords_packable(bx, by, bz)) return -1;
@@ -151,10 +148,7 @@ struct OneBlockView {
   ColourVoxel* colour = nullptr;  ///< the block's kBlockVoxels colours; null without colour
 
   KFX_HD float voxel_m() const { return grid_size_m / grid_res; }
-  KFX_HD Vec3f centre_m(int x, int y, int z) const {
-    const float v = voxel_m();
-    return {(x + 0.5f) * v, (y + 0.5f) * v, (z + 0.5f) * v};
-  }
+  KFX_HD Vec3f centre_m(int x, int y, int z) const { return voxel_centre_m(x, y, z, voxel_m()); }
   /// Voxel (x, y, z), which must lie in this block.
   KFX_HD Voxel& at(int x, int y, int z) const { return data[voxel_in_block(x, y, z)]; }
   /// Colour of voxel (x, y, z), which must lie in this block (colour non-null).

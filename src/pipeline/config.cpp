@@ -494,6 +494,15 @@ std::vector<ConfigField> build_fields() {
          "undistort the depth image with camera_distortion before anything else (off = KFusion's "
          "pinhole camera; on|off)",
          [](C& c) -> bool& { return c.quality.depth_undistortion; });
+  num("photometric_weight", "quality", "", "",
+      "track: weight lambda of a photometric term beside the ICP (each inlier's intensity "
+      "against the last kept frame's, docs/tracking.md), metres^2 per intensity^2 (0..1 "
+      "intensity); 0 = off (KFusion's); > 0 needs an input with colour",
+      [](C& c) -> float& { return c.quality.photometric_weight; });
+  num("photometric_max_residual", "quality", "", "",
+      "track: photometric rows with |intensity residual| above this (0..1 intensity) are "
+      "dropped (occlusions, highlights; > 0)",
+      [](C& c) -> float& { return c.quality.photometric_max_residual; });
   // CUDA launch tuning (defaults measured on an H200, bench/RESULTS.md).
   on_off("cuda_pdl", "cuda", "cuda: programmatic dependent launch on sm_90+ (on|off; speed only)",
          [](C& c) -> bool& { return c.cuda.pdl; });
@@ -606,6 +615,10 @@ void PipelineConfig::validate() const {
             "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
   KFX_CHECK(quality.icp_robust_scale_m > 0,
             "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
+  KFX_CHECK(std::isfinite(quality.photometric_weight) && quality.photometric_weight >= 0,
+            "photometric_weight must be >= 0 (0 = off), got " << quality.photometric_weight);
+  KFX_CHECK(quality.photometric_max_residual > 0 && quality.photometric_max_residual <= 1,
+            "photometric_max_residual must be in (0, 1], got " << quality.photometric_max_residual);
   KFX_CHECK(quality.integration_weight_ref_m > 0,
             "integration_weight_ref_m must be > 0, got " << quality.integration_weight_ref_m);
   KFX_CHECK(quality.integration_weight == IntegrationWeight::kConstant ||
@@ -680,6 +693,8 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.icp.robust = config.quality.icp_robust;
   p.icp.robust_scale_m = config.quality.icp_robust_scale_m;
   p.icp.noise_weight = config.quality.icp_noise_weight;
+  p.icp.photometric.weight = config.quality.photometric_weight;
+  p.icp.photometric.max_residual = config.quality.photometric_max_residual;
   p.accept.max_rms_error_m = config.tracking.max_rms_error_m;
   p.accept.min_inlier_fraction = config.tracking.min_inlier_fraction;
   p.accept.compute_pixels = compute_width_px * compute_height_px;

@@ -112,10 +112,15 @@ struct PipelineConfig {
     /// Undistort the depth image with input.distortion before anything else (KFusion: off,
     /// a pinhole camera); pipeline/depth_undistortion.hpp.
     bool depth_undistortion = false;
+    /// λ of the photometric tracking term (kernels/photometric.hpp, docs/tracking.md): 0 =
+    /// off (KFusion's, and the ICP's sums stay bit for bit); > 0 needs colour images.
+    float photometric_weight = 0.0f;
+    float photometric_max_residual = 0.2f;  ///< drop photometric rows beyond this residual
   } quality;
 
   /// Colour fused beside the TSDF (docs/colour.md). Never read by tracking: the trajectory is
-  /// the same with it on or off.
+  /// the same with it on or off (the photometric term, quality.photometric_weight, reads the
+  /// colour images and the colour camera, not the fused colour).
   struct Colour {
     /// Fuse the frames' colour images into a colour field (memory: 8 bytes per voxel). Off in
     /// the library; `kfx` turns it on whenever the input has colour unless the user sets it.

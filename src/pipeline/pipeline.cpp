@@ -40,6 +40,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.device_index = device_index;
   setup_.pipelines_on_device = pipelines_on_device;
   setup_.colour = config_.colour.fuse;
+  setup_.photometric = config_.quality.photometric_weight > 0.0f;
   const LensDistortion& distortion = config_.input.distortion;
   if (config_.quality.depth_undistortion && !distortion.none()) {
     setup_.depth_source_px =
@@ -53,6 +54,9 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
 
   params_ = make_stage_params(config_, compute_k_, cw, ch);
   params_.integrate.colour_camera = make_colour_camera(config_, input_intrinsics);
+  params_.icp.photometric.colour_k =
+      params_.integrate.colour_camera.k.scaled_down(static_cast<float>(ratio));
+  params_.icp.photometric.T_colour_cam = params_.integrate.colour_camera.T_colour_cam;
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
@@ -78,10 +82,13 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   report.index = f;
   Backend& b = *backend_;
   b.upload_depth(depth_mm);
-  if (config_.colour.fuse) {
+  if (config_.colour.fuse || setup_.photometric) {
     KFX_CHECK(rgb.data != nullptr && rgb.size() > 0,
-              "frame " << f << " has no colour image but setting colour is on (set colour=off "
-                       << "for depth-only input)");
+              "frame " << f << " has no colour image but "
+                       << (config_.colour.fuse ? "setting colour is on (set colour=off"
+                                               : "photometric_weight > 0 tracks with colour (set "
+                                                 "photometric_weight=0")
+                       << " for depth-only input)");
     b.upload_colour(rgb);
   }
   // The reference view exists only after the first raycast (end of frame 3 when exact: the
@@ -116,6 +123,7 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   } else {
     b.skip_tracking();
   }
+  if (setup_.photometric) b.keep_intensity(always);
   b.end_stage(Stage::kTrack);
 
   // Integrate tracked frames on the integration rate, and always the bootstrap frames.

@@ -16,6 +16,7 @@
 #include "kernels/block_allocation.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/marching_cubes.hpp"
+#include "kernels/photometric.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
@@ -135,6 +136,18 @@ class CpuBackend final : public Backend {
     state_.max_depth_m = max_depth_m;
     const BilateralArgs b{p, buffers_.depth_m.view(), buffers_.level_depth[0].view()};
     for_each_pixel(w, h, [&](int x, int y) { bilateral_pixel(x, y, b); });
+    if (setup_.photometric) build_intensity();
+  }
+
+  void keep_intensity(bool always) override {
+    if (!setup_.photometric) return;
+    for (int l = 0; l < setup_.pyramid_levels; ++l) {
+      const KeepIntensityArgs a{buffers_.level_intensity[l].view(),
+                                buffers_.ref_intensity[l].view(), &state_, always ? 1 : 0};
+      for_each_pixel(a.current.width, a.current.height,
+                     [&](int x, int y) { keep_intensity_pixel(x, y, a); });
+    }
+    keep_intensity_pose(state_, always ? 1 : 0);
   }
 
   void build_pyramid(const PyramidParams& p) override {
@@ -487,6 +500,21 @@ class CpuBackend final : public Backend {
     return extract_block_map_mesh(blocks_.view(), mesh_vertices_, mesh_triangles_);
   }
 
+  /// This frame's intensity pyramid (photometric term) from its colour image.
+  void build_intensity() {
+    KFX_CHECK(input_rgb_.width() == setup_.input_width_px,
+              "photometric_weight > 0 but no colour image was uploaded for this frame");
+    const IntensityArgs a{input_rgb_.view(), buffers_.level_intensity[0].view(),
+                          setup_.compute_ratio};
+    for_each_pixel(a.out.width, a.out.height, [&](int x, int y) { intensity_pixel(x, y, a); });
+    for (int l = 1; l < setup_.pyramid_levels; ++l) {
+      const HalfIntensityArgs h{buffers_.level_intensity[l - 1].view(),
+                                buffers_.level_intensity[l].view()};
+      for_each_pixel(h.out.width, h.out.height,
+                     [&](int x, int y) { half_intensity_pixel(x, y, h); });
+    }
+  }
+
   /// The undistortion table as mm → m reads it; no data when there is none.
   ImageView<const SourcePixel> source_view() const {
     return setup_.depth_source_px.empty() ? ImageView<const SourcePixel>{}
@@ -514,7 +542,7 @@ class CpuBackend final : public Backend {
 
   BackendSetup setup_;
   HostImage<uint16_t> input_mm_;
-  HostImage<Rgb8> input_rgb_;  ///< this frame's colour image (setup_.colour), input size
+  HostImage<Rgb8> input_rgb_;  ///< this frame's colour image (colour or photometric), input size
   FrameBuffers<HostImage, HostArray> buffers_;
   std::vector<double> row_partials_;
   HostBlockMap blocks_;  ///< the block map (MapKind::kBlocks), else empty

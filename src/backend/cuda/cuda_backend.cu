@@ -88,7 +88,7 @@ class CudaBackend final : public Backend {
       input_mm_[p] = DeviceBuffer<uint16_t>(input_pixels);
       staging_mm_[p] = PinnedBuffer<uint16_t>(input_pixels);
       state_readback_[p] = PinnedBuffer<TrackingState>(1);
-      if (setup.colour) {
+      if (setup.colour || setup.photometric) {
         input_rgb_[p] = DeviceBuffer<Rgb8>(input_pixels);
         staging_rgb_[p] = PinnedBuffer<Rgb8>(input_pixels);
       }
@@ -261,6 +261,7 @@ class CudaBackend final : public Backend {
       const dim3 tile(kTileWidthPx, kTileHeightPx);
       launch(preprocess_kernel, grid_for(w, h, tile), tile, a, state_.data(),
              max_depth_scratch_.data());
+      if (setup_.photometric) build_intensity();
       return;
     }
     KFX_CUDA_CHECK(cudaMemsetAsync(&state_.data()->max_depth_m, 0, sizeof(float), stream_.get()));
@@ -270,6 +271,36 @@ class CudaBackend final : public Backend {
     launch(mm_to_m_kernel, grid_for(w, h, block), block, mm, state_.data());
     const BilateralArgs b{p, buffers_.depth_m.view(), buffers_.level_depth[0].view()};
     launch(pixel_kernel<BilateralBody, BilateralArgs>, grid_for(w, h, block), block, b, w, h);
+    if (setup_.photometric) build_intensity();
+  }
+
+  /// This frame's intensity pyramid (photometric term) from its colour image.
+  void build_intensity() {
+    const dim3 block(32, 8);
+    const ImageView<const Rgb8> rgb{input_rgb_[parity_].data(), setup_.input_width_px,
+                                    setup_.input_height_px, setup_.input_width_px};
+    const IntensityArgs a{rgb, buffers_.level_intensity[0].view(), setup_.compute_ratio};
+    launch(pixel_kernel<IntensityBody, IntensityArgs>, grid_for(a.out.width, a.out.height, block),
+           block, a, a.out.width, a.out.height);
+    for (int l = 1; l < setup_.pyramid_levels; ++l) {
+      const HalfIntensityArgs h{buffers_.level_intensity[l - 1].view(),
+                                buffers_.level_intensity[l].view()};
+      launch(pixel_kernel<HalfIntensityBody, HalfIntensityArgs>,
+             grid_for(h.out.width, h.out.height, block), block, h, h.out.width, h.out.height);
+    }
+  }
+
+  void keep_intensity(bool always) override {
+    if (replaying_ || !setup_.photometric) return;
+    const dim3 block(32, 8);
+    for (int l = 0; l < setup_.pyramid_levels; ++l) {
+      const KeepIntensityArgs a{buffers_.level_intensity[l].view(),
+                                buffers_.ref_intensity[l].view(), state_.data(), always ? 1 : 0};
+      launch(pixel_kernel<KeepIntensityBody, KeepIntensityArgs>,
+             grid_for(a.current.width, a.current.height, block), block, a, a.current.width,
+             a.current.height);
+    }
+    launch(keep_intensity_pose_kernel, dim3(1), dim3(1), state_.data(), always ? 1 : 0);
   }
 
   void build_pyramid(const PyramidParams& p) override {
@@ -630,7 +661,7 @@ class CudaBackend final : public Backend {
   Stream copy_stream_;
   std::array<DeviceBuffer<uint16_t>, 2> input_mm_;
   std::array<PinnedBuffer<uint16_t>, 2> staging_mm_;
-  std::array<DeviceBuffer<Rgb8>, 2> input_rgb_;  ///< colour input (setup_.colour), by parity
+  std::array<DeviceBuffer<Rgb8>, 2> input_rgb_;  ///< colour input (colour, photometric), by parity
   std::array<PinnedBuffer<Rgb8>, 2> staging_rgb_;
   std::array<PinnedBuffer<TrackingState>, 2> state_readback_;
   std::array<Event, 2> upload_done_{Event(false), Event(false)};

@@ -7,6 +7,7 @@
 
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
+#include "kernels/photometric.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
@@ -53,6 +54,21 @@ struct DepthToVertexBody {
 struct VertexToNormalBody {
   __device__ void operator()(int x, int y, const VertexToNormalArgs& a) const {
     vertex_to_normal_pixel(x, y, a);
+  }
+};
+struct IntensityBody {
+  __device__ void operator()(int x, int y, const IntensityArgs& a) const {
+    intensity_pixel(x, y, a);
+  }
+};
+struct HalfIntensityBody {
+  __device__ void operator()(int x, int y, const HalfIntensityArgs& a) const {
+    half_intensity_pixel(x, y, a);
+  }
+};
+struct KeepIntensityBody {
+  __device__ void operator()(int x, int y, const KeepIntensityArgs& a) const {
+    keep_intensity_pixel(x, y, a);
   }
 };
 /// `Map`: VolumeView (the dense cube) or BlockMapView.
@@ -231,6 +247,10 @@ __global__ void accept_kernel(TrackingState* state, AcceptParams params) {
 __global__ void skip_tracking_kernel(TrackingState* state) {
   wait_for_previous_kernel();
   state->tracked = 0;
+}
+__global__ void keep_intensity_pose_kernel(TrackingState* state, int always) {
+  wait_for_previous_kernel();
+  keep_intensity_pose(*state, always);
 }
 __global__ void prepare_integration_kernel(TrackingState* state, bool always) {
   wait_for_previous_kernel();
