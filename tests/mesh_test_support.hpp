@@ -3,6 +3,7 @@
 /// volume with an analytic answer.
 
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <unordered_map>
 #include <vector>
@@ -89,6 +90,17 @@ inline std::vector<Voxel> sphere_volume(int res, float size_m, Vec3f centre, flo
     }
   }
   return voxels;
+}
+
+/// True when two meshes have the same vertices, triangles and colours, byte for byte.
+inline bool same_mesh_bytes(const Mesh& a, const Mesh& b) {
+  return a.vertices.size() == b.vertices.size() && a.triangles.size() == b.triangles.size() &&
+         a.colours.size() == b.colours.size() &&
+         std::memcmp(a.vertices.data(), b.vertices.data(),
+                     a.vertices.size() * sizeof(MeshVertex)) == 0 &&
+         std::memcmp(a.triangles.data(), b.triangles.data(),
+                     a.triangles.size() * sizeof(MeshTriangle)) == 0 &&
+         std::memcmp(a.colours.data(), b.colours.data(), a.colours.size() * sizeof(Rgb8)) == 0;
 }
 
 }  // namespace kfx::test

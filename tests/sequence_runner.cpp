@@ -86,4 +86,19 @@ SequenceRun expect_backends_agree(const std::string& input, const PipelineConfig
   return cpu;
 }
 
+std::pair<double, double> relative_position_difference(const std::vector<io::StampedPose>& a,
+                                                       const std::vector<io::StampedPose>& b) {
+  std::vector<double> d;
+  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) {
+    double sq = 0;
+    for (int c = 0; c < 3; ++c) {
+      const double e = (a[i].t[c] - a[0].t[c]) - (b[i].t[c] - b[0].t[c]);
+      sq += e * e;
+    }
+    d.push_back(std::sqrt(sq));
+  }
+  std::sort(d.begin(), d.end());
+  return {d.empty() ? 0.0 : d[d.size() / 2], d.empty() ? 0.0 : d.back()};
+}
+
 }  // namespace kfx::test

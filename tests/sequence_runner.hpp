@@ -3,6 +3,7 @@
 /// per-frame position comparison used by the parity tests, and the CPU-against-GPU check.
 
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "io/reader.hpp"
@@ -42,6 +43,11 @@ struct PositionDifference {
 };
 PositionDifference compare_positions(const std::vector<io::StampedPose>& a,
                                      const std::vector<io::StampedPose>& b);
+
+/// Median and largest per-frame distance (metres) of positions taken relative to each run's
+/// first frame, frames paired by index (runs of one input from the same first frame).
+std::pair<double, double> relative_position_difference(const std::vector<io::StampedPose>& a,
+                                                       const std::vector<io::StampedPose>& b);
 
 /// The CPU and the GPU may differ in float summation order only: per-frame positions within a
 /// median of 1 mm and a 95th percentile of 1 cm (the issues' trajectory bounds).

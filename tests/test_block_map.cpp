@@ -54,22 +54,6 @@ MapRun run_map(const std::string& input, const PipelineConfig& config, int frame
   return run;
 }
 
-/// Median and largest per-frame distance of positions relative to each run's first frame.
-std::pair<double, double> relative_position_difference(const std::vector<io::StampedPose>& a,
-                                                       const std::vector<io::StampedPose>& b) {
-  std::vector<double> d;
-  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) {
-    double sq = 0;
-    for (int c = 0; c < 3; ++c) {
-      const double e = (a[i].t[c] - a[0].t[c]) - (b[i].t[c] - b[0].t[c]);
-      sq += e * e;
-    }
-    d.push_back(std::sqrt(sq));
-  }
-  std::sort(d.begin(), d.end());
-  return {d.empty() ? 0.0 : d[d.size() / 2], d.empty() ? 0.0 : d.back()};
-}
-
 PipelineConfig with_blocks(PipelineConfig config) {
   set_config_value(config, "volume", "blocks");
   return config;
@@ -121,7 +105,7 @@ void expect_same_as_dense(const std::string& input, const PipelineConfig& dense,
     EXPECT_EQ(b.reports[i].map_blocks_dropped, 0) << "frame " << i;
   }
   EXPECT_EQ(tracked_b, tracked_d);
-  const auto [median_m, max_m] = relative_position_difference(d.trajectory, b.trajectory);
+  const auto [median_m, max_m] = test::relative_position_difference(d.trajectory, b.trajectory);
   EXPECT_LE(median_m, kSameTrajectoryMedian_m) << input << " (max " << max_m * 1e3 << " mm)";
   const double voxel_m = dense.volume.size_m / dense.volume.resolution_vox;
   ASSERT_GT(d.mesh.vertices.size(), 1000u);

@@ -14,6 +14,7 @@
 #include "backend/backend.hpp"
 #include "io/reader.hpp"
 #include "map/host_block_map.hpp"
+#include "mesh_test_support.hpp"
 #include "pipeline/pipeline.hpp"
 #include "sequence_runner.hpp"
 
@@ -65,30 +66,6 @@ PipelineConfig with_blocks(PipelineConfig config) {
 PipelineConfig synthetic_config(const std::string& input) {
   auto reader = io::open_reader(input);
   return test::input_config(*reader);
-}
-
-/// Median and largest per-frame distance of positions relative to each run's first frame.
-std::pair<double, double> relative_difference(const std::vector<io::StampedPose>& a,
-                                              const std::vector<io::StampedPose>& b) {
-  std::vector<double> d;
-  for (size_t i = 0; i < std::min(a.size(), b.size()); ++i) {
-    double sq = 0;
-    for (int c = 0; c < 3; ++c) {
-      const double e = (a[i].t[c] - a[0].t[c]) - (b[i].t[c] - b[0].t[c]);
-      sq += e * e;
-    }
-    d.push_back(std::sqrt(sq));
-  }
-  std::sort(d.begin(), d.end());
-  return {d.empty() ? 0.0 : d[d.size() / 2], d.empty() ? 0.0 : d.back()};
-}
-
-bool same_bytes(const Mesh& a, const Mesh& b) {
-  return a.vertices.size() == b.vertices.size() && a.triangles.size() == b.triangles.size() &&
-         std::memcmp(a.vertices.data(), b.vertices.data(),
-                     a.vertices.size() * sizeof(MeshVertex)) == 0 &&
-         std::memcmp(a.triangles.data(), b.triangles.data(),
-                     a.triangles.size() * sizeof(MeshTriangle)) == 0;
 }
 
 /// The largest |tsdf| difference (stored units) and the count of weights that differ between
@@ -215,7 +192,8 @@ void expect_cuda_blocks_agree(const std::string& input, const PipelineConfig& de
   const test::PositionDifference to_cpu = test::compare_positions(gpu.trajectory, cpu.trajectory);
   EXPECT_LE(to_cpu.median_m, test::kBackendMedianTol_m) << input;
   EXPECT_LE(to_cpu.p95_m, test::kBackendP95Tol_m) << input;
-  const auto [median_m, max_m] = relative_difference(gpu.trajectory, gpu_dense.trajectory);
+  const auto [median_m, max_m] =
+      test::relative_position_difference(gpu.trajectory, gpu_dense.trajectory);
   EXPECT_LE(median_m, kSameAsDenseMedian_m) << input << " (max " << max_m * 1e3 << " mm)";
   // Block counts: the CPU's wherever the poses are the same to the bit (the bootstrap frames);
   // after tracking, float-order pose differences may move a block at the band's edge.
@@ -267,7 +245,7 @@ TEST(BlockMapCuda, RepeatsBitForBit) {
   ASSERT_EQ(a.contents.voxels.size(), b.contents.voxels.size());
   EXPECT_EQ(0, std::memcmp(a.contents.voxels.data(), b.contents.voxels.data(),
                            a.contents.voxels.size() * sizeof(Voxel)));
-  EXPECT_TRUE(same_bytes(a.mesh, b.mesh));
+  EXPECT_TRUE(test::same_mesh_bytes(a.mesh, b.mesh));
 }
 
 // --- A map is a file ---------------------------------------------------------------------------
@@ -289,7 +267,7 @@ TEST(BlockMapCuda, AReloadedMapMeshesToTheSameBytesOnEitherBackend) {
     auto backend = make_backend(kind, setup);
     backend->upload_blocks(live.contents);
     const Mesh again(backend->extract_mesh());
-    EXPECT_TRUE(same_bytes(again, live.mesh)) << backend->name();
+    EXPECT_TRUE(test::same_mesh_bytes(again, live.mesh)) << backend->name();
     const BlockMapContents back = backend->read_blocks();
     EXPECT_EQ(back.keys, live.contents.keys) << backend->name();
     EXPECT_EQ(0, std::memcmp(back.voxels.data(), live.contents.voxels.data(),

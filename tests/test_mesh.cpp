@@ -203,14 +203,6 @@ Mesh unskipped_mesh(std::vector<Voxel> voxels, int res, float size_m) {
   return mesh;
 }
 
-bool same_bytes(const Mesh& a, const Mesh& b) {
-  return a.vertices.size() == b.vertices.size() && a.triangles.size() == b.triangles.size() &&
-         std::memcmp(a.vertices.data(), b.vertices.data(),
-                     a.vertices.size() * sizeof(MeshVertex)) == 0 &&
-         std::memcmp(a.triangles.data(), b.triangles.data(),
-                     a.triangles.size() * sizeof(MeshTriangle)) == 0;
-}
-
 TEST(MarchingCubes, SkippingInactiveBricksChangesNoByte) {
   // 61³ (bricks and runs cut short at the far faces), a sphere with a third of the volume
   // unobserved: bricks far from the surface, unobserved and cut by the boundary all occur.
@@ -237,7 +229,7 @@ TEST(MarchingCubes, SkippingInactiveBricksChangesNoByte) {
     inactive += !mc_brick_active(signs.data(), i % b, i / b % b, i / b / b, b);
   }
   EXPECT_GT(inactive, b * b * b / 2);
-  EXPECT_TRUE(same_bytes(mesh_of(voxels, res, kSize_m), reference));
+  EXPECT_TRUE(test::same_mesh_bytes(mesh_of(voxels, res, kSize_m), reference));
   std::string why_not;
   if (cuda_available(&why_not)) {
     // The GPU's positions may differ by FMA rounding; its topology and order may not.
@@ -269,7 +261,7 @@ TEST(MarchingCubes, ExtractionReusesTheBackendsArrays) {
     EXPECT_LT(small.vertex_count, large_vertices / 2);
     ASSERT_EQ(small.vertex_count, reference.vertices.size());
     ASSERT_EQ(small.triangle_count, reference.triangles.size());
-    if (kind == BackendKind::kCpu) EXPECT_TRUE(same_bytes(Mesh(small), reference));
+    if (kind == BackendKind::kCpu) EXPECT_TRUE(test::same_mesh_bytes(Mesh(small), reference));
   }
 }
 
