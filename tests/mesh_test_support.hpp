@@ -92,15 +92,20 @@ inline std::vector<Voxel> sphere_volume(int res, float size_m, Vec3f centre, flo
   return voxels;
 }
 
+/// True when the n elements at a and at b are the same bytes (n = 0: true, whatever the
+/// pointers, which an empty vector may leave null).
+template <class T>
+bool same_bytes_n(const T* a, const T* b, size_t n) {
+  return n == 0 || std::memcmp(a, b, n * sizeof(T)) == 0;
+}
+
 /// True when two meshes have the same vertices, triangles and colours, byte for byte.
 inline bool same_mesh_bytes(const Mesh& a, const Mesh& b) {
   return a.vertices.size() == b.vertices.size() && a.triangles.size() == b.triangles.size() &&
          a.colours.size() == b.colours.size() &&
-         std::memcmp(a.vertices.data(), b.vertices.data(),
-                     a.vertices.size() * sizeof(MeshVertex)) == 0 &&
-         std::memcmp(a.triangles.data(), b.triangles.data(),
-                     a.triangles.size() * sizeof(MeshTriangle)) == 0 &&
-         std::memcmp(a.colours.data(), b.colours.data(), a.colours.size() * sizeof(Rgb8)) == 0;
+         same_bytes_n(a.vertices.data(), b.vertices.data(), a.vertices.size()) &&
+         same_bytes_n(a.triangles.data(), b.triangles.data(), a.triangles.size()) &&
+         same_bytes_n(a.colours.data(), b.colours.data(), a.colours.size());
 }
 
 }  // namespace kfx::test
