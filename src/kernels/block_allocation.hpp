@@ -76,32 +76,50 @@ KFX_HD void band_blocks_of_pixel(int x, int y, const BlockAllocArgs& a, Emit&& e
   }
 }
 
-/// True when integration may change a voxel of block index b: the block's voxel centres,
-/// widened by a voxel, are not entirely on the outside of one of the planes that bound
-/// integration (integrate_line_bounds: near, farthest depth + mu, the image's four sides).
-/// Conservative: a block it keeps may still update no voxel.
+/// Where block index b lies against the planes that bound integration (integrate_line_bounds:
+/// near, farthest depth + mu, the image's four sides), judged on its voxel centres widened by a
+/// voxel.
+enum class BlockInView : int {
+  kOutside = 0,  ///< entirely on the outside of one plane: integration changes none of its voxels
+  kPartly = 1,   ///< neither: some voxels may be out of range
+  kInside = 2,   ///< on the inside of every plane: every voxel is in range
+};
+
+/// block_in_view's test, telling apart the blocks wholly inside (the CPU integrates their rows
+/// without computing each row's bounds).
 template <class Map>
-KFX_HD bool block_in_view(const BlockMapView& map, int32_t b, const IntegrateArgsT<Map>& a) {
+KFX_HD BlockInView block_view_extent(const BlockMapView& map, int32_t b,
+                                     const IntegrateArgsT<Map>& a) {
   const Vec3i c = map.block_coords(b);
   const Mat4f& T = a.state->T_cam_world;
   const float w = static_cast<float>(a.depth_m.width), h = static_cast<float>(a.depth_m.height);
   const float z_max = a.state->max_depth_m + a.mu_m + 2.0f * map.voxel_m();
   const float ax = a.k.cx + 0.5f, ay = a.k.cy + 0.5f;
-  // Bit i of `inside`: some corner lies inside plane i.
-  int inside = 0;
+  // Bit i of `inside`: some corner lies inside plane i; of `outside`: some corner does not.
+  int inside = 0, outside = 0;
   for (int k = 0; k < 8; ++k) {
     const int x = c.x * kBlockSide + ((k & 1) ? kBlockSide : -1);
     const int y = c.y * kBlockSide + ((k & 2) ? kBlockSide : -1);
     const int z = c.z * kBlockSide + ((k & 4) ? kBlockSide : -1);
     const Vec3f p = T * map.centre_m(x, y, z);
-    if (p.z >= 0.5f * kIntegrateMinZ_m) inside |= 1;
-    if (p.z <= z_max) inside |= 2;
-    if (a.k.fx * p.x + (ax + 1.0f) * p.z >= 0.0f) inside |= 4;
-    if (-(a.k.fx * p.x + (ax - w) * p.z) >= 0.0f) inside |= 8;
-    if (a.k.fy * p.y + (ay + 1.0f) * p.z >= 0.0f) inside |= 16;
-    if (-(a.k.fy * p.y + (ay - h) * p.z) >= 0.0f) inside |= 32;
+    const int in = (p.z >= 0.5f * kIntegrateMinZ_m ? 1 : 0) | (p.z <= z_max ? 2 : 0) |
+                   (a.k.fx * p.x + (ax + 1.0f) * p.z >= 0.0f ? 4 : 0) |
+                   (-(a.k.fx * p.x + (ax - w) * p.z) >= 0.0f ? 8 : 0) |
+                   (a.k.fy * p.y + (ay + 1.0f) * p.z >= 0.0f ? 16 : 0) |
+                   (-(a.k.fy * p.y + (ay - h) * p.z) >= 0.0f ? 32 : 0);
+    inside |= in;
+    outside |= ~in & 63;
   }
-  return inside == 63;
+  if (inside != 63) return BlockInView::kOutside;
+  return outside == 0 ? BlockInView::kInside : BlockInView::kPartly;
+}
+
+/// True when integration may change a voxel of block index b: the block's voxel centres,
+/// widened by a voxel, are not entirely on the outside of one of the planes that bound
+/// integration. Conservative: a block it keeps may still update no voxel.
+template <class Map>
+KFX_HD bool block_in_view(const BlockMapView& map, int32_t b, const IntegrateArgsT<Map>& a) {
+  return block_view_extent(map, b, a) != BlockInView::kOutside;
 }
 
 }  // namespace kfx

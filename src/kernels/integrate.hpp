@@ -360,10 +360,12 @@ KFX_HD inline void integrate_column(int x, int y, int z_begin, int z_end,
 }
 
 /// Integrates the updatable part of row (y, z) within x ∈ [x_first, x_last) (voxels contiguous
-/// in memory).
+/// in memory). `bounded` false skips integrate_line_bounds (the caller knows every voxel of the
+/// range is in view): the same voxels change, since integrate_voxel tests each one itself and
+/// the bounds only spare it voxels it would leave alone.
 template <class Map>
 KFX_HD inline void integrate_row_range(int y, int z, int x_first, int x_last,
-                                       const IntegrateArgsT<Map>& a) {
+                                       const IntegrateArgsT<Map>& a, bool bounded = true) {
   const bool perforated = a.z_stride > 1;
   const bool checker = a.pattern == IntegrationPattern::kChecker;
   // Coordinates may be negative in a block map: residues taken in [0, s).
@@ -373,8 +375,8 @@ KFX_HD inline void integrate_row_range(int y, int z, int x_first, int x_last,
   }
   int step = 1;
   const VoxelLine line = x_line(y, z, a);
-  int x_begin, x_end;
-  integrate_line_bounds(line, a, x_first, x_last, x_begin, x_end);
+  int x_begin = x_first, x_end = x_last;
+  if (bounded) integrate_line_bounds(line, a, x_first, x_last, x_begin, x_end);
   if (perforated && checker) {  // x ≡ residue (mod s) along this row
     step = a.z_stride;
     const int residue = perforation_residue(a, y + z);
@@ -392,12 +394,12 @@ KFX_HD inline void integrate_row(int y, int z, const IntegrateArgsT<Map>& a) {
 }
 
 /// Integrates the 8 × 8 rows of one block of the block map (a.volume views that block): the
-/// same per-voxel body, bounded to the block's voxels.
-KFX_HD inline void integrate_block(const IntegrateArgsT<OneBlockView>& a) {
+/// same per-voxel body, bounded to the block's voxels (`bounded`: integrate_row_range's).
+KFX_HD inline void integrate_block(const IntegrateArgsT<OneBlockView>& a, bool bounded = true) {
   const Vec3i o = a.volume.origin_vox;
   for (int z = o.z; z < o.z + kBlockSide; ++z) {
     for (int y = o.y; y < o.y + kBlockSide; ++y)
-      integrate_row_range(y, z, o.x, o.x + kBlockSide, a);
+      integrate_row_range(y, z, o.x, o.x + kBlockSide, a, bounded);
   }
 }
 

@@ -202,17 +202,22 @@ class CpuBackend final : public Backend {
     const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
     // Each thread gathers the keys its rows reach that the map lacks; the map sorts them, so
     // which thread found a key first does not matter.
+    // Neighbouring pixels reach the same blocks again and again: a small direct-mapped set of
+    // the keys a thread checked lately spares most of the hash lookups (a key it forgot is
+    // checked, and perhaps listed, again: the map deduplicates).
+    constexpr int kSeenBits = 12;
     std::vector<std::vector<uint64_t>> found(static_cast<size_t>(omp_get_max_threads()));
 #pragma omp parallel
     {
       std::vector<uint64_t>& mine = found[static_cast<size_t>(omp_get_thread_num())];
-      uint64_t last = kEmptyBlockKey;
+      std::vector<uint64_t> seen(size_t{1} << kSeenBits, kEmptyBlockKey);
 #pragma omp for schedule(static)
       for (int y = 0; y < h; ++y) {
         for (int x = 0; x < w; ++x) {
           band_blocks_of_pixel(x, y, a, [&](uint64_t key) {
-            if (key == last) return;
-            last = key;
+            uint64_t& slot = seen[(key * 0x9e3779b97f4a7c15ull) >> (64 - kSeenBits)];
+            if (slot == key) return;
+            slot = key;
             if (a.map.hash.find(key) < 0) mine.push_back(key);
           });
         }
@@ -461,9 +466,11 @@ class CpuBackend final : public Backend {
                                    input_rgb_.view()};
 #pragma omp parallel for schedule(dynamic, 16) firstprivate(a)
     for (int b = 0; b < map.block_count; ++b) {
-      if (!block_in_view(map, b, a)) continue;
+      const BlockInView extent = block_view_extent(map, b, a);
+      if (extent == BlockInView::kOutside) continue;
       a.volume = one_block_view(map, b);
-      integrate_block(a);
+      // A block wholly in view needs no bounds per row (integrate_row_range).
+      integrate_block(a, extent == BlockInView::kPartly);
     }
   }
 
