@@ -133,5 +133,9 @@ KFX_HD inline int map_grid_res(const VolumeView& v) { return v.res; }
 KFX_HD inline float map_grid_size_m(const VolumeView& v) { return v.size_m; }
 /// A reader of the dense cube is the cube itself (no cache to keep).
 KFX_HD inline const VolumeView& map_reader(const VolumeView& v) { return v; }
+/// What a ray of the raycast remembers of the map from sample to sample: nothing for the dense
+/// cube (BlockMapRayMemo is the block map's).
+struct NoRayMemo {};
+KFX_HD inline NoRayMemo ray_memo(const VolumeView&) { return NoRayMemo{}; }
 
 }  // namespace kfx

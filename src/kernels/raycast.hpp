@@ -157,12 +157,21 @@ KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m,
   return u;
 }
 
+/// The dense cube's test within a ray (raycast_ray): the cube keeps no memo.
+KFX_HD inline UntouchedSample untouched_sample(const VolumeView& vol, Vec3f p_m, float vox_per_m,
+                                               NoRayMemo&) {
+  return untouched_sample(vol, p_m, vox_per_m);
+}
+
 /// The same test on a block map: every block the sample's voxels reach is unallocated (it
 /// reads as tsdf +1) or allocated but untouched; the box is their union. The coarse cells
 /// (kCoarseShift) are asked first: one whose blocks are all untouched or unallocated, usually
-/// the only one the sample reaches, gives a box of 32³ voxels.
-KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m,
-                                               float vox_per_m) {
+/// the only one the sample reaches, gives a box of 32³ voxels. `memo` (BlockMapRayMemo) spares
+/// the lookups of a touched block or coarse cell the ray met last: a sample inside that block
+/// is touched, one inside that coarse cell goes straight to the blocks.
+template <class Memo>
+KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m, float vox_per_m,
+                                               Memo& memo) {
   UntouchedSample u;
   const float s[3] = {p_m.x * vox_per_m - 0.5f, p_m.y * vox_per_m - 0.5f, p_m.z * vox_per_m - 0.5f};
   int lo[3], hi[3];  // voxels
@@ -170,7 +179,8 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
     lo[i] = static_cast<int>(floorf(s[i] - kSkipSlackVox));
     hi[i] = static_cast<int>(floorf(s[i] + kSkipSlackVox)) + 1;
   }
-  if (map.coarse_touched) {
+  if (memo_holds_block(memo, lo, hi)) return u;
+  if (map.coarse_touched && !memo_holds_coarse(memo, lo, hi)) {
     bool coarse_untouched = true;
     for (int z = lo[2] >> kCoarseVoxelShift; coarse_untouched && z <= hi[2] >> kCoarseVoxelShift;
          ++z) {
@@ -181,6 +191,7 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
               block_coords_packable(x, y, z) ? map.coarse_hash.find(pack_block_key(x, y, z)) : -1;
           if (c >= 0 && map.coarse_touched[c]) {
             coarse_untouched = false;
+            remember_coarse(memo, x, y, z);
             break;
           }
         }
@@ -203,7 +214,10 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
     for (int y = lo[1]; y <= hi[1]; ++y) {
       for (int x = lo[0]; x <= hi[0]; ++x) {
         const int32_t b = map.find_block(x, y, z);
-        if (b >= 0 && map.block_is_touched(b)) return u;
+        if (b >= 0 && map.block_is_touched(b)) {
+          remember_block(memo, x, y, z);
+          return u;
+        }
       }
     }
   }
@@ -213,6 +227,13 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
     u.box_end_vox[i] = (hi[i] + 1) * kBlockSide;
   }
   return u;
+}
+
+/// The same test without a memo (every block and coarse cell looked up).
+KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_m,
+                                               float vox_per_m) {
+  NoRayMemo none;
+  return untouched_sample(map, p_m, vox_per_m, none);
 }
 
 /// Ray parameter (metres along `direction`, inv_dir = 1 / direction) before which every sample
@@ -345,6 +366,13 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   float t = t_near;
   const bool constant_step = a.constant_step_m > 0.0f;
   float step = constant_step ? a.constant_step_m : a.large_step_m;
+  // What the ray remembers of the map (nothing for the cube). The GPU keeps none: a per-ray
+  // cache of the block map made its raycast 2-3 % slower (bench/RESULTS.md, session 12).
+#if defined(__CUDA_ARCH__)
+  NoRayMemo memo;
+#else
+  auto memo = ray_memo(a.volume);
+#endif
   float f_t = raycast_sample(a, origin + direction * t);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
@@ -357,7 +385,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const float vox_per_m = res / size, voxel_m = size / res;
   while (t < t_far) {
     const Vec3f p = origin + direction * t;
-    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m);
+    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m, memo);
     if (u.untouched) {
       f_t_skipped = true;
       // Fast-forward to the exit of the untouched box without testing each sample.

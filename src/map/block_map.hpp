@@ -135,6 +135,41 @@ struct BlockMapReader {
 /// A reader of the block map (BlockMapReader).
 KFX_HD inline BlockMapReader map_reader(const BlockMapView& v) { return BlockMapReader{&v}; }
 
+/// What a ray of the raycast remembers from sample to sample (raycast_ray keeps one): the last
+/// block and the last coarse cell it found touched, so untouched_sample need not look them up
+/// again (six coordinates: little state per ray on the GPU too).
+struct BlockMapRayMemo {
+  Vec3i block{kBlockCoordMin - 1, 0, 0};   ///< none yet (no packable block has this x)
+  Vec3i coarse{kBlockCoordMin - 1, 0, 0};  ///< none yet
+};
+KFX_HD inline BlockMapRayMemo ray_memo(const BlockMapView&) { return BlockMapRayMemo{}; }
+
+/// True when voxels [lo, hi] (per axis) all lie in the cube of 2^shift voxels at cube
+/// coordinates c.
+KFX_HD inline bool voxels_in_cube(const int lo[3], const int hi[3], int shift, const Vec3i& c) {
+  return (lo[0] >> shift) == c.x && (hi[0] >> shift) == c.x && (lo[1] >> shift) == c.y &&
+         (hi[1] >> shift) == c.y && (lo[2] >> shift) == c.z && (hi[2] >> shift) == c.z;
+}
+/// True when voxels [lo, hi] all lie in the memo's touched block / coarse cell (never without a
+/// memo).
+KFX_HD inline bool memo_holds_block(const NoRayMemo&, const int*, const int*) { return false; }
+KFX_HD inline bool memo_holds_block(const BlockMapRayMemo& m, const int lo[3], const int hi[3]) {
+  return voxels_in_cube(lo, hi, kBrickShift, m.block);
+}
+KFX_HD inline bool memo_holds_coarse(const NoRayMemo&, const int*, const int*) { return false; }
+KFX_HD inline bool memo_holds_coarse(const BlockMapRayMemo& m, const int lo[3], const int hi[3]) {
+  return voxels_in_cube(lo, hi, kCoarseVoxelShift, m.coarse);
+}
+/// Remembers a touched block / coarse cell (nothing without a memo).
+KFX_HD inline void remember_block(NoRayMemo&, int, int, int) {}
+KFX_HD inline void remember_block(BlockMapRayMemo& m, int bx, int by, int bz) {
+  m.block = {bx, by, bz};
+}
+KFX_HD inline void remember_coarse(NoRayMemo&, int, int, int) {}
+KFX_HD inline void remember_coarse(BlockMapRayMemo& m, int cx, int cy, int cz) {
+  m.coarse = {cx, cy, cz};
+}
+
 /// The voxels of one allocated block, seen with global voxel coordinates (x, y, z) as a volume:
 /// what the per-voxel integration body writes through (IntegrateArgsT<OneBlockView>), so it
 /// reads the same for a block as for the dense cube.
