@@ -1,7 +1,8 @@
 #pragma once
 /// Warnings a user needs when a run goes wrong for a reason the tracker cannot name: the camera
 /// outside the volume (through a face other than the one it started on), most of the depth outside
-/// the volume or beyond the far plane, depth values implausible for the depth scale. They only
+/// the volume or beyond the far plane, depth values implausible for the depth scale, a view that
+/// pins the pose poorly along some direction (the ICP can slide there unnoticed). They only
 /// observe (input depth and finished poses): nothing here changes what the pipeline computes.
 
 #include <array>
@@ -11,12 +12,19 @@
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "kernels/tracking_constraint.hpp"
 #include "pipeline/config.hpp"
 
 namespace kfx {
 
 /// The causes FrameDiagnostics recognises.
-enum class FrameCause { kCameraOutsideVolume, kDepthOutsideVolume, kImplausibleDepth, kCount };
+enum class FrameCause {
+  kCameraOutsideVolume,
+  kDepthOutsideVolume,
+  kImplausibleDepth,
+  kPoorlyConstrained,  ///< the ICP's weakest direction below kMinTrackingConstraint
+  kCount
+};
 
 /// The cause's name in stats.json ("camera_outside_volume", ...).
 const char* frame_cause_name(FrameCause cause);
@@ -54,6 +62,10 @@ class FrameDiagnostics {
   static constexpr int kFramesToEndStretch = 10;
   /// Every this many pixels in x and y are sampled (a few thousand points at 640×480).
   static constexpr int kSampleStridePx = 8;
+  /// A tracked frame whose weakest ICP direction (TrackingConstraint::eigenvalues[0], m² of
+  /// mean squared residual per unit step) is below this is poorly constrained: see
+  /// docs/tracking.md and bench/RESULTS.md, "Session 13", for the figures it was chosen from.
+  static constexpr float kMinTrackingConstraint = 0.005f;
 
   /// `input_intrinsics` at input size, as the frames' depth images are.
   FrameDiagnostics(const PipelineConfig& config, const Intrinsics& input_intrinsics);
@@ -61,9 +73,12 @@ class FrameDiagnostics {
   /// Samples a frame's input depth (millimetres, input size).
   DepthSample sample(ImageView<const uint16_t> depth_mm) const;
 
-  /// Judges frame `frame` (the input's number) from its depth sample and the camera pose after
-  /// it (volume frame); returns the warnings to show now, one line each, naming the frame.
-  std::vector<std::string> check(int frame, const DepthSample& depth, const Mat4f& T_world_cam);
+  /// Judges frame `frame` (the input's number) from its depth sample, the camera pose after
+  /// it (volume frame) and, when tracking ran, how well its ICP pinned the pose (`constraint`,
+  /// null when tracking did not run); returns the warnings to show now, one line each, naming
+  /// the frame.
+  std::vector<std::string> check(int frame, const DepthSample& depth, const Mat4f& T_world_cam,
+                                 const TrackingConstraint* constraint = nullptr);
 
   /// Per cause, how often it was seen.
   const FrameCauseCount& count(FrameCause cause) const { return counts_[static_cast<int>(cause)]; }
