@@ -90,7 +90,7 @@ int main(int argc, char** argv) try {
   std::printf("frame drift_cm dx dy dz(cam,cm) inl iters | eig(1/N) min..max | weakest (t;w) cam\n");
   for (int f = o.from; f <= o.to; ++f) {
     scene.render(f, depth, &rgb);
-    const kfx::FrameReport r = pipeline.process(depth);
+    const kfx::FrameReport r = pipeline.process(depth, &rgb);  // rgb used when the settings ask
     if (!o.dump_dir.empty() && f % 25 == 0) {
       // Depth as grey (white near, black at 4 m and holes) beside the colour.
       kfx::HostImage<kfx::Rgb8> out(2 * so.width_px, so.height_px);
