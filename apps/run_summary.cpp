@@ -33,7 +33,7 @@ void RunSummary::add(const FrameReport& report) {
     stage_ms[s].push_back(report.stage_ms[s]);
   }
   computation_ms.push_back(report.computation_ms);
-  if (report.tracking_ran) {
+  if (report.tracked) {
     const double c = report.constraint.eigenvalues[0];
     tracking_constraint.push_back(c);
     if (tracking_constraint_min < 0 || c < tracking_constraint_min) {

@@ -17,6 +17,7 @@
 #include "io/synthetic.hpp"
 #include "kernels/tracking_state.hpp"
 #include "pipeline/config.hpp"
+#include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
 
 namespace {
@@ -78,19 +79,25 @@ int main(int argc, char** argv) try {
   // World = scene frame (true start), or world = the first camera's frame.
   const kfx::Mat4f start = scene.pose_matrix(o.from);
   if (o.true_start) pipeline.backend().reset(start);
-  const Eigen::Matrix4d world_to_scene =
-      o.true_start ? Eigen::Matrix4d::Identity() : [&] {
-        Eigen::Matrix4d m;
-        for (int r = 0; r < 4; ++r)
-          for (int c = 0; c < 4; ++c) m(r, c) = start.m[r][c];
-        return m;
-      }();
+  const Eigen::Matrix4d world_to_scene = o.true_start ? Eigen::Matrix4d::Identity() : [&] {
+    Eigen::Matrix4d m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m(r, c) = start.m[r][c];
+    return m;
+  }();
+  kfx::FrameDiagnostics diagnostics(config, scene.intrinsics());  // the warnings kfx run gives
   kfx::HostImage<uint16_t> depth;
   kfx::HostImage<kfx::Rgb8> rgb;
-  std::printf("frame drift_cm dx dy dz(cam,cm) inl iters | eig(1/N) min..max | weakest (t;w) cam\n");
+  std::printf(
+      "frame drift_cm dx dy dz(cam,cm) inl iters | eig(1/N) min..max | weakest (t;w) cam\n");
   for (int f = o.from; f <= o.to; ++f) {
     scene.render(f, depth, &rgb);
     const kfx::FrameReport r = pipeline.process(depth, &rgb);  // rgb used when the settings ask
+    for (const std::string& w :
+         diagnostics.check(f, diagnostics.sample(depth.view()), r.T_world_cam,
+                           r.tracked ? &r.constraint : nullptr)) {
+      std::printf("warning: %s\n", w.c_str());
+    }
     if (!o.dump_dir.empty() && f % 25 == 0) {
       // Depth as grey (white near, black at 4 m and holes) beside the colour.
       kfx::HostImage<kfx::Rgb8> out(2 * so.width_px, so.height_px);
@@ -104,7 +111,7 @@ int main(int argc, char** argv) try {
       }
       kfx::io::write_png_rgb8(o.dump_dir + "/frame_" + std::to_string(f) + ".png", out);
     }
-        Eigen::Matrix4d T;
+    Eigen::Matrix4d T;
     for (int a = 0; a < 4; ++a)
       for (int b = 0; b < 4; ++b) T(a, b) = r.T_world_cam.m[a][b];
     const Eigen::Matrix4d est = world_to_scene * T;
@@ -119,11 +126,12 @@ int main(int argc, char** argv) try {
     const float* ev = r.constraint.eigenvalues;
     const float* v = r.constraint.weakest;
     std::printf("gt %.2f %.2f %.2f | ", t[0], t[2], std::atan2(R[0][2], R[2][2]) * 57.2958);
-    std::printf("%d %.2f %+.1f %+.1f %+.1f %.3f %d | %.4f %.4f %.4f %.4f %.4f %.4f | %+.2f %+.2f "
-                "%+.2f ; %+.2f %+.2f %+.2f %s\n",
-                f, 100 * err.norm(), 100 * err_cam.x(), 100 * err_cam.y(), 100 * err_cam.z(),
-                r.inlier_fraction, r.icp_iterations, ev[0], ev[1], ev[2], ev[3], ev[4], ev[5],
-                v[0], v[1], v[2], v[3], v[4], v[5], r.tracking_ran && !r.tracked ? "LOST" : "");
+    std::printf(
+        "%d %.2f %+.1f %+.1f %+.1f %.3f %d | %.4f %.4f %.4f %.4f %.4f %.4f | %+.2f %+.2f "
+        "%+.2f ; %+.2f %+.2f %+.2f %s\n",
+        f, 100 * err.norm(), 100 * err_cam.x(), 100 * err_cam.y(), 100 * err_cam.z(),
+        r.inlier_fraction, r.icp_iterations, ev[0], ev[1], ev[2], ev[3], ev[4], ev[5], v[0], v[1],
+        v[2], v[3], v[4], v[5], r.tracking_ran && !r.tracked ? "LOST" : "");
     std::fflush(stdout);
   }
   return 0;

@@ -61,7 +61,8 @@ KFX_HD inline void camera_normal_matrix(const double* acc, const Mat4f& T_world_
       b[i][j] = rt_ij;
       b[3 + i][3 + j] = rt_ij;
       double s = 0;
-      for (int l = 0; l < 3; ++l) s += static_cast<double>(T_world_cam.m[l][i]) * minus_cross_c[l][j];
+      for (int l = 0; l < 3; ++l)
+        s += static_cast<double>(T_world_cam.m[l][i]) * minus_cross_c[l][j];
       b[3 + i][j] = s;  // Rᵀ·(−[c]×)
     }
   }

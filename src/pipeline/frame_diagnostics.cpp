@@ -148,15 +148,26 @@ std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& d
   // The ICP's weakest direction: a view with too little geometry across it (a flat wall, a
   // corridor, a floor and far walls beyond the sensor's range) lets the pose slide there while
   // every frame passes the accept test.
+  if (constraint != nullptr) {
+    const float c = constraint->eigenvalues[0];
+    if (c < kMinTrackingConstraint) {
+      if (weak_run_ == 0) weak_run_first_ = frame;
+      weak_run_lowest_ = weak_run_ == 0 ? c : std::min(weak_run_lowest_, c);
+      ++weak_run_;
+      weak_run_last_ = *constraint;
+    } else {
+      weak_run_ = 0;
+    }
+  }
   {
-    const bool poor =
-        constraint != nullptr && constraint->eigenvalues[0] < kMinTrackingConstraint;
+    const bool poor = weak_run_ >= kPoorlyConstrainedFrames;
     std::ostringstream m;
     if (poor) {
       m.precision(2);
-      m << "tracking is poorly constrained (weakest direction "
-        << weakest_direction_words(*constraint) << ": " << constraint->eigenvalues[0]
-        << ", below " << kMinTrackingConstraint
+      m << "tracking has been poorly constrained since frame " << weak_run_first_ << " ("
+        << weak_run_ << " tracked frames with the ICP's weakest direction below "
+        << kMinTrackingConstraint << ", lowest " << weak_run_lowest_ << "; now "
+        << weakest_direction_words(weak_run_last_)
         << "): the view has too little geometry across that direction, so the pose may slide "
            "along it unnoticed (every frame still passes the accept test)";
     }
