@@ -16,6 +16,9 @@
 /// ICP's solution there is noise and the motion model's guess: tracking can slide along it
 /// while every frame passes the accept test.
 ///
+/// With the photometric term on (photometric_weight > 0) the matrix holds its weighted rows too,
+/// as the solve does; the bound of FrameDiagnostics was chosen with it off.
+///
 /// It only observes: nothing here feeds back into the pose, so trajectories stay bit for bit.
 
 #include <cmath>
