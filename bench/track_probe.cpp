@@ -1,10 +1,13 @@
 /// kfx_track_probe: tracking on a stretch of a synthetic sequence, frame by frame, to find where
 /// and why it fails. Starts the map at frame --from at the TRUE pose (the map's frame is the
 /// scene's, so the positions and the ICP's rotation centre are those of a whole run), runs to
-/// --to, and prints per frame: the drift against the ground truth (cm), the inlier fraction,
-/// the ICP iterations, and the last iteration's normal matrix analysed about the camera centre
-/// (rotations scaled by 1 m, per inlier): its eigenvalues, smallest first, and the weakest
-/// direction in the camera frame. A diagnostic, not a test: it asserts nothing.
+/// --to, and prints per frame: the true position (scene x, z) and heading, the position error
+/// against the ground truth (cm; also in the true camera's axes), the inlier fraction, the ICP
+/// iterations, the tracking constraint's six eigenvalues (kernels/tracking_constraint.hpp),
+/// smallest first, and the weakest direction (camera axes), and the warnings `kfx run` would
+/// give (FrameDiagnostics). --map-origin-start puts the first camera at the map's origin
+/// instead; --dump DIR writes every 25th frame's depth and colour side by side as PNG. Used
+/// for bench/RESULTS.md, "Session 13". A diagnostic, not a test: it asserts nothing.
 
 #include <Eigen/Core>
 #include <cmath>
@@ -15,7 +18,6 @@
 #include "core/platform.hpp"
 #include "io/png.hpp"
 #include "io/synthetic.hpp"
-#include "kernels/tracking_state.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
@@ -89,7 +91,8 @@ int main(int argc, char** argv) try {
   kfx::HostImage<uint16_t> depth;
   kfx::HostImage<kfx::Rgb8> rgb;
   std::printf(
-      "frame drift_cm dx dy dz(cam,cm) inl iters | eig(1/N) min..max | weakest (t;w) cam\n");
+      "gt x_m z_m yaw_deg | frame error_cm ex ey ez(camera, cm) inliers iterations | "
+      "eigenvalues (per inlier) smallest..largest | weakest (tx ty tz ; wx wy wz, camera)\n");
   for (int f = o.from; f <= o.to; ++f) {
     scene.render(f, depth, &rgb);
     const kfx::FrameReport r = pipeline.process(depth, &rgb);  // rgb used when the settings ask

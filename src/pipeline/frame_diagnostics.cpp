@@ -24,6 +24,34 @@ bool camera_left_volume(Vec3f c, float size_m, const std::array<float, 3>& start
   return false;
 }
 
+/// The weakest direction in words: its larger half (translation or rotation) by its main axis,
+/// and the other half's main axis when that half is not negligible.
+std::string weakest_direction_words(const TrackingConstraint& c) {
+  // The two halves' lengths: rotations count at 1 m (kernels/tracking_constraint.hpp).
+  const float* v = c.weakest;
+  const float t = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  const float w = std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5]);
+  static const char* const kAxis[3] = {"x (right)", "y (down)", "z (forward)"};
+  const auto main_axis = [](const float* a) {
+    int k = 0;
+    for (int i = 1; i < 3; ++i) {
+      if (std::fabs(a[i]) > std::fabs(a[k])) k = i;
+    }
+    return k;
+  };
+  std::ostringstream s;
+  const float* first = t >= w ? v : v + 3;
+  const float* second = t >= w ? v + 3 : v;
+  s << (t >= w ? "translation along the camera's " : "rotation about the camera's ")
+    << kAxis[main_axis(first)];
+  const float rest = t >= w ? w : t;
+  if (rest > 0.1f) {
+    s << " with " << (t >= w ? "rotation about its " : "translation along its ")
+      << kAxis[main_axis(second)];
+  }
+  return s.str();
+}
+
 }  // namespace
 
 const char* frame_cause_name(FrameCause cause) {
@@ -68,33 +96,6 @@ DepthSample FrameDiagnostics::sample(ImageView<const uint16_t> depth_mm) const {
     s.median_depth_m = *mid;
   }
   return s;
-}
-
-std::string weakest_direction_words(const TrackingConstraint& c) {
-  // The two halves' lengths: rotations count at 1 m (kernels/tracking_constraint.hpp).
-  const float* v = c.weakest;
-  const float t = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-  const float w = std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5]);
-  static const char* const kAxis[3] = {"x (right)", "y (down)", "z (forward)"};
-  const auto main_axis = [](const float* a) {
-    int k = 0;
-    for (int i = 1; i < 3; ++i) {
-      if (std::fabs(a[i]) > std::fabs(a[k])) k = i;
-    }
-    return k;
-  };
-  std::ostringstream s;
-  s.precision(2);
-  const float* first = t >= w ? v : v + 3;
-  const float* second = t >= w ? v + 3 : v;
-  s << (t >= w ? "translation along the camera's " : "rotation about the camera's ")
-    << kAxis[main_axis(first)];
-  const float rest = t >= w ? w : t;
-  if (rest > 0.1f) {
-    s << " with " << (t >= w ? "rotation about its " : "translation along its ")
-      << kAxis[main_axis(second)];
-  }
-  return s.str();
 }
 
 std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& depth,
