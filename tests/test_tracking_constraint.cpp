@@ -21,14 +21,15 @@
 namespace kfx {
 namespace {
 
-/// Accumulates point-to-plane rows (p, n in the world frame) as track_pixel builds them.
-void add_point(double* acc, Vec3f p, Vec3f n) {
+/// Accumulates point-to-plane rows (p, n in the world frame) as track_pixel builds them, each
+/// with the robust or noise weight `fit_weight` (1: none).
+void add_point(double* acc, Vec3f p, Vec3f n, double fit_weight = 1.0) {
   TrackRow row{};
   row.outcome = kTrackInlier;
   const Vec3f rot = cross(p, n);
   const float j[6] = {n.x, n.y, n.z, rot.x, rot.y, rot.z};
   for (int i = 0; i < 6; ++i) row.jacobian[i] = j[i];
-  accumulate_row(acc, row);
+  accumulate_row(acc, row, 1.0, fit_weight);
 }
 
 /// Points on up to three faces of a box corner seen from a camera at `c` (world axes), looking
@@ -68,6 +69,28 @@ TEST(TrackingConstraint, OnePlaneLeavesThreeDirectionsFreeACornerNone) {
   const std::vector<double> none(kAccumulatorSize, 0.0);
   const TrackingConstraint empty = tracking_constraint(none.data(), at_origin);
   for (float e : empty.eigenvalues) EXPECT_EQ(e, 0.0f);
+}
+
+TEST(TrackingConstraint, RobustOrNoiseWeightsDoNotScaleIt) {
+  // Rows weighted 0.2 (as icp_robust or icp_noise_weight weigh far or outlying points) count
+  // the inliers as before but scale JᵀJ: the figure is per unit of weight, so it stays.
+  std::vector<double> plain(kAccumulatorSize, 0.0), weighted(kAccumulatorSize, 0.0);
+  for (int i = 0; i < 20; ++i) {
+    for (int k = 0; k < 20; ++k) {
+      const float a = -0.9f + 0.09f * i, b = -0.9f + 0.09f * k;
+      for (auto* acc : {&plain, &weighted}) {
+        const double w = acc == &plain ? 1.0 : 0.2;
+        add_point(acc->data(), Vec3f{a, b, 2}, Vec3f{0, 0, -1}, w);
+        add_point(acc->data(), Vec3f{a, 1, 1 + b}, Vec3f{0, -1, 0}, w);
+        add_point(acc->data(), Vec3f{1, a, 1 + b}, Vec3f{-1, 0, 0}, w);
+      }
+    }
+  }
+  ASSERT_EQ(plain[kAccInliers], weighted[kAccInliers]);
+  const TrackingConstraint p = tracking_constraint(plain.data(), Mat4f::identity());
+  const TrackingConstraint w = tracking_constraint(weighted.data(), Mat4f::identity());
+  for (int i = 0; i < 6; ++i) EXPECT_NEAR(w.eigenvalues[i], p.eigenvalues[i], 1e-5f) << i;
+  EXPECT_GT(p.eigenvalues[0], 0.01f);
 }
 
 TEST(TrackingConstraint, DoesNotDependOnWhereTheCameraIsInTheMap) {

@@ -7,8 +7,11 @@
 /// A point-to-plane row is j = (n, p × n) with p about the map's origin (kernels/track.hpp),
 /// so the raw JᵀJ mixes in how far the camera is from the origin. About the camera centre c
 /// the row is j' = (n, (p − c) × n) = M·j with M = [[I, 0], [−[c]×, I]], so the matrix is
-/// M·JᵀJ·Mᵀ; both halves are then turned into the camera's axes and divided by the inlier
-/// count. A rotation of 1 rad then counts as moving a point 1 m from the camera by 1 m, and
+/// M·JᵀJ·Mᵀ; both halves are then turned into the camera's axes and divided by the rows' total
+/// weight, the trace of the translation block (each row's normal is a unit vector, so that is
+/// the inlier count when rows are unweighted, and the sum of the robust or noise weights when
+/// icp_robust or icp_noise_weight is on, which would otherwise scale the figure down). A
+/// rotation of 1 rad then counts as moving a point 1 m from the camera by 1 m, and
 /// each eigenvalue is the mean squared point-to-plane residual (m²) that a unit step along its
 /// eigenvector would cause. The translation part of a direction that only surfaces facing
 /// along it constrain is the fraction of inliers facing that way (at most 1); a direction no
@@ -41,8 +44,8 @@ struct TrackingConstraint {
 };
 
 /// The camera-centred, camera-axes, per-inlier normal matrix `h` of accumulator `acc` (JᵀJ's
-/// upper triangle at kAccJtJ, the inlier count at kAccInliers), the rows taken at pose
-/// `T_world_cam`. All zeros when there are no inliers.
+/// upper triangle at kAccJtJ), the rows taken at pose `T_world_cam`: divided by the trace of
+/// its translation block (the rows' total weight). All zeros when there are no inliers.
 KFX_HD inline void camera_normal_matrix(const double* acc, const Mat4f& T_world_cam,
                                         double h[6][6]) {
   double a[6][6];
@@ -69,8 +72,9 @@ KFX_HD inline void camera_normal_matrix(const double* acc, const Mat4f& T_world_
       b[3 + i][j] = s;  // Rᵀ·(−[c]×)
     }
   }
-  const double inliers = acc[kAccInliers];
-  const double scale = inliers > 0 ? 1.0 / inliers : 0.0;
+  // M and the turn leave the translation block's trace as it is: Σ w·|n|² = Σ w.
+  const double weight = a[0][0] + a[1][1] + a[2][2];
+  const double scale = weight > 0 ? 1.0 / weight : 0.0;
   double ba[6][6];
   for (int i = 0; i < 6; ++i) {
     for (int j = 0; j < 6; ++j) {
