@@ -7,7 +7,8 @@
 /// smallest first, and the weakest direction (camera axes), and the warnings `kfx run` would
 /// give (FrameDiagnostics). --map-origin-start puts the first camera at the map's origin
 /// instead; --dump DIR writes every 25th frame's depth and colour side by side as PNG. Used
-/// for bench/RESULTS.md, "Session 13". A diagnostic, not a test: it asserts nothing.
+/// for bench/RESULTS.md, "Session 13". --backend cuda runs it on the GPU (default cpu). A
+/// diagnostic, not a test: it asserts nothing.
 
 #include <Eigen/Core>
 #include <cmath>
@@ -26,6 +27,7 @@ namespace {
 
 struct Options {
   std::string spec = "synthetic:scene=house,width=320,height=240";
+  std::string backend = "cpu";
   int from = 0, to = -1;
   bool true_start = true;
   std::string dump_dir;  ///< every 25th frame's depth and colour as PNG, when set
@@ -35,7 +37,7 @@ struct Options {
 [[noreturn]] void usage(const char* why) {
   std::fprintf(stderr,
                "kfx_track_probe: %s\nusage: kfx_track_probe [--input SPEC] --from N --to M "
-               "[--map-origin-start] [--dump DIR] [--set key=value]...\n",
+               "[--backend cpu|cuda] [--map-origin-start] [--dump DIR] [--set key=value]...\n",
                why);
   std::exit(2);
 }
@@ -50,7 +52,9 @@ int main(int argc, char** argv) try {
       if (i + 1 >= argc) usage(("missing value after " + a).c_str());
       return argv[++i];
     };
-    if (a == "--input") {
+    if (a == "--backend") {
+      o.backend = next();
+    } else if (a == "--input") {
       o.spec = next();
     } else if (a == "--from") {
       o.from = std::stoi(next());
@@ -77,7 +81,7 @@ int main(int argc, char** argv) try {
   for (const auto& [k, v] : reader->recommended_settings()) kfx::set_config_value(config, k, v);
   for (const auto& [k, v] : o.sets) kfx::set_config_value(config, k, v);
   kfx::Pipeline pipeline(config, scene.intrinsics(), so.width_px, so.height_px,
-                         kfx::BackendKind::kCpu);
+                         kfx::parse_backend_kind(o.backend));
   // World = scene frame (true start), or world = the first camera's frame.
   const kfx::Mat4f start = scene.pose_matrix(o.from);
   if (o.true_start) pipeline.backend().reset(start);
