@@ -33,6 +33,14 @@ void RunSummary::add(const FrameReport& report) {
     stage_ms[s].push_back(report.stage_ms[s]);
   }
   computation_ms.push_back(report.computation_ms);
+  if (report.tracked) {
+    const double c = report.constraint.eigenvalues[0];
+    tracking_constraint.push_back(c);
+    if (tracking_constraint_min < 0 || c < tracking_constraint_min) {
+      tracking_constraint_min = c;
+      tracking_constraint_min_frame = report.index;
+    }
+  }
   map_blocks = report.map_blocks;
   map_bytes = report.map_bytes;
   if (report.map_blocks_dropped > 0) {
@@ -63,6 +71,11 @@ nlohmann::json RunSummary::to_json() const {
                                                          {"median", median_of(stage_ms[s])}};
   }
   j["computation_ms"] = {{"mean", mean_of(computation_ms)}, {"median", median_of(computation_ms)}};
+  if (!tracking_constraint.empty()) {
+    j["tracking_constraint"] = {{"min", tracking_constraint_min},
+                                {"min_frame", tracking_constraint_min_frame},
+                                {"median", median_of(tracking_constraint)}};
+  }
   if (map_blocks > 0) {
     j["map_blocks"] = map_blocks;
     j["map_bytes"] = map_bytes;

@@ -103,3 +103,49 @@ TEST_F(FrameDiagnosticsTest, DepthImplausibleForTheScaleIsNamed) {
 
 }  // namespace
 }  // namespace kfx
+
+namespace kfx {
+namespace {
+
+/// A figure with its weakest direction along camera x.
+TrackingConstraint weak(float value) {
+  TrackingConstraint c{};
+  for (int i = 0; i < 6; ++i) c.eigenvalues[i] = value * (i + 1);
+  c.weakest[0] = 1.0f;
+  return c;
+}
+
+TEST_F(FrameDiagnosticsTest, PoorlyConstrainedTrackingWarnsOnlyWhenItLasts) {
+  FrameDiagnostics d(config_, k_);
+  const DepthSample sample = d.sample(wall(1.2f));
+  const Mat4f pose = at(1.0f, 1.0f, 0.0f);
+  const int n = FrameDiagnostics::kPoorlyConstrainedFrames;
+  const TrackingConstraint low = weak(0.5f * FrameDiagnostics::kMinTrackingConstraint);
+  const TrackingConstraint good = weak(2.0f * FrameDiagnostics::kMinTrackingConstraint);
+  int f = 0;
+  // One frame short of the stretch, then a good frame: no warning (short dips are normal).
+  for (int i = 0; i < n - 1; ++i) EXPECT_TRUE(d.check(f++, sample, pose, &low).empty());
+  EXPECT_TRUE(d.check(f++, sample, pose, &good).empty());
+  // Untracked frames (null) neither count nor break a stretch.
+  const int first = f;
+  for (int i = 0; i < n - 1; ++i) {
+    EXPECT_TRUE(d.check(f++, sample, pose, &low).empty());
+    EXPECT_TRUE(d.check(f++, sample, pose, nullptr).empty());
+  }
+  const auto lines = d.check(f, sample, pose, &low);
+  ASSERT_EQ(lines.size(), 1u);
+  EXPECT_EQ(lines[0].rfind("frame " + std::to_string(f) +
+                               ": tracking has been poorly "
+                               "constrained since frame " +
+                               std::to_string(first),
+                           0),
+            0u)
+      << lines[0];
+  EXPECT_NE(lines[0].find("translation along the camera's x (right)"), std::string::npos)
+      << lines[0];
+  EXPECT_EQ(d.count(FrameCause::kPoorlyConstrained).first_frame, f);
+  EXPECT_STREQ(frame_cause_name(FrameCause::kPoorlyConstrained), "poorly_constrained_tracking");
+}
+
+}  // namespace
+}  // namespace kfx

@@ -24,10 +24,19 @@ struct FrameResult {
   Pose T_world_cam{};       ///< the camera's pose after the frame, in the map (volume) frame
   double computation_ms = 0;  ///< the frame's computation time (GPU time on CUDA)
   int icp_iterations = 0;     ///< ICP iterations run, all pyramid levels
+  /// How well the ICP pinned the pose (0 when tracking did not run): the smallest eigenvalue of
+  /// the last ICP iteration's normal matrix taken about the camera, per inlier, rotations
+  /// counted at 1 m (m² of mean squared point-to-plane residual per unit step along the
+  /// weakest direction). Near 0: the view leaves a direction free (a flat wall, a corridor)
+  /// and the pose can slide along it unnoticed; docs/tracking.md says what is low.
+  float tracking_constraint = 0;
+  /// That weakest direction, a unit 6-vector (tx, ty, tz, wx, wy, wz) in the camera's axes (x
+  /// right, y down, z forward; metres and radians), its largest component positive.
+  std::array<float, 6> weakest_direction{};
   /// Warnings that begin at this frame, one line each naming the frame (input_index) and the
   /// cause: the camera outside the map's volume, most depth outside it or beyond the far plane,
-  /// depth implausible for the depth scale (once per stretch, a few per cause and run). Usually
-  /// empty.
+  /// depth implausible for the depth scale, tracking poorly constrained (once per stretch, a
+  /// few per cause and run). Usually empty.
   std::vector<std::string> warnings;
 };
 

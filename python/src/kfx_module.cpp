@@ -316,9 +316,15 @@ NB_MODULE(_kfx, m) {
       .def_ro("integrated", &kfx::FrameResult::integrated)
       .def_ro("computation_ms", &kfx::FrameResult::computation_ms)
       .def_ro("icp_iterations", &kfx::FrameResult::icp_iterations)
+      .def_ro("tracking_constraint", &kfx::FrameResult::tracking_constraint,
+              "How well the ICP pinned the pose: the smallest eigenvalue of its normal matrix "
+              "about the camera, per inlier (0 when tracking did not run; near 0: the pose can "
+              "slide along the weakest direction unnoticed).")
+      .def_ro("weakest_direction", &kfx::FrameResult::weakest_direction,
+              "The weakest direction, (tx, ty, tz, wx, wy, wz) in the camera's axes.")
       .def_ro("warnings", &kfx::FrameResult::warnings,
               "Warnings that begin at this frame (camera or depth outside the volume, depth "
-              "implausible for the depth scale); usually empty.")
+              "implausible for the depth scale, tracking poorly constrained); usually empty.")
       .def_prop_ro(
           "pose", [](const kfx::FrameResult& r) { return pose_array(r.T_world_cam); },
           "The camera's pose after the frame, 4x4 float32 (camera to map frame, metres).")

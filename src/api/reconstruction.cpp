@@ -150,8 +150,11 @@ struct Reconstruction::Impl {
     r.T_world_cam = api::to_pose(last_report.T_world_cam);
     r.computation_ms = last_report.computation_ms;
     r.icp_iterations = last_report.icp_iterations;
+    r.tracking_constraint = last_report.constraint.eigenvalues[0];
+    for (int i = 0; i < 6; ++i) r.weakest_direction[i] = last_report.constraint.weakest[i];
     r.warnings =
-        diagnostics->check(r.input_index, samples_in_flight.front(), last_report.T_world_cam);
+        diagnostics->check(r.input_index, samples_in_flight.front(), last_report.T_world_cam,
+                           last_report.tracked ? &last_report.constraint : nullptr);
     samples_in_flight.pop_front();
     trajectory.push_back(r);
     return r;

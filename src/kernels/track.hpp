@@ -179,7 +179,10 @@ KFX_HD inline int track_grid_height(const TrackArgs& a) {
 }
 
 /// Tracks sample (i, j) of the grid, adds its weighted row to `acc` and records its outcome
-/// when `a.outcome` is set.
+/// when `a.outcome` is set. kWithPhotometric = false compiles the photometric row out: the GPU
+/// instantiates that for runs with photometric_weight 0, whose track kernels the row's code
+/// would otherwise make slower (bench/RESULTS.md, "the photometric term's cost on the GPU").
+template <bool kWithPhotometric = true>
 KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
   const int x = i * a.stride_px, y = j * a.stride_px;
   const TrackRow row = track_pixel(x, y, a);
@@ -191,12 +194,15 @@ KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
   if (a.outcome.data) a.outcome(x, y) = static_cast<int8_t>(row.outcome);
   // The photometric row of an ICP inlier: the inlier test is its occlusion test (the reference
   // view sees the same surface there). Weight 0 adds nothing: the ICP's sums stay bit for bit.
-  if (a.photometric.weight > 0.0f && row.outcome == kTrackInlier && a.state->intensity_reference) {
-    const PhotometricRow photo =
-        photometric_row(a.in_vertex(x, y), a.state->T_world_cam, a.state->T_intensity_world,
-                        a.photometric, a.intensity);
-    if (photo.outcome == 1) {
-      accumulate_photometric_row(acc, photo, sample_weight * a.photometric.weight);
+  if constexpr (kWithPhotometric) {
+    if (a.photometric.weight > 0.0f && row.outcome == kTrackInlier &&
+        a.state->intensity_reference) {
+      const PhotometricRow photo =
+          photometric_row(a.in_vertex(x, y), a.state->T_world_cam, a.state->T_intensity_world,
+                          a.photometric, a.intensity);
+      if (photo.outcome == 1) {
+        accumulate_photometric_row(acc, photo, sample_weight * a.photometric.weight);
+      }
     }
   }
 }

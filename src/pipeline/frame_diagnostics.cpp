@@ -1,6 +1,7 @@
 #include "pipeline/frame_diagnostics.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <sstream>
 #include <string>
 
@@ -23,6 +24,34 @@ bool camera_left_volume(Vec3f c, float size_m, const std::array<float, 3>& start
   return false;
 }
 
+/// The weakest direction in words: its larger half (translation or rotation) by its main axis,
+/// and the other half's main axis when that half is not negligible.
+std::string weakest_direction_words(const TrackingConstraint& c) {
+  // The two halves' lengths: rotations count at 1 m (kernels/tracking_constraint.hpp).
+  const float* v = c.weakest;
+  const float t = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+  const float w = std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5]);
+  static const char* const kAxis[3] = {"x (right)", "y (down)", "z (forward)"};
+  const auto main_axis = [](const float* a) {
+    int k = 0;
+    for (int i = 1; i < 3; ++i) {
+      if (std::fabs(a[i]) > std::fabs(a[k])) k = i;
+    }
+    return k;
+  };
+  std::ostringstream s;
+  const float* first = t >= w ? v : v + 3;
+  const float* second = t >= w ? v + 3 : v;
+  s << (t >= w ? "translation along the camera's " : "rotation about the camera's ")
+    << kAxis[main_axis(first)];
+  const float rest = t >= w ? w : t;
+  if (rest > 0.1f) {
+    s << " with " << (t >= w ? "rotation about its " : "translation along its ")
+      << kAxis[main_axis(second)];
+  }
+  return s.str();
+}
+
 }  // namespace
 
 const char* frame_cause_name(FrameCause cause) {
@@ -33,6 +62,8 @@ const char* frame_cause_name(FrameCause cause) {
       return "depth_outside_volume";
     case FrameCause::kImplausibleDepth:
       return "implausible_depth";
+    case FrameCause::kPoorlyConstrained:
+      return "poorly_constrained_tracking";
     case FrameCause::kCount:
       break;
   }
@@ -68,7 +99,8 @@ DepthSample FrameDiagnostics::sample(ImageView<const uint16_t> depth_mm) const {
 }
 
 std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& depth,
-                                                 const Mat4f& T_world_cam) {
+                                                 const Mat4f& T_world_cam,
+                                                 const TrackingConstraint* constraint) {
   std::vector<std::string> warnings;
   const float size = volume_size_m_;
   // The camera: the volume spans [0, size] on each axis of the volume (world) frame.
@@ -113,6 +145,34 @@ std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& d
     const bool implausible = depth.median_depth_m < kPlausibleMedianDepthMin_m ||
                              depth.median_depth_m > kPlausibleMedianDepthMax_m;
     note(FrameCause::kImplausibleDepth, implausible, frame, scale.str(), warnings);
+  }
+  // The ICP's weakest direction: a view with too little geometry across it (a flat wall, a
+  // corridor, a floor and far walls beyond the sensor's range) lets the pose slide there while
+  // every frame passes the accept test.
+  if (constraint != nullptr) {
+    const float c = constraint->eigenvalues[0];
+    if (c < kMinTrackingConstraint) {
+      if (weak_run_ == 0) weak_run_first_ = frame;
+      weak_run_lowest_ = weak_run_ == 0 ? c : std::min(weak_run_lowest_, c);
+      ++weak_run_;
+      weak_run_last_ = *constraint;
+    } else {
+      weak_run_ = 0;
+    }
+  }
+  {
+    const bool poor = weak_run_ >= kPoorlyConstrainedFrames;
+    std::ostringstream m;
+    if (poor) {
+      m.precision(2);
+      m << "tracking has been poorly constrained since frame " << weak_run_first_ << " ("
+        << weak_run_ << " tracked frames with the ICP's weakest direction below "
+        << kMinTrackingConstraint << ", lowest " << weak_run_lowest_ << "; now "
+        << weakest_direction_words(weak_run_last_)
+        << "): the view has too little geometry across that direction, so the pose may slide "
+           "along it unnoticed (every frame still passes the accept test)";
+    }
+    note(FrameCause::kPoorlyConstrained, poor, frame, m.str(), warnings);
   }
   return warnings;
 }

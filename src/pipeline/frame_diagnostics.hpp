@@ -1,7 +1,8 @@
 #pragma once
 /// Warnings a user needs when a run goes wrong for a reason the tracker cannot name: the camera
 /// outside the volume (through a face other than the one it started on), most of the depth outside
-/// the volume or beyond the far plane, depth values implausible for the depth scale. They only
+/// the volume or beyond the far plane, depth values implausible for the depth scale, a view that
+/// pins the pose poorly along some direction (the ICP can slide there unnoticed). They only
 /// observe (input depth and finished poses): nothing here changes what the pipeline computes.
 
 #include <array>
@@ -11,12 +12,19 @@
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "kernels/tracking_constraint.hpp"
 #include "pipeline/config.hpp"
 
 namespace kfx {
 
 /// The causes FrameDiagnostics recognises.
-enum class FrameCause { kCameraOutsideVolume, kDepthOutsideVolume, kImplausibleDepth, kCount };
+enum class FrameCause {
+  kCameraOutsideVolume,
+  kDepthOutsideVolume,
+  kImplausibleDepth,
+  kPoorlyConstrained,  ///< the ICP's weakest direction below kMinTrackingConstraint
+  kCount
+};
 
 /// The cause's name in stats.json ("camera_outside_volume", ...).
 const char* frame_cause_name(FrameCause cause);
@@ -54,6 +62,14 @@ class FrameDiagnostics {
   static constexpr int kFramesToEndStretch = 10;
   /// Every this many pixels in x and y are sampled (a few thousand points at 640×480).
   static constexpr int kSampleStridePx = 8;
+  /// Tracking is poorly constrained when the weakest ICP direction of every tracked frame
+  /// (TrackingConstraint::eigenvalues[0], m² of mean squared residual per unit step) stays below
+  /// kMinTrackingConstraint for kPoorlyConstrainedFrames tracked frames in a row. Single frames
+  /// dip that low on sequences that track well (TUM fr1_rpy: 12 in a row at most, fr1_xyz: 16
+  /// frames in all); the synthetic house's C door, where the pose slid 0.5 m, stayed below it
+  /// for 85. See docs/tracking.md and bench/RESULTS.md, "Session 13".
+  static constexpr float kMinTrackingConstraint = 0.004f;
+  static constexpr int kPoorlyConstrainedFrames = 30;
 
   /// `input_intrinsics` at input size, as the frames' depth images are.
   FrameDiagnostics(const PipelineConfig& config, const Intrinsics& input_intrinsics);
@@ -61,9 +77,13 @@ class FrameDiagnostics {
   /// Samples a frame's input depth (millimetres, input size).
   DepthSample sample(ImageView<const uint16_t> depth_mm) const;
 
-  /// Judges frame `frame` (the input's number) from its depth sample and the camera pose after
-  /// it (volume frame); returns the warnings to show now, one line each, naming the frame.
-  std::vector<std::string> check(int frame, const DepthSample& depth, const Mat4f& T_world_cam);
+  /// Judges frame `frame` (the input's number) from its depth sample, the camera pose after
+  /// it (volume frame) and, when it was tracked, how well its ICP pinned the pose
+  /// (`constraint`; null when tracking did not run or did not hold, which leaves the count of
+  /// poorly constrained frames in a row as it is); returns the warnings to show now, one line
+  /// each, naming the frame.
+  std::vector<std::string> check(int frame, const DepthSample& depth, const Mat4f& T_world_cam,
+                                 const TrackingConstraint* constraint = nullptr);
 
   /// Per cause, how often it was seen.
   const FrameCauseCount& count(FrameCause cause) const { return counts_[static_cast<int>(cause)]; }
@@ -78,7 +98,11 @@ class FrameDiagnostics {
   bool has_faces_;  ///< a dense cube; a block map (volume=blocks) has no faces to leave
   std::array<float, 3> start_factor_;  ///< the first camera at start_factor_ · volume size
   float far_m_;
-  double depth_scale_per_m_;  ///< 0: the format's
+  int weak_run_ = 0;                    ///< tracked frames in a row below kMinTrackingConstraint
+  int weak_run_first_ = -1;             ///< the first of them
+  float weak_run_lowest_ = 0;           ///< the lowest figure among them
+  TrackingConstraint weak_run_last_{};  ///< the last of them
+  double depth_scale_per_m_;            ///< 0: the format's
   std::array<FrameCauseCount, static_cast<int>(FrameCause::kCount)> counts_{};
   std::array<bool, static_cast<int>(FrameCause::kCount)> active_{};         ///< in a stretch
   std::array<int, static_cast<int>(FrameCause::kCount)> frames_without_{};  ///< since the last

@@ -190,6 +190,9 @@ FrameReport Pipeline::collect() {
   report.inlier_fraction =
       track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)
             : 0.0;
+  // On the host from the state both backends return: the GPU's one-thread decision kernels
+  // stay as they were (a 6×6 eigen-decomposition in one device thread would cost the frame).
+  if (track) report.constraint = tracking_constraint(state.accumulator, state.T_world_cam);
   for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
   }

@@ -10,6 +10,7 @@
 #include "backend/backend.hpp"
 #include "core/camera.hpp"
 #include "core/image.hpp"
+#include "kernels/tracking_constraint.hpp"
 #include "pipeline/config.hpp"
 
 namespace kfx {
@@ -27,6 +28,10 @@ struct FrameReport {
   double computation_ms = 0;   ///< preprocess + track + integrate + raycast
   int icp_iterations = 0;      ///< ICP iterations run (all levels)
   double inlier_fraction = 0;  ///< inliers / compute pixels at the last iteration
+  /// How well the last ICP iteration pinned the pose (kernels/tracking_constraint.hpp): its
+  /// normal matrix's eigenvalues about the camera and the weakest direction; all 0 when
+  /// tracking did not run.
+  TrackingConstraint constraint{};
   /// The block map (volume=blocks; 0 with the dense cube): blocks allocated after the frame,
   /// and blocks its truncation band reached that did not fit the map's budget (that part of
   /// the frame's surface was not stored).

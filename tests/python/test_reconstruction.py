@@ -119,6 +119,19 @@ def test_reset_repeats_the_run(reconstruction, frames):
     assert all(np.array_equal(a, b) for a, b in zip(first, second))
 
 
+def test_tracking_constraint_per_frame(reconstruction, frames):
+    results = [reconstruction.process(f) for f in frames]
+    for r in results:
+        if not r.tracked:
+            continue
+        # The synthetic room pins the pose in every direction; the weakest is a unit 6-vector.
+        assert r.tracking_constraint > 0.004
+        assert len(r.weakest_direction) == 6
+        assert abs(sum(v * v for v in r.weakest_direction) - 1.0) < 1e-4
+    assert any(r.tracked for r in results)
+    assert all(r.tracking_constraint == 0 for r in results if not r.tracking_ran)
+
+
 def test_camera_and_settings(frames):
     camera = kfx.Camera(160, 120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
     r = kfx.Reconstruction(camera=camera, backend="cpu", preset="fast",

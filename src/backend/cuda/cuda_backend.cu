@@ -356,8 +356,9 @@ class CudaBackend final : public Backend {
   void icp_iteration(int level, const IcpParams& p) override {
     if (replaying_) return;
     const TrackArgs a = buffers_.track_args(level, p, state_.data());
-    launch(icp_iteration_kernel, dim3(icp_reduce_blocks(a)), dim3(kReduceBlock), a, state_.data(),
-           partials_.data(), blocks_done_.data(), level);
+    launch(a.photometric.weight > 0.0f ? icp_iteration_kernel<true> : icp_iteration_kernel<false>,
+           dim3(icp_reduce_blocks(a)), dim3(kReduceBlock), a, state_.data(), partials_.data(),
+           blocks_done_.data(), level);
   }
 
   void icp_level(int level, int iterations, const IcpParams& p) override {

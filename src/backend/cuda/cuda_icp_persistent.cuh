@@ -48,6 +48,7 @@ __device__ inline void grid_barrier(unsigned int* arrivals, unsigned int target)
 /// read it: all have arrived at the last barrier by then).
 /// `args.state` is ignored: the kernel tracks against its shared-memory copy of `*state`, and
 /// block 0 writes that copy back at the end.
+template <bool kWithPhotometric>
 __global__ void __launch_bounds__(kReduceBlock)
     icp_level_kernel(TrackArgs args, TrackingState* state, double* partials, unsigned int* barrier,
                      int level, int iterations, int blocks) {
@@ -70,7 +71,7 @@ __global__ void __launch_bounds__(kReduceBlock)
   for (int iteration = 0; iteration < iterations; ++iteration) {
     double* part = partials + (iteration % 2) * blocks * kAccumulatorSize;
     for (int b = blockIdx.x; b < blocks; b += gridDim.x) {
-      const double block_total = track_block_partial(a, b, blocks);
+      const double block_total = track_block_partial<kWithPhotometric>(a, b, blocks);
       if (threadIdx.x < kAccumulatorSize) part[b * kAccumulatorSize + threadIdx.x] = block_total;
       __syncthreads();  // block_sum_accumulator's shared sums are reused by the next block
     }
@@ -103,9 +104,13 @@ inline int persistent_icp_max_blocks(int device, std::string* why_not) {
     *why_not = "this device does not support cooperative launches";
     return 0;
   }
-  int per_sm = 0, sms = 0;
-  KFX_CUDA_CHECK(
-      cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, icp_level_kernel, kReduceBlock, 0));
+  // The smaller of the two instantiations' residency, so the grid fits whichever runs.
+  int per_sm = 0, per_sm_photometric = 0, sms = 0;
+  KFX_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(&per_sm, icp_level_kernel<false>,
+                                                               kReduceBlock, 0));
+  KFX_CUDA_CHECK(cudaOccupancyMaxActiveBlocksPerMultiprocessor(
+      &per_sm_photometric, icp_level_kernel<true>, kReduceBlock, 0));
+  per_sm = std::min(per_sm, per_sm_photometric);
   KFX_CUDA_CHECK(cudaDeviceGetAttribute(&sms, cudaDevAttrMultiProcessorCount, device));
   if (per_sm < 1) {
     *why_not = "no block of the persistent ICP kernel fits on a multiprocessor";
@@ -141,8 +146,10 @@ inline void launch_icp_level(cudaStream_t stream, int max_blocks, const TrackArg
   attribute.val.cooperative = 1;
   config.attrs = &attribute;
   config.numAttrs = 1;
-  KFX_CUDA_CHECK(cudaLaunchKernelEx(&config, icp_level_kernel, args, state, partials, barrier,
-                                    level, iterations, blocks));
+  const bool photometric = args.photometric.weight > 0.0f;
+  KFX_CUDA_CHECK(cudaLaunchKernelEx(&config,
+                                    photometric ? icp_level_kernel<true> : icp_level_kernel<false>,
+                                    args, state, partials, barrier, level, iterations, blocks));
 }
 
 }  // namespace kfx::cuda

@@ -300,6 +300,8 @@ __device__ inline double block_sum_accumulator(const double (&acc)[kAccumulatorS
 /// (i / kReduceBlock) % blocks, thread i % kReduceBlock) and sums them over the block with
 /// block_sum_accumulator. Every sum's order depends only on (block, blocks), so any launch that
 /// calls this with the same pair gets the same bits (cuda_icp_persistent relies on it).
+/// kWithPhotometric: whether the photometric row is compiled in (track_sample).
+template <bool kWithPhotometric>
 __device__ inline double track_block_partial(const TrackArgs& args, int block, int blocks) {
   const int grid_w = track_grid_width(args);
   const int samples = grid_w * track_grid_height(args);
@@ -307,7 +309,7 @@ __device__ inline double track_block_partial(const TrackArgs& args, int block, i
 #pragma unroll
   for (int i = 0; i < kAccumulatorSize; ++i) acc[i] = 0.0;
   for (int i = block * kReduceBlock + threadIdx.x; i < samples; i += blocks * kReduceBlock) {
-    track_sample(i % grid_w, i / grid_w, args, acc);
+    track_sample<kWithPhotometric>(i % grid_w, i / grid_w, args, acc);
   }
   return block_sum_accumulator(acc);
 }
@@ -336,13 +338,15 @@ __device__ inline void sum_partials_in_order(const double* partials, int blocks,
 
 /// One ICP iteration in one launch: every thread tracks its pixels and accumulates; blocks
 /// write partial sums; the last block to finish adds the partials in block order, solves the
-/// 6×6 system and updates the pose. A no-op once the level has converged.
+/// 6×6 system and updates the pose. A no-op once the level has converged. kWithPhotometric: the
+/// photometric row compiled in (runs with photometric_weight > 0).
+template <bool kWithPhotometric>
 __global__ void __launch_bounds__(kReduceBlock)
     icp_iteration_kernel(TrackArgs args, TrackingState* state, double* partials,
                          unsigned int* blocks_done, int level) {
   wait_for_previous_kernel();
   if (level_converged(*state, level)) return;  // uniform: set by an earlier launch
-  const double block_total = track_block_partial(args, blockIdx.x, gridDim.x);
+  const double block_total = track_block_partial<kWithPhotometric>(args, blockIdx.x, gridDim.x);
   __shared__ bool is_last;
   if (threadIdx.x < kAccumulatorSize) {
     partials[blockIdx.x * kAccumulatorSize + threadIdx.x] = block_total;

@@ -1,0 +1,148 @@
+/// kfx_track_probe: tracking on a stretch of a synthetic sequence, frame by frame, to find where
+/// and why it fails. Starts the map at frame --from at the TRUE pose (the map's frame is the
+/// scene's, so the positions and the ICP's rotation centre are those of a whole run), runs to
+/// --to, and prints per frame: the true position (scene x, z) and heading, the position error
+/// against the ground truth (cm; also in the true camera's axes), the inlier fraction, the ICP
+/// iterations, the tracking constraint's six eigenvalues (kernels/tracking_constraint.hpp),
+/// smallest first, and the weakest direction (camera axes), and the warnings `kfx run` would
+/// give (FrameDiagnostics). --map-origin-start puts the first camera at the map's origin
+/// instead; --dump DIR writes every 25th frame's depth and colour side by side as PNG. Used
+/// for bench/RESULTS.md, "Session 13". --backend cuda runs it on the GPU (default cpu). A
+/// diagnostic, not a test: it asserts nothing.
+
+#include <Eigen/Core>
+#include <cmath>
+#include <cstdio>
+#include <string>
+#include <vector>
+
+#include "core/platform.hpp"
+#include "io/png.hpp"
+#include "io/synthetic.hpp"
+#include "pipeline/config.hpp"
+#include "pipeline/frame_diagnostics.hpp"
+#include "pipeline/pipeline.hpp"
+
+namespace {
+
+struct Options {
+  std::string spec = "synthetic:scene=house,width=320,height=240";
+  std::string backend = "cpu";
+  int from = 0, to = -1;
+  bool true_start = true;
+  std::string dump_dir;  ///< every 25th frame's depth and colour as PNG, when set
+  std::vector<std::pair<std::string, std::string>> sets;
+};
+
+[[noreturn]] void usage(const char* why) {
+  std::fprintf(stderr,
+               "kfx_track_probe: %s\nusage: kfx_track_probe [--input SPEC] --from N --to M "
+               "[--backend cpu|cuda] [--map-origin-start] [--dump DIR] [--set key=value]...\n",
+               why);
+  std::exit(2);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) try {
+  Options o;
+  for (int i = 1; i < argc; ++i) {
+    const std::string a = argv[i];
+    const auto next = [&]() -> std::string {
+      if (i + 1 >= argc) usage(("missing value after " + a).c_str());
+      return argv[++i];
+    };
+    if (a == "--backend") {
+      o.backend = next();
+    } else if (a == "--input") {
+      o.spec = next();
+    } else if (a == "--from") {
+      o.from = std::stoi(next());
+    } else if (a == "--to") {
+      o.to = std::stoi(next());
+    } else if (a == "--map-origin-start") {
+      o.true_start = false;
+    } else if (a == "--dump") {
+      o.dump_dir = next();
+    } else if (a == "--set") {
+      const std::string kv = next();
+      const size_t eq = kv.find('=');
+      if (eq == std::string::npos) usage("--set needs key=value");
+      o.sets.emplace_back(kv.substr(0, eq), kv.substr(eq + 1));
+    } else {
+      usage(("unknown argument " + a).c_str());
+    }
+  }
+  const kfx::io::SyntheticOptions so = kfx::io::parse_synthetic_spec(o.spec);
+  const kfx::io::SyntheticScene scene(so);
+  auto reader = kfx::io::make_synthetic_reader(o.spec);
+  if (o.to < 0) o.to = so.frames - 1;
+  kfx::PipelineConfig config = kfx::make_preset("exact");
+  for (const auto& [k, v] : reader->recommended_settings()) kfx::set_config_value(config, k, v);
+  for (const auto& [k, v] : o.sets) kfx::set_config_value(config, k, v);
+  kfx::Pipeline pipeline(config, scene.intrinsics(), so.width_px, so.height_px,
+                         kfx::parse_backend_kind(o.backend));
+  // World = scene frame (true start), or world = the first camera's frame.
+  const kfx::Mat4f start = scene.pose_matrix(o.from);
+  if (o.true_start) pipeline.backend().reset(start);
+  const Eigen::Matrix4d world_to_scene = o.true_start ? Eigen::Matrix4d::Identity() : [&] {
+    Eigen::Matrix4d m;
+    for (int r = 0; r < 4; ++r)
+      for (int c = 0; c < 4; ++c) m(r, c) = start.m[r][c];
+    return m;
+  }();
+  kfx::FrameDiagnostics diagnostics(config, scene.intrinsics());  // the warnings kfx run gives
+  kfx::HostImage<uint16_t> depth;
+  kfx::HostImage<kfx::Rgb8> rgb;
+  std::printf(
+      "gt x_m z_m yaw_deg | frame error_cm ex ey ez(camera, cm) inliers iterations | "
+      "eigenvalues (per inlier) smallest..largest | weakest (tx ty tz ; wx wy wz, camera)\n");
+  for (int f = o.from; f <= o.to; ++f) {
+    scene.render(f, depth, &rgb);
+    const kfx::FrameReport r = pipeline.process(depth, &rgb);  // rgb used when the settings ask
+    for (const std::string& w :
+         diagnostics.check(f, diagnostics.sample(depth.view()), r.T_world_cam,
+                           r.tracked ? &r.constraint : nullptr)) {
+      std::printf("warning: %s\n", w.c_str());
+    }
+    if (!o.dump_dir.empty() && f % 25 == 0) {
+      // Depth as grey (white near, black at 4 m and holes) beside the colour.
+      kfx::HostImage<kfx::Rgb8> out(2 * so.width_px, so.height_px);
+      for (int y = 0; y < so.height_px; ++y) {
+        for (int x = 0; x < so.width_px; ++x) {
+          const int d = depth(x, y);
+          const auto g = static_cast<uint8_t>(d == 0 ? 0 : std::max(20, 255 - d * 235 / 4000));
+          out(x, y) = kfx::Rgb8{g, g, g};
+          out(so.width_px + x, y) = rgb(x, y);
+        }
+      }
+      kfx::io::write_png_rgb8(o.dump_dir + "/frame_" + std::to_string(f) + ".png", out);
+    }
+    Eigen::Matrix4d T;
+    for (int a = 0; a < 4; ++a)
+      for (int b = 0; b < 4; ++b) T(a, b) = r.T_world_cam.m[a][b];
+    const Eigen::Matrix4d est = world_to_scene * T;
+    double R[3][3], t[3];
+    scene.pose(f, R, t);
+    Eigen::Vector3d gt(t[0], t[1], t[2]);
+    Eigen::Matrix3d Rgt;
+    for (int a = 0; a < 3; ++a)
+      for (int b = 0; b < 3; ++b) Rgt(a, b) = R[a][b];
+    const Eigen::Vector3d err = est.block<3, 1>(0, 3) - gt;
+    const Eigen::Vector3d err_cam = Rgt.transpose() * err;
+    const float* ev = r.constraint.eigenvalues;
+    const float* v = r.constraint.weakest;
+    std::printf("gt %.2f %.2f %.2f | ", t[0], t[2], std::atan2(R[0][2], R[2][2]) * 57.2958);
+    std::printf(
+        "%d %.2f %+.1f %+.1f %+.1f %.3f %d | %.4f %.4f %.4f %.4f %.4f %.4f | %+.2f %+.2f "
+        "%+.2f ; %+.2f %+.2f %+.2f %s\n",
+        f, 100 * err.norm(), 100 * err_cam.x(), 100 * err_cam.y(), 100 * err_cam.z(),
+        r.inlier_fraction, r.icp_iterations, ev[0], ev[1], ev[2], ev[3], ev[4], ev[5], v[0], v[1],
+        v[2], v[3], v[4], v[5], r.tracking_ran && !r.tracked ? "LOST" : "");
+    std::fflush(stdout);
+  }
+  return 0;
+} catch (const std::exception& e) {
+  std::fprintf(stderr, "kfx_track_probe: %s\n", e.what());
+  return 1;
+}
