@@ -137,5 +137,6 @@ KFX_HD inline const VolumeView& map_reader(const VolumeView& v) { return v; }
 /// cube (BlockMapRayMemo is the block map's).
 struct NoRayMemo {};
 KFX_HD inline NoRayMemo ray_memo(const VolumeView&) { return NoRayMemo{}; }
+KFX_HD inline const VolumeView& map_reader(const VolumeView& v, const NoRayMemo&) { return v; }
 
 }  // namespace kfx

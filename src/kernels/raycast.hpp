@@ -12,12 +12,13 @@
 namespace kfx {
 
 /// Trilinear tsdf at a volume-frame point (metres); voxel indices clamped to the volume (the
-/// dense cube's; a block map has no faces). `Map`: VolumeView or BlockMapView.
-template <class Map>
-KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m) {
+/// dense cube's; a block map has no faces). `Map`: VolumeView or BlockMapView; `memo`: what the
+/// ray remembers of the map (ray_memo), or nothing.
+template <class Map, class Memo = NoRayMemo>
+KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m, const Memo& memo = Memo{}) {
   const int res = map_grid_res(vol);
   const float size_m = map_grid_size_m(vol);
-  auto&& reader = map_reader(vol);
+  auto&& reader = map_reader(vol, memo);
   const Vec3f s{p_m.x * res / size_m - 0.5f, p_m.y * res / size_m - 0.5f,
                 p_m.z * res / size_m - 0.5f};
   const int bx = static_cast<int>(floorf(s.x)), by = static_cast<int>(floorf(s.y)),
@@ -215,7 +216,7 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
       for (int x = lo[0]; x <= hi[0]; ++x) {
         const int32_t b = map.find_block(x, y, z);
         if (b >= 0 && map.block_is_touched(b)) {
-          remember_block(memo, x, y, z);
+          remember_block(memo, x, y, z, map.block_voxels(b));
           return u;
         }
       }
@@ -319,10 +320,10 @@ KFX_HD inline float volume_interp_two_value(const Map& vol, Vec3f p_m) {
 }
 
 /// The sample the march uses: trilinear (exact) or two-value.
-template <class Map>
-KFX_HD inline float raycast_sample(const RaycastArgsT<Map>& a, Vec3f p_m) {
+template <class Map, class Memo>
+KFX_HD inline float raycast_sample(const RaycastArgsT<Map>& a, Vec3f p_m, const Memo& memo) {
   return a.interp == RaycastInterp::kTwoValue ? volume_interp_two_value(a.volume, p_m)
-                                              : volume_interp(a.volume, p_m);
+                                              : volume_interp(a.volume, p_m, memo);
 }
 
 /// Samples of a touched stretch of the march read at once (raycast_ray). On the GPU the march is
@@ -373,7 +374,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
 #else
   auto memo = ray_memo(a.volume);
 #endif
-  float f_t = raycast_sample(a, origin + direction * t);
+  float f_t = raycast_sample(a, origin + direction * t, memo);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
   // Samples in untouched space are skipped: they are ≥ 0.8, so they would only have advanced t
@@ -410,7 +411,8 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
       // volume, where a sample's voxel indices would leave it.
       float t_i = t;
       for (int i = 0; i < Batch; ++i) {
-        f_batch[i] = i == 0 || t_i < t_far ? raycast_sample(a, origin + direction * t_i) : 1.0f;
+        f_batch[i] =
+            i == 0 || t_i < t_far ? raycast_sample(a, origin + direction * t_i, memo) : 1.0f;
         t_i += step;
       }
     }
@@ -432,7 +434,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
     if (hit_found) break;
   }
   if (!(f_tt < 0.0f)) return 0.0f;
-  if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev);
+  if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev, memo);
   t = t + step * f_tt / (f_t - f_tt);  // secant refinement
   hit = origin + direction * t;
   return t;

@@ -137,12 +137,21 @@ KFX_HD inline BlockMapReader map_reader(const BlockMapView& v) { return BlockMap
 
 /// What a ray of the raycast remembers from sample to sample (raycast_ray keeps one): the last
 /// block and the last coarse cell it found touched, so untouched_sample need not look them up
-/// again (six coordinates: little state per ray on the GPU too).
+/// again, and a trilinear sample's reader starts with that block's voxels (map_reader).
 struct BlockMapRayMemo {
   Vec3i block{kBlockCoordMin - 1, 0, 0};   ///< none yet (no packable block has this x)
+  const Voxel* voxels = nullptr;           ///< the block's voxels
   Vec3i coarse{kBlockCoordMin - 1, 0, 0};  ///< none yet
 };
 KFX_HD inline BlockMapRayMemo ray_memo(const BlockMapView&) { return BlockMapRayMemo{}; }
+/// A reader of the block map that already holds the memo's block (no lookup while the reads
+/// stay in it), or (NoRayMemo) a fresh one.
+KFX_HD inline BlockMapReader map_reader(const BlockMapView& v, const BlockMapRayMemo& m) {
+  return BlockMapReader{&v, m.block, m.voxels};
+}
+KFX_HD inline BlockMapReader map_reader(const BlockMapView& v, const NoRayMemo&) {
+  return map_reader(v);
+}
 
 /// True when voxels [lo, hi] (per axis) all lie in the cube of 2^shift voxels at cube
 /// coordinates c.
@@ -161,9 +170,10 @@ KFX_HD inline bool memo_holds_coarse(const BlockMapRayMemo& m, const int lo[3], 
   return voxels_in_cube(lo, hi, kCoarseVoxelShift, m.coarse);
 }
 /// Remembers a touched block / coarse cell (nothing without a memo).
-KFX_HD inline void remember_block(NoRayMemo&, int, int, int) {}
-KFX_HD inline void remember_block(BlockMapRayMemo& m, int bx, int by, int bz) {
+KFX_HD inline void remember_block(NoRayMemo&, int, int, int, const Voxel*) {}
+KFX_HD inline void remember_block(BlockMapRayMemo& m, int bx, int by, int bz, const Voxel* voxels) {
   m.block = {bx, by, bz};
+  m.voxels = voxels;
 }
 KFX_HD inline void remember_coarse(NoRayMemo&, int, int, int) {}
 KFX_HD inline void remember_coarse(BlockMapRayMemo& m, int cx, int cy, int cz) {
