@@ -367,8 +367,9 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   float t = t_near;
   const bool constant_step = a.constant_step_m > 0.0f;
   float step = constant_step ? a.constant_step_m : a.large_step_m;
-  // What the ray remembers of the map (nothing for the cube). The GPU keeps none: a per-ray
-  // cache of the block map made its raycast 2-3 % slower (bench/RESULTS.md, session 12).
+  // What the ray remembers of the map (nothing for the cube). The GPU keeps none: there this
+  // memo, and a per-ray block cache before it, made the raycast slower (bench/RESULTS.md,
+  // "Session 13: the CPU block-map work ... on the GPU").
 #if defined(__CUDA_ARCH__)
   NoRayMemo memo;
 #else
