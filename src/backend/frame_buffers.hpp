@@ -17,6 +17,7 @@
 #include "core/colour_volume.hpp"
 #include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
+#include "kernels/ray_range.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx {
@@ -39,6 +40,10 @@ struct FrameBuffers {
         colour_volume(setup.colour ? voxel_count(setup) : 0),
         render_colour(setup.colour ? setup.compute_width_px() : 0,
                       setup.colour ? setup.compute_height_px() : 0),
+        ray_near_bits(ray_range_tile_count(setup)),
+        ray_far_bits(ray_range_tile_count(setup)),
+        ray_tiles_x(ray_range_tiles_for(setup.compute_width_px())),
+        ray_tiles_y(ray_range_tiles_for(setup.compute_height_px())),
         colour(setup.colour),
         volume_res_vox(setup.volume_res_vox),
         volume_size_m(setup.volume_size_m) {
@@ -69,6 +74,16 @@ struct FrameBuffers {
     if (setup.map_kind == MapKind::kBlocks) return 0;
     const size_t supers = static_cast<size_t>(super_bricks_per_side(setup.volume_res_vox));
     return supers * supers * supers;
+  }
+
+  /// The raycast's per-tile depth ranges (kernels/ray_range.hpp): a block map's only.
+  static size_t ray_range_tile_count(const BackendSetup& setup) {
+    if (setup.map_kind != MapKind::kBlocks) return 0;
+    return static_cast<size_t>(ray_range_tiles_for(setup.compute_width_px())) *
+           static_cast<size_t>(ray_range_tiles_for(setup.compute_height_px()));
+  }
+  RayRangeTiles ray_range_tiles() {
+    return RayRangeTiles{ray_near_bits.data(), ray_far_bits.data(), ray_tiles_x, ray_tiles_y};
   }
 
   /// The volume and its brick flags as the kernels see them.
@@ -119,6 +134,11 @@ struct FrameBuffers {
   /// empty when off.
   Array<ColourVoxel> colour_volume;
   Image<Rgba8> render_colour;
+  /// Block map only: the raycast's per-tile depth ranges (smallest, largest; float bits).
+  Array<uint32_t> ray_near_bits;
+  Array<uint32_t> ray_far_bits;
+  int ray_tiles_x = 0;
+  int ray_tiles_y = 0;
   bool colour = false;
   int volume_res_vox = 0;
   float volume_size_m = 0.0f;

@@ -6,6 +6,7 @@
 #include "core/math.hpp"
 #include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
+#include "kernels/ray_range.hpp"
 #include "kernels/tracking_state.hpp"
 #include "map/block_map.hpp"
 
@@ -287,7 +288,24 @@ struct RaycastParams {
   RaycastInterp interp = RaycastInterp::kTrilinear;
   int block_x_px = 1;  ///< one ray per block_x × block_y pixels, copied into the block
   int block_y_px = 1;
+  /// Speed only (setting raycast_tile_bounds): with a block map, each ray marches only through
+  /// the depth range its tile's touched blocks cover (kernels/ray_range.hpp); the same bits.
+  bool tile_bounds = true;
 };
+
+/// The ray-range arguments (ray_range.hpp) of a raycast with settings `p` over a compute image
+/// of width × height pixels, into `tiles`.
+inline RayRangeArgs ray_range_args(const RaycastParams& p, int width_px, int height_px,
+                                   RayRangeTiles tiles) {
+  RayRangeArgs a;
+  a.k = p.k;
+  a.width_px = width_px;
+  a.height_px = height_px;
+  a.near_m = p.near_m;
+  a.far_m = p.far_m;
+  a.tiles = tiles;
+  return a;
+}
 
 /// Arguments of raycast_pixel and raycast_block: the settings and the buffers. `Map`: VolumeView
 /// (the dense cube) or BlockMapView.
@@ -297,6 +315,9 @@ struct RaycastArgsT : RaycastParams {
   ImageView<Vec3f> vertex;     ///< hit points (volume frame); 0 on a miss
   ImageView<Vec3f> normal;     ///< unit normals; x = kInvalidNormal on a miss
   const TrackingState* state;  ///< raycast_view = T_world_raycast · K⁻¹
+  /// Per-tile depth ranges of the touched map from the raycast's pose (ray_range.hpp); none
+  /// (null) where the backend computed none: every ray then marches from near to far.
+  RayRangeTiles ranges = {};
 };
 
 /// Raycast arguments over the dense cube.
@@ -358,12 +379,19 @@ KFX_HD inline void ray_map_range(const BlockMapView&, Vec3f, Vec3f, float near_m
   t_far = far_m;
 }
 
+/// `touched_from_m`, `touched_to_m`: where along the ray (t, which is camera depth for the
+/// raycast's rays) a sample can read a touched voxel (ray_range.hpp); outside, samples are
+/// advanced over like untouched ones and the march ends once past the range. The defaults
+/// bound nothing.
 template <int Batch = kRaycastBatch, class Map>
-KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f direction, Vec3f& hit) {
+KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f direction, Vec3f& hit,
+                         float touched_from_m = 0.0f, float touched_to_m = 1e30f) {
   const Vec3f inv_dir{1.0f / direction.x, 1.0f / direction.y, 1.0f / direction.z};
   float t_near, t_far;
   ray_map_range(a.volume, origin, inv_dir, a.near_m, a.far_m, t_near, t_far);
   if (!(t_near < t_far)) return 0.0f;
+  // Nothing touched between near and far: every sample would be stepped over, a miss.
+  if (!(touched_from_m < t_far) || touched_to_m < t_near) return 0.0f;
   float t = t_near;
   const bool constant_step = a.constant_step_m > 0.0f;
   float step = constant_step ? a.constant_step_m : a.large_step_m;
@@ -375,7 +403,8 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
 #else
   auto memo = ray_memo(a.volume);
 #endif
-  float f_t = raycast_sample(a, origin + direction * t, memo);
+  // An untouched first sample reads ≥ 0.8: it passes this test, and the march steps over it.
+  float f_t = t < touched_from_m ? 1.0f : raycast_sample(a, origin + direction * t, memo);
   if (!(f_t > 0.0f)) return 0.0f;
   float f_tt = 0.0f;
   // Samples in untouched space are skipped: they are ≥ 0.8, so they would only have advanced t
@@ -386,6 +415,18 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const float size = map_grid_size_m(a.volume);
   const float vox_per_m = res / size, voxel_m = size / res;
   while (t < t_far) {
+    // Past the touched range every later sample is untouched: the march would step over them
+    // to t_far and miss.
+    if (t >= touched_to_m) break;
+    if (t < touched_from_m) {  // untouched samples up to the range: the skip below, unasked
+      f_t_skipped = true;
+      const float t_end = min_f(touched_from_m, t_far);
+      do {
+        t_prev = t;
+        t += step;
+      } while (t < t_end);
+      continue;
+    }
     const Vec3f p = origin + direction * t;
     const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m, memo);
     if (u.untouched) {
@@ -448,7 +489,9 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   const Vec3f origin = view.translation_part();
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
   Vec3f hit{0.0f, 0.0f, 0.0f};
-  if (raycast_ray(a, origin, direction, hit) > 0.0f) {
+  float touched_from_m, touched_to_m;
+  ray_range_of_pixel(a.ranges, x, y, touched_from_m, touched_to_m);
+  if (raycast_ray(a, origin, direction, hit, touched_from_m, touched_to_m) > 0.0f) {
     a.vertex(x, y) = hit;
     const Vec3f g = volume_gradient(a.volume, hit);
     const float len = length(g);

@@ -119,6 +119,16 @@ std::vector<ConfigField> build_fields() {
   auto integer = [&](std::string key, std::string section, std::string s, std::string l,
                      std::string help,
                      auto get) { t.push_back(number_field(key, section, s, l, help, get, true)); };
+  // An on|off setting of `section`; get(c) is the member it sets.
+  auto on_off = [&](std::string key, std::string section, std::string help, auto get) {
+    ConfigField f;
+    f.key = key;
+    f.section = section;
+    f.help = help;
+    f.parse = [key, get](C& c, const std::string& text) { get(c) = parse_bool(key, text); };
+    f.format = [get](const C& c) { return std::string(get(const_cast<C&>(c)) ? "on" : "off"); };
+    t.push_back(f);
+  };
   // Input.
   integer("compute_size_ratio", "input", "c", "compute-size-ratio",
           "compute size = input size / ratio (1, 2, 4 or 8)",
@@ -286,6 +296,10 @@ std::vector<ConfigField> build_fields() {
       [](C& c) -> float& { return c.raycast.far_m; });
   num("large_step_mu", "raycast", "", "", "raycast large step in units of mu",
       [](C& c) -> float& { return c.raycast.large_step_mu; });
+  on_off("raycast_tile_bounds", "raycast",
+         "volume=blocks: each ray marches only through the depth range that touched blocks cover "
+         "in its 8x8-pixel tile (on|off; speed only, the same bits)",
+         [](C& c) -> bool& { return c.raycast.tile_bounds; });
   integer("render_rate", "render", "z", "rendering-rate", "render every N-th frame (>= 1)",
           [](C& c) -> int& { return c.render.rate; });
   // Colour.
@@ -349,16 +363,6 @@ std::vector<ConfigField> build_fields() {
       }
       return std::string("?");
     };
-    t.push_back(f);
-  };
-  // An on|off setting of `section`; get(c) is the member it sets.
-  auto on_off = [&](std::string key, std::string section, std::string help, auto get) {
-    ConfigField f;
-    f.key = key;
-    f.section = section;
-    f.help = help;
-    f.parse = [key, get](C& c, const std::string& text) { get(c) = parse_bool(key, text); };
-    f.format = [get](const C& c) { return std::string(get(const_cast<C&>(c)) ? "on" : "off"); };
     t.push_back(f);
   };
   auto flag = [&](std::string key, std::string help, bool C::Approximations::*member) {
@@ -716,6 +720,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.raycast.interp = approx.raycast_interp;
   p.raycast.block_x_px = approx.raycast_block_px[0];
   p.raycast.block_y_px = approx.raycast_block_px[1];
+  p.raycast.tile_bounds = config.raycast.tile_bounds;
   // SLAMBench's renders: depth over [near, far], the volume marched exactly (whatever the
   // raycast approximations) out to twice the far plane, lit by a point light at (1, 1, −1) m.
   p.render.depth_near_m = config.raycast.near_m;

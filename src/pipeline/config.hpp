@@ -75,6 +75,8 @@ struct PipelineConfig {
     float near_m = 0.4f;          ///< near plane
     float far_m = 4.0f;           ///< far plane
     float large_step_mu = 0.75f;  ///< large march step, in units of mu
+    /// Blocks: march each ray only through its tile's touched depth range (speed only).
+    bool tile_bounds = true;
   } raycast;
   struct Render {
     int rate = 4;  ///< render the volume every N frames when rendering is on

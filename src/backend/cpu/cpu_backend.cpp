@@ -476,13 +476,44 @@ class CpuBackend final : public Backend {
 
   template <class Map>
   void raycast_map(const RaycastParams& p, const Map& map) {
-    const RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
-                              &state_};
+    RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(), &state_};
+    if (p.tile_bounds) a.ranges = ray_ranges(p, map);
     const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
     const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
   }
+
+  /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp):
+  /// each thread widens its own copy of the tiles over its share of the blocks, then the copies
+  /// are merged (min and max: any order gives the same tiles).
+  RayRangeTiles ray_ranges(const RaycastParams& p, const BlockMapView& map) {
+    const RayRangeArgs r = ray_range_args(p, buffers_.ref_vertex.width(),
+                                          buffers_.ref_vertex.height(), buffers_.ray_range_tiles());
+    const size_t tiles = buffers_.ray_near_bits.size();
+    std::fill_n(r.tiles.near_bits, tiles, kRayRangeEmptyNear);
+    std::fill_n(r.tiles.far_bits, tiles, kRayRangeEmptyFar);
+    const Mat4f T_cam_world = rigid_inverse(state_.T_world_raycast);
+#pragma omp parallel
+    {
+      std::vector<uint32_t> near(tiles, kRayRangeEmptyNear), far(tiles, kRayRangeEmptyFar);
+#pragma omp for schedule(static) nowait
+      for (int b = 0; b < map.block_count; ++b) {
+        widen_ray_ranges(map, b, T_cam_world, r, [&](int i, uint32_t near_bits, uint32_t far_bits) {
+          near[i] = std::min(near[i], near_bits);
+          far[i] = std::max(far[i], far_bits);
+        });
+      }
+#pragma omp critical
+      for (size_t i = 0; i < tiles; ++i) {
+        r.tiles.near_bits[i] = std::min(r.tiles.near_bits[i], near[i]);
+        r.tiles.far_bits[i] = std::max(r.tiles.far_bits[i], far[i]);
+      }
+    }
+    return r.tiles;
+  }
+  /// The dense cube keeps no ranges.
+  RayRangeTiles ray_ranges(const RaycastParams&, const VolumeView&) { return {}; }
 
   template <class Args>
   void render_volume(const Args& v) {

@@ -438,13 +438,28 @@ class CudaBackend final : public Backend {
 
   template <class Map>
   void raycast_map(const RaycastParams& p, const Map& map) {
-    const RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
-                              state_.data()};
+    RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
+                        state_.data()};
+    if (blocks() && p.tile_bounds) a.ranges = ray_ranges(p);
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
     launch(pixel_kernel<RaycastBlockBodyT<Map>, RaycastArgsT<Map>>, grid_for(w, h, block), block, a,
            w, h);
+  }
+
+  /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp),
+  /// computed on the device in the frame's stream (two launches).
+  RayRangeTiles ray_ranges(const RaycastParams& p) {
+    const RayRangeArgs r =
+        ray_range_args(p, setup_.compute_width_px(), setup_.compute_height_px(),
+                       buffers_.ray_range_tiles());
+    const int tiles = r.tiles.tiles_x * r.tiles.tiles_y;
+    launch(clear_ray_ranges_kernel, dim3((tiles + kMapThreads - 1) / kMapThreads),
+           dim3(kMapThreads), r.tiles);
+    launch(ray_ranges_of_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), block_map_.args(), r,
+           static_cast<const TrackingState*>(state_.data()));
+    return r.tiles;
   }
 
   void render(const RenderParams& p) override {

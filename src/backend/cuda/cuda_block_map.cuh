@@ -23,6 +23,7 @@
 #include "backend/cuda/cuda_memory.hpp"
 #include "kernels/block_allocation.hpp"
 #include "kernels/integrate.hpp"
+#include "kernels/ray_range.hpp"
 #include "map/host_block_map.hpp"
 
 namespace kfx::cuda {
@@ -212,6 +213,31 @@ __global__ void integrate_blocks_kernel(DeviceBlockMapArgs m, IntegrateArgsT<One
     a.volume = one_block_view(m.map, m.visible_blocks[v]);
     const Vec3i o = a.volume.origin_vox;
     integrate_row_range(o.y + row % kBlockSide, o.z + row / kBlockSide, o.x, o.x + kBlockSide, a);
+  }
+}
+
+/// Empties the raycast's per-tile depth ranges (kernels/ray_range.hpp).
+__global__ void clear_ray_ranges_kernel(RayRangeTiles tiles) {
+  wait_for_previous_kernel();
+  const int n = tiles.tiles_x * tiles.tiles_y;
+  for (int i = blockIdx.x * blockDim.x + threadIdx.x; i < n; i += gridDim.x * blockDim.x) {
+    tiles.near_bits[i] = kRayRangeEmptyNear;
+    tiles.far_bits[i] = kRayRangeEmptyFar;
+  }
+}
+
+/// Widens the tiles' depth ranges by every touched block seen from the raycast's pose: the
+/// smallest near and largest far per tile through atomics, so the order changes nothing.
+__global__ void ray_ranges_of_blocks_kernel(DeviceBlockMapArgs m, RayRangeArgs r,
+                                            const TrackingState* state) {
+  wait_for_previous_kernel();
+  const Mat4f T_cam_world = rigid_inverse(state->T_world_raycast);
+  const int blocks = m.counts->blocks;
+  for (int b = blockIdx.x * blockDim.x + threadIdx.x; b < blocks; b += gridDim.x * blockDim.x) {
+    widen_ray_ranges(m.map, b, T_cam_world, r, [&](int i, uint32_t near_bits, uint32_t far_bits) {
+      atomicMin(r.tiles.near_bits + i, near_bits);
+      atomicMax(r.tiles.far_bits + i, far_bits);
+    });
   }
 }
 
