@@ -138,11 +138,5 @@ KFX_HD inline const VolumeView& map_reader(const VolumeView& v) { return v; }
 struct NoRayMemo {};
 KFX_HD inline NoRayMemo ray_memo(const VolumeView&) { return NoRayMemo{}; }
 KFX_HD inline const VolumeView& map_reader(const VolumeView& v, const NoRayMemo&) { return v; }
-/// A reader for the reads of one sample or gradient, whose voxels start at (x, y, z): the cube
-/// itself (the block map's reader looks each of their blocks up once).
-KFX_HD inline const VolumeView& map_reader_from(const VolumeView& v, int, int, int,
-                                                const NoRayMemo& = NoRayMemo{}) {
-  return v;
-}
 
 }  // namespace kfx

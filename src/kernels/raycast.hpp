@@ -19,6 +19,7 @@ template <class Map, class Memo = NoRayMemo>
 KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m, const Memo& memo = Memo{}) {
   const int res = map_grid_res(vol);
   const float size_m = map_grid_size_m(vol);
+  auto&& reader = map_reader(vol, memo);
   const Vec3f s{p_m.x * res / size_m - 0.5f, p_m.y * res / size_m - 0.5f,
                 p_m.z * res / size_m - 0.5f};
   const int bx = static_cast<int>(floorf(s.x)), by = static_cast<int>(floorf(s.y)),
@@ -26,7 +27,6 @@ KFX_HD inline float volume_interp(const Map& vol, Vec3f p_m, const Memo& memo = 
   const float fx = s.x - floorf(s.x), fy = s.y - floorf(s.y), fz = s.z - floorf(s.z);
   const int lx = vol.clamp_lo(bx), ly = vol.clamp_lo(by), lz = vol.clamp_lo(bz);
   const int ux = vol.clamp_hi(bx + 1), uy = vol.clamp_hi(by + 1), uz = vol.clamp_hi(bz + 1);
-  auto&& reader = map_reader_from(vol, lx, ly, lz, memo);
   auto t = [&](int x, int y, int z) { return static_cast<float>(reader.stored_tsdf(x, y, z)); };
   return (((t(lx, ly, lz) * (1 - fx) + t(ux, ly, lz) * fx) * (1 - fy) +
            (t(lx, uy, lz) * (1 - fx) + t(ux, uy, lz) * fx) * fy) *
@@ -45,6 +45,7 @@ template <class Map>
 KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
   const int res = map_grid_res(vol);
   const float size_m = map_grid_size_m(vol);
+  auto&& reader = map_reader(vol);
   const float sx = p_m.x * res / size_m - 0.5f, sy = p_m.y * res / size_m - 0.5f,
               sz = p_m.z * res / size_m - 0.5f;
   const int bx = static_cast<int>(floorf(sx)), by = static_cast<int>(floorf(sy)),
@@ -57,7 +58,6 @@ KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
             uuy = vol.clamp_hi(by + 2);
   const int llz = vol.clamp_lo(bz - 1), luz = vol.clamp_lo(bz), ulz = vol.clamp_hi(bz + 1),
             uuz = vol.clamp_hi(bz + 2);
-  auto&& reader = map_reader_from(vol, llx, lly, llz);
   auto t = [&](int x, int y, int z) { return static_cast<float>(reader.stored_tsdf(x, y, z)); };
   // Central differences at the lower (lo) and upper (hi) trilinear corner along each axis.
   auto dx_lo = [&](int y, int z) { return t(ulx, y, z) - t(llx, y, z); };

@@ -153,53 +153,6 @@ KFX_HD inline BlockMapReader map_reader(const BlockMapView& v, const NoRayMemo&)
   return map_reader(v);
 }
 
-/// Reads the voxels of a block map within a cube of 2 × 2 × 2 blocks, looking each block up
-/// once: the reads of one trilinear sample (2³ voxels) or one gradient (within 4³) start at a
-/// known lowest voxel and reach at most the next block along each axis. Read through one
-/// remembered block (BlockMapReader), reads that alternate between two blocks — as both
-/// bodies' orders do wherever the voxels straddle a block face — would look the blocks up again
-/// at every switch. A read outside the cube (never made by those bodies) is looked up directly.
-struct BlockCubeReader {
-  const BlockMapView* map;
-  Vec3i origin;  ///< block coordinates of the cube's lowest block
-  /// Slot dx + 2·dy + 4·dz: that block's voxels (null when unallocated), valid once its bit is
-  /// set in `looked_up`.
-  const Voxel* voxels[8] = {};
-  unsigned looked_up = 0;
-
-  KFX_HD Voxel voxel(int x, int y, int z) {
-    const int dx = block_of_voxel(x) - origin.x, dy = block_of_voxel(y) - origin.y,
-              dz = block_of_voxel(z) - origin.z;
-    if ((dx | dy | dz) & ~1) return map->voxel(x, y, z);
-    const int s = dx + 2 * dy + 4 * dz;
-    if (!(looked_up & (1u << s))) {
-      const int32_t b = map->find_block(origin.x + dx, origin.y + dy, origin.z + dz);
-      voxels[s] = b < 0 ? nullptr : map->block_voxels(b);
-      looked_up |= 1u << s;
-    }
-    return voxels[s] ? voxels[s][voxel_in_block(x, y, z)] : empty_voxel();
-  }
-  KFX_HD int16_t stored_tsdf(int x, int y, int z) { return voxel(x, y, z).tsdf; }
-};
-
-/// The cube reader for reads whose lowest voxel is (x, y, z); with a ray memo (CPU) whose
-/// touched block lies in the cube, that block needs no lookup.
-KFX_HD inline BlockCubeReader map_reader_from(const BlockMapView& v, int x, int y, int z,
-                                              const NoRayMemo& = NoRayMemo{}) {
-  return BlockCubeReader{&v, Vec3i{block_of_voxel(x), block_of_voxel(y), block_of_voxel(z)}};
-}
-KFX_HD inline BlockCubeReader map_reader_from(const BlockMapView& v, int x, int y, int z,
-                                              const BlockMapRayMemo& m) {
-  BlockCubeReader r{&v, Vec3i{block_of_voxel(x), block_of_voxel(y), block_of_voxel(z)}};
-  const int dx = m.block.x - r.origin.x, dy = m.block.y - r.origin.y, dz = m.block.z - r.origin.z;
-  if (!((dx | dy | dz) & ~1)) {
-    const int s = dx + 2 * dy + 4 * dz;
-    r.voxels[s] = m.voxels;
-    r.looked_up = 1u << s;
-  }
-  return r;
-}
-
 /// True when voxels [lo, hi] (per axis) all lie in the cube of 2^shift voxels at cube
 /// coordinates c.
 KFX_HD inline bool voxels_in_cube(const int lo[3], const int hi[3], int shift, const Vec3i& c) {
