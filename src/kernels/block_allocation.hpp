@@ -32,8 +32,11 @@ struct BlockAllocArgs {
 };
 
 /// Calls emit(key) for the packed key of every block the truncation band of pixel (x, y) may
-/// reach (consecutive samples reaching the same blocks emit them once; a block may still be
-/// emitted more than once per pixel). Blocks beyond the packable range are left out.
+/// reach. Each sample emits only the blocks of its box that the previous sample's box did not
+/// hold: those were emitted already (by induction every block of a box is emitted by the time
+/// its sample is done), so the set emitted is the union of the boxes, with most repeats gone
+/// (a block may still be emitted more than once per pixel). Blocks beyond the packable range
+/// are left out.
 template <class Emit>
 KFX_HD void band_blocks_of_pixel(int x, int y, const BlockAllocArgs& a, Emit&& emit) {
   const float d = a.depth_m(x, y);
@@ -58,13 +61,12 @@ KFX_HD void band_blocks_of_pixel(int x, int y, const BlockAllocArgs& a, Emit&& e
       lo[i] = block_of_voxel(static_cast<int>(floorf(s[i] - reach_vox)));
       hi[i] = block_of_voxel(static_cast<int>(ceilf(s[i] + reach_vox)));
     }
-    if (lo[0] == last_lo[0] && lo[1] == last_lo[1] && lo[2] == last_lo[2] && hi[0] == last_hi[0] &&
-        hi[1] == last_hi[1] && hi[2] == last_hi[2]) {
-      continue;
-    }
     for (int bz = lo[2]; bz <= hi[2]; ++bz) {
+      const bool z_in_last = bz >= last_lo[2] && bz <= last_hi[2];
       for (int by = lo[1]; by <= hi[1]; ++by) {
+        const bool yz_in_last = z_in_last && by >= last_lo[1] && by <= last_hi[1];
         for (int bx = lo[0]; bx <= hi[0]; ++bx) {
+          if (yz_in_last && bx >= last_lo[0] && bx <= last_hi[0]) continue;  // emitted already
           if (block_coords_packable(bx, by, bz)) emit(pack_block_key(bx, by, bz));
         }
       }
