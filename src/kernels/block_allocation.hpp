@@ -61,6 +61,10 @@ KFX_HD void band_blocks_of_pixel(int x, int y, const BlockAllocArgs& a, Emit&& e
       lo[i] = block_of_voxel(static_cast<int>(floorf(s[i] - reach_vox)));
       hi[i] = block_of_voxel(static_cast<int>(ceilf(s[i] + reach_vox)));
     }
+    if (lo[0] == last_lo[0] && lo[1] == last_lo[1] && lo[2] == last_lo[2] && hi[0] == last_hi[0] &&
+        hi[1] == last_hi[1] && hi[2] == last_hi[2]) {
+      continue;  // the same box: nothing new
+    }
     for (int bz = lo[2]; bz <= hi[2]; ++bz) {
       const bool z_in_last = bz >= last_lo[2] && bz <= last_hi[2];
       for (int by = lo[1]; by <= hi[1]; ++by) {
