@@ -350,7 +350,8 @@ KFX_HD inline float raycast_sample(const RaycastArgsT<Map>& a, Vec3f p_m, const 
 /// Samples of a touched stretch of the march read at once (raycast_ray). On the GPU the march is
 /// a chain of dependent voxel reads, and the longest ray's chain sets the launch's time: two
 /// samples at a time was the fastest of 1, 2, 4 and 8 (also against separate sizes for large and
-/// fine steps; bench/RESULTS.md, "Issue 8 at `fab1c3f`").
+/// fine steps; bench/RESULTS.md, "Issue 8 at `fab1c3f`"). The constant-step march reads one
+/// (raycast_pixel).
 constexpr int kRaycastBatch = 2;
 
 /// Marches one ray; returns t of the hit (> 0) or 0 on a miss, and the hit point. `Batch`: the
