@@ -53,8 +53,8 @@ TEST(RayRange, AFootprintHoldsEveryPointThatReadsTheBlock) {
   for (int trial = 0; trial < 3000; ++trial) {
     const float voxel_m = trial % 2 ? 0.005f : 0.02f;
     // A pose turned about every axis, and a block somewhere within ~3 m of it.
-    const double twist[6] = {unit(rng), unit(rng), unit(rng), unit(rng) - 0.5, unit(rng) - 0.5,
-                             unit(rng) - 0.5};
+    const double twist[6] = {unit(rng),       unit(rng),       unit(rng),
+                             unit(rng) - 0.5, unit(rng) - 0.5, unit(rng) - 0.5};
     const Mat4f T_world_cam = se3_exp(twist);
     const Mat4f T_cam_world = rigid_inverse(T_world_cam);
     const Vec3f ahead = T_world_cam * Vec3f{(unit(rng) - 0.5f) * 3, (unit(rng) - 0.5f) * 2,
@@ -160,10 +160,10 @@ const std::string kHardInput = "synthetic:frames=48,width=160,height=120,speed=3
 void expect_same_maps_under_every_march(BackendKind backend) {
   expect_same_maps(kHardInput, {}, backend, 48);
   expect_same_maps(kHardInput, {"voxel_size_m=0.01"}, backend, 24);
-  expect_same_maps(kHardInput,
-                   {"raycast_constant_step_m=0.05", "raycast_interp=two_value",
-                    "raycast_block_px=2,2"},
-                   backend, 24);
+  expect_same_maps(
+      kHardInput,
+      {"raycast_constant_step_m=0.05", "raycast_interp=two_value", "raycast_block_px=2,2"}, backend,
+      24);
 }
 
 TEST(RayRange, TheSameReferenceMapsWithAndWithoutTheRangesOnTheCpu) {

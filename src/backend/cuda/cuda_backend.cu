@@ -451,9 +451,8 @@ class CudaBackend final : public Backend {
   /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp),
   /// computed on the device in the frame's stream (two launches).
   RayRangeTiles ray_ranges(const RaycastParams& p) {
-    const RayRangeArgs r =
-        ray_range_args(p, setup_.compute_width_px(), setup_.compute_height_px(),
-                       buffers_.ray_range_tiles());
+    const RayRangeArgs r = ray_range_args(p, setup_.compute_width_px(), setup_.compute_height_px(),
+                                          buffers_.ray_range_tiles());
     const int tiles = r.tiles.tiles_x * r.tiles.tiles_y;
     launch(clear_ray_ranges_kernel, dim3((tiles + kMapThreads - 1) / kMapThreads),
            dim3(kMapThreads), r.tiles);
