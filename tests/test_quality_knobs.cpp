@@ -58,18 +58,26 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
   EXPECT_TRUE(identical(
       exact, trajectory_with({"max_depth_m=0", "icp_robust=none", "icp_robust_scale_m=0.003",
                               "icp_noise_weight=off", "integration_weight=constant",
-                              "integration_weight_ref_m=0.5"})));
+                              "integration_weight_ref_m=0.5", "icp_noise_floor_m=0.003",
+                              "min_agreement_fraction=0"})));
   const std::vector<std::vector<std::string>> on = {
       {"max_depth_m=2.5"},
       {"icp_robust=huber", "icp_robust_scale_m=0.002"},
       {"icp_robust=tukey", "icp_robust_scale_m=0.01"},
       {"icp_noise_weight=nguyen"},
+      {"min_agreement_fraction=0.99"},
       {"integration_weight=depth", "integration_weight_ref_m=0.5"},
       {"integration_weight=depth_angle"},
   };
   for (const auto& assignments : on) {
     EXPECT_FALSE(identical(exact, trajectory_with(assignments))) << assignments[0];
   }
+  // The floor changes Nguyen's weight; at 0 it is Nguyen's own, bit for bit.
+  const auto nguyen = trajectory_with({"icp_noise_weight=nguyen"});
+  EXPECT_TRUE(
+      identical(nguyen, trajectory_with({"icp_noise_weight=nguyen", "icp_noise_floor_m=0"})));
+  EXPECT_FALSE(
+      identical(nguyen, trajectory_with({"icp_noise_weight=nguyen", "icp_noise_floor_m=0.003"})));
 }
 
 TEST(QualityKnobs, SettingsAreValidated) {
@@ -81,6 +89,26 @@ TEST(QualityKnobs, SettingsAreValidated) {
   c = PipelineConfig{};
   c.quality.max_depth_m = -1.0f;
   EXPECT_THROW(c.validate(), Error);
+  c = PipelineConfig{};
+  set_config_value(c, "icp_noise_floor_m", "0.003");
+  set_config_value(c, "min_agreement_fraction", "0.3");
+  EXPECT_FLOAT_EQ(c.quality.icp_noise_floor_m, 0.003f);
+  EXPECT_FLOAT_EQ(c.quality.min_agreement_fraction, 0.3f);
+  EXPECT_NO_THROW(c.validate());
+  EXPECT_THROW(set_config_value(c, "icp_noise_floor_m", "3mm"), Error);
+  c.quality.icp_noise_floor_m = -0.001f;
+  EXPECT_THROW(c.validate(), Error);
+  c = PipelineConfig{};
+  c.quality.min_agreement_fraction = -0.1f;
+  EXPECT_THROW(c.validate(), Error);
+  c.quality.min_agreement_fraction = 1.5f;
+  EXPECT_THROW(c.validate(), Error);
+  // The agreement is read from the ICP's normal matrix, which the photometric rows join.
+  c.quality.min_agreement_fraction = 0.3f;
+  c.quality.photometric_weight = 0.1f;
+  EXPECT_THROW(c.validate(), Error);
+  c.quality.min_agreement_fraction = 0.0f;
+  EXPECT_NO_THROW(c.validate());
   // Weighted integration stores weights in 1/16 steps in an int16: the cap must fit.
   c = PipelineConfig{};
   set_config_value(c, "integration_weight", "depth");
@@ -139,6 +167,74 @@ TEST(QualityKnobs, RobustAndNoiseWeightsFollowTheirFormulas) {
   p.robust = IcpRobust::kHuber;
   EXPECT_NEAR(icp_fit_weight(inlier(0.04f), 2.0f, p),
               0.25f * (0.0012f / sigma_2m) * (0.0012f / sigma_2m), 1e-6f);
+}
+
+TEST(QualityKnobs, NoiseFloorFollowsItsFormula) {
+  IcpParams p;
+  p.noise_weight = IcpNoiseWeight::kNguyen;
+  const float s0 = kinect_axial_sigma_m(0.4f);
+  for (float z : {0.5f, 1.0f, 2.0f, 3.0f, 4.5f}) {
+    // Floor 0: today's weight (s0/s)², bit for bit.
+    const float ratio = s0 / kinect_axial_sigma_m(z);
+    EXPECT_EQ(icp_fit_weight(inlier(0.0f), z, p), ratio * ratio) << z;
+  }
+  const float s3 = kinect_axial_sigma_m(3.0f);  // 14.0 mm
+  p.noise_floor_m = 0.003f;
+  EXPECT_NEAR(icp_fit_weight(inlier(0.0f), 3.0f, p),
+              (0.003f * 0.003f + s0 * s0) / (0.003f * 0.003f + s3 * s3), 1e-6f);
+  EXPECT_NEAR(icp_fit_weight(inlier(0.0f), 0.4f, p), 1.0f, 1e-6f);  // 1 at 0.4 m, any floor
+  // The floor lifts far weights, the more the larger it is, towards 1 (all alike).
+  p.noise_floor_m = 0.0f;
+  float last = icp_fit_weight(inlier(0.0f), 3.0f, p);
+  for (float f : {0.001f, 0.003f, 0.01f, 0.1f}) {
+    p.noise_floor_m = f;
+    const float w = icp_fit_weight(inlier(0.0f), 3.0f, p);
+    EXPECT_GT(w, last) << f;
+    last = w;
+  }
+  p.noise_floor_m = 1.0f;  // σ(4.5) = 33 mm: (1 + σ0²)/(1 + σ²) = 0.9989
+  EXPECT_NEAR(icp_fit_weight(inlier(0.0f), 4.5f, p), 1.0f, 2e-3f);
+  // With Huber: the product.
+  p.noise_floor_m = 0.003f;
+  p.robust = IcpRobust::kHuber;
+  p.robust_scale_m = 0.01f;
+  EXPECT_NEAR(icp_fit_weight(inlier(0.04f), 3.0f, p),
+              0.25f * (0.003f * 0.003f + s0 * s0) / (0.003f * 0.003f + s3 * s3), 1e-6f);
+  // Without Nguyen the floor does nothing.
+  p.noise_weight = IcpNoiseWeight::kOff;
+  EXPECT_NEAR(icp_fit_weight(inlier(0.04f), 3.0f, p), 0.25f, 1e-6f);
+}
+
+TEST(QualityKnobs, AgreementTestRejectsBelowItsFractionAndIsOffAtZero) {
+  TrackingState s{};
+  const Mat4f before = Mat4f::translation(Vec3f{1, 2, 3});
+  const Mat4f after = Mat4f::translation(Vec3f{1, 2, 3.5f});
+  AcceptParams p;
+  p.compute_pixels = 1000;
+  // 500 inliers (50 %), RMS 1 cm: KFusion's test passes. Their fit weights sum to 300 (30 %),
+  // held in the trace of JᵀJ's translation block.
+  s.accumulator[kAccInliers] = 500;
+  s.accumulator[kAccErrorSq] = 500 * 0.01 * 0.01;
+  s.accumulator[kAccJtJ + 0] = 100;
+  s.accumulator[kAccJtJ + 6] = 150;
+  s.accumulator[kAccJtJ + 11] = 50;
+  EXPECT_DOUBLE_EQ(agreement_fraction(s.accumulator, p.compute_pixels), 0.3);
+  auto run = [&](float fraction) {
+    s.T_world_cam_before = before;
+    s.T_world_cam = after;
+    p.min_agreement_fraction = fraction;
+    accept_or_revert(s, p);
+    return s.tracked;
+  };
+  EXPECT_EQ(run(0.0f), 1);  // off
+  EXPECT_EQ(run(0.29f), 1);
+  EXPECT_EQ(s.T_world_cam.m[2][3], 3.5f);
+  EXPECT_EQ(run(0.31f), 0);
+  EXPECT_EQ(s.T_world_cam.m[2][3], 3.0f);  // reverted
+  EXPECT_EQ(s.accepted_run, 0);
+  // Off, it adds no reject even when nothing agrees.
+  s.accumulator[kAccJtJ + 0] = s.accumulator[kAccJtJ + 6] = s.accumulator[kAccJtJ + 11] = 0;
+  EXPECT_EQ(run(0.0f), 1);
 }
 
 TEST(QualityKnobs, FitWeightScalesTheNormalEquationsNotTheAcceptTest) {
@@ -209,6 +305,85 @@ TEST(QualityKnobs, RobustWeightDownweightsAnOutlierPlaneInTheSample) {
   EXPECT_EQ(tukey[kAccInliers], exact[kAccInliers]);
 }
 
+TEST(QualityKnobs, AgreementFractionIsTheInliersSummedFitWeight) {
+  // The accumulator holds no Σ(fit weight) of its own: agreement_fraction reads the trace of
+  // JᵀJ's translation block, Σ s²·w·|n|², n the reference's unit normal. Check it against the
+  // sum taken pixel by pixel, with Huber and the floored noise weight, with and without
+  // perforation, on a tilted plane (normals not along an axis) with an offset on its right half.
+  const Intrinsics k{120, 120, 40, 30};
+  HostImage<float> depth(80, 60), ref_depth(80, 60);
+  for (int y = 0; y < 60; ++y) {
+    for (int x = 0; x < 80; ++x) {
+      depth(x, y) = 1.5f + 0.01f * x + 0.005f * y;
+      ref_depth(x, y) = depth(x, y) + (x >= 40 ? 0.02f : 0.0f);
+    }
+  }
+  HostImage<Vec3f> vertex(80, 60), normal(80, 60), ref_vertex(80, 60), ref_normal(80, 60);
+  auto maps = [&](HostImage<float>& d, HostImage<Vec3f>& v, HostImage<Vec3f>& n) {
+    const DepthToVertexArgs va{d.view(), v.view(), k.inverse_matrix()};
+    const VertexToNormalArgs na{v.view(), n.view(), 1.0f};
+    for (int y = 0; y < 60; ++y) {
+      for (int x = 0; x < 80; ++x) depth_to_vertex_pixel(x, y, va);
+    }
+    for (int y = 0; y < 60; ++y) {
+      for (int x = 0; x < 80; ++x) vertex_to_normal_pixel(x, y, na);
+    }
+  };
+  maps(depth, vertex, normal);
+  maps(ref_depth, ref_vertex, ref_normal);
+  TrackingState state{};
+  state.T_world_cam = Mat4f::identity();
+  set_reference_view(state, k);
+  TrackArgs a;
+  a.in_vertex = vertex.view();
+  a.in_normal = normal.view();
+  a.ref_vertex = ref_vertex.view();
+  a.ref_normal = ref_normal.view();
+  a.state = &state;
+  a.robust = IcpRobust::kHuber;
+  a.robust_scale_m = 0.0035f;
+  const int pixels = 80 * 60;
+  for (const bool nguyen : {false, true}) {
+    for (const int stride : {1, 2, 3}) {
+      a.noise_weight = nguyen ? IcpNoiseWeight::kNguyen : IcpNoiseWeight::kOff;
+      a.noise_floor_m = 0.003f;
+      a.stride_px = stride;
+      double acc[kAccumulatorSize] = {};
+      double expected = 0.0, inliers = 0.0, full = 0.0;
+      for (int j = 0; j < track_grid_height(a); ++j) {
+        for (int i = 0; i < track_grid_width(a); ++i) {
+          track_sample(i, j, a, acc);
+          const int x = i * stride, y = j * stride;
+          const TrackRow row = track_pixel(x, y, a);
+          if (row.outcome != kTrackInlier) continue;
+          const double w = static_cast<double>(stride) * stride;
+          expected += w * icp_fit_weight(row, vertex(x, y).z, a);
+          inliers += w;
+          full += x >= 40 ? 0.0 : w;
+        }
+      }
+      ASSERT_GT(inliers, 0.8 * pixels) << stride;
+      EXPECT_NEAR(agreement_fraction(acc, pixels), expected / pixels, 1e-6 * expected / pixels)
+          << "nguyen " << nguyen << " stride " << stride;
+      // Huber at 3.5 mm: the right half (2 cm off along a normal that is mostly z) counts
+      // about a fifth, so the agreement lies well below the inlier fraction.
+      if (!nguyen) {
+        EXPECT_LT(agreement_fraction(acc, pixels), 0.75 * inliers / pixels);
+        EXPECT_GT(agreement_fraction(acc, pixels), full / pixels);
+      }
+    }
+  }
+  // Unweighted, it is the inlier fraction.
+  a.robust = IcpRobust::kNone;
+  a.noise_weight = IcpNoiseWeight::kOff;
+  a.stride_px = 1;
+  double acc[kAccumulatorSize] = {};
+  for (int j = 0; j < 60; ++j) {
+    for (int i = 0; i < 80; ++i) track_sample(i, j, a, acc);
+  }
+  EXPECT_NEAR(agreement_fraction(acc, pixels), acc[kAccInliers] / pixels, 1e-6);
+}
+
 using test::integrate_args;
 using test::SmallVolume;
 
@@ -272,8 +447,17 @@ TEST(QualityKnobs, CpuAndGpuAgreeWithEveryQualityKnobOn) {
   if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
   const std::string input = "synthetic:frames=60,width=320,height=240";
   PipelineConfig config = base_config(input);
-  for (const char* a : {"max_depth_m=3", "icp_robust=huber", "icp_robust_scale_m=0.005",
-                        "icp_noise_weight=nguyen", "integration_weight=depth_angle"}) {
+  for (const char* a :
+       {"max_depth_m=3", "icp_robust=huber", "icp_robust_scale_m=0.005", "icp_noise_weight=nguyen",
+        "icp_noise_floor_m=0.003", "integration_weight=depth_angle"}) {
+    set_config_assignment(config, a);
+  }
+  test::expect_backends_agree(input, config, 60);
+  // The agreement test reads the GPU's reduced JᵀJ as the CPU's (a threshold far from this
+  // room's agreement, so the reduction order cannot flip a decision).
+  config = base_config(input);
+  for (const char* a :
+       {"icp_robust=huber", "icp_robust_scale_m=0.0035", "min_agreement_fraction=0.1"}) {
     set_config_assignment(config, a);
   }
   test::expect_backends_agree(input, config, 60);

@@ -84,16 +84,36 @@ KFX_HD inline void icp_update(TrackingState& s, const double* acc, float icp_thr
 struct AcceptParams {
   float max_rms_error_m = 0.02f;      ///< reject if sqrt(Σe²/inliers) exceeds this
   float min_inlier_fraction = 0.15f;  ///< reject if inliers/(compute w·h) is below this
-  int compute_pixels = 0;             ///< compute width × height
+  /// Reject if agreement_fraction is below this (0 = off, KFusion's test alone).
+  float min_agreement_fraction = 0.0f;
+  int compute_pixels = 0;  ///< compute width × height
 };
 
-/// Accept test on the last iteration's accumulator; on reject the pose goes back (to the pose
+/// The share of the view that agrees with the map: Σ over the last ICP iteration's inliers of
+/// their fit weight (kernels/track.hpp icp_fit_weight: the robust weight, e.g. Huber's
+/// min(1, c/|e|), times the noise weight when icp_noise_weight is on; 1 when both are off),
+/// divided by the compute pixels. Read from the accumulator without a slot of its own: the
+/// translation block of JᵀJ holds Σ w·n·nᵀ, w = sample weight (s² under perforation, as in the
+/// inlier count) × fit weight, n the map's normal, a unit vector (normalize in the raycast), so
+/// its trace is Σ w·|n|² = Σ w to float rounding (|n|² = 1 within a few 1e-7). With the
+/// photometric term on, its rows add to JᵀJ too (config validation refuses that combination).
+KFX_HD inline double agreement_fraction(const double* acc, int compute_pixels) {
+  const double weight =
+      acc[kAccJtJ + 0] + acc[kAccJtJ + 6] + acc[kAccJtJ + 11];  // (0,0) (1,1) (2,2)
+  return weight / compute_pixels;
+}
+
+/// Accept test on the last iteration's accumulator (KFusion's residual RMS and inlier share,
+/// and with min_agreement_fraction > 0 the agreement); on reject the pose goes back (to the pose
 /// before any motion-model guess). Keeps the start pose of an accepted frame and the count of
 /// accepted frames in a row for the next frame's guess.
 KFX_HD inline void accept_or_revert(TrackingState& s, const AcceptParams& p) {
   const double inliers = s.accumulator[kAccInliers];
   const double rms = sqrt(s.accumulator[kAccErrorSq] / inliers);  // NaN when no inliers
-  const bool reject = rms > p.max_rms_error_m || inliers / p.compute_pixels < p.min_inlier_fraction;
+  const bool reject =
+      rms > p.max_rms_error_m || inliers / p.compute_pixels < p.min_inlier_fraction ||
+      (p.min_agreement_fraction > 0.0f &&
+       agreement_fraction(s.accumulator, p.compute_pixels) < p.min_agreement_fraction);
   if (reject) {
     s.T_world_cam = s.T_world_cam_before;
     s.tracked = 0;

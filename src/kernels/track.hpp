@@ -40,7 +40,8 @@ enum class IcpRobust : int {
 enum class IcpNoiseWeight : int {
   kOff = 0,     ///< 1, SLAMBench's
   kNguyen = 1,  ///< 1/σ(z)², σ the Kinect's axial noise (Nguyen et al. 2012), normalised to 1 at
-                ///< its smallest (z = 0.4 m)
+                ///< its smallest (z = 0.4 m); with a floor f > 0 (icp_noise_floor_m)
+                ///< (f² + σ(0.4)²)/(f² + σ(z)²)
 };
 
 /// Settings of one ICP iteration, derived from the configuration.
@@ -52,6 +53,9 @@ struct IcpParams {
   IcpRobust robust = IcpRobust::kNone;                 ///< robust weight of the residual
   float robust_scale_m = 0.01f;                        ///< its scale c, metres
   IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
+  /// Floor f of the noise model, metres (0 = none): σ² becomes f² + σ², so near points stop
+  /// outweighing far ones once σ(z) < f (the map and the association have errors of their own).
+  float noise_floor_m = 0.0f;
   PhotometricParams photometric;  ///< the photometric term beside the ICP (weight 0: off)
 };
 
@@ -122,7 +126,8 @@ KFX_HD inline float kinect_axial_sigma_m(float z_m) {
 
 /// Weight of an inlier row in the normal equations (not in the counts and Σe² of the accept
 /// test): the robust weight of its residual times its noise weight at camera depth `depth_m`.
-/// 1 when both are off.
+/// 1 when both are off. The noise weight is σ(0.4)²/σ(z)², or with a floor f > 0
+/// (f² + σ(0.4)²)/(f² + σ(z)²): 1 at 0.4 m either way, tending to 1 everywhere as f grows.
 KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const IcpParams& p) {
   float w = 1.0f;
   const float r = fabsf(row.error_m);
@@ -133,8 +138,14 @@ KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const Icp
     w = u < 1.0f ? (1.0f - u * u) * (1.0f - u * u) : 0.0f;
   }
   if (p.noise_weight == IcpNoiseWeight::kNguyen) {
-    const float s = kinect_axial_sigma_m(0.4f) / kinect_axial_sigma_m(depth_m);
-    w *= s * s;
+    if (p.noise_floor_m > 0.0f) {
+      const float f2 = p.noise_floor_m * p.noise_floor_m;
+      const float s0 = kinect_axial_sigma_m(0.4f), s = kinect_axial_sigma_m(depth_m);
+      w *= (f2 + s0 * s0) / (f2 + s * s);
+    } else {  // no floor: today's expression, so its runs stay bit for bit
+      const float s = kinect_axial_sigma_m(0.4f) / kinect_axial_sigma_m(depth_m);
+      w *= s * s;
+    }
   }
   return w;
 }

@@ -470,6 +470,17 @@ std::vector<ConfigField> build_fields() {
       "axial noise 0.0012 + 0.0019 (z - 0.4)^2 m, Nguyen et al. 2012)",
       Choices<IcpNoiseWeight>{{"off", IcpNoiseWeight::kOff}, {"nguyen", IcpNoiseWeight::kNguyen}},
       [](C& c) -> IcpNoiseWeight& { return c.quality.icp_noise_weight; });
+  num("icp_noise_floor_m", "quality", "", "",
+      "track: with icp_noise_weight=nguyen, a floor f (metres) on the noise model: the weight "
+      "becomes (f^2 + sigma(0.4)^2) / (f^2 + sigma(z)^2), so points whose sigma is below f "
+      "weigh alike (0 = no floor, 1/sigma(z)^2; >= 0)",
+      [](C& c) -> float& { return c.quality.icp_noise_floor_m; });
+  num("min_agreement_fraction", "quality", "", "",
+      "accept test: reject a frame when the sum over the last ICP iteration's inliers of their "
+      "fit weight (icp_robust's weight, e.g. huber's min(1, c/|e|), times icp_noise_weight's), "
+      "divided by the compute pixels, is below this: how much of the view agrees with the map "
+      "(0 = off; in [0, 1]; needs photometric_weight=0)",
+      [](C& c) -> float& { return c.quality.min_agreement_fraction; });
   quality_choice("integration_weight",
                  "integrate: weight of a new measurement in the running average: constant (1) | "
                  "depth (min(1, (ref/d)^2), ref = integration_weight_ref_m) | depth_angle (that "
@@ -619,6 +630,14 @@ void PipelineConfig::validate() const {
             "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
   KFX_CHECK(quality.icp_robust_scale_m > 0,
             "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
+  KFX_CHECK(std::isfinite(quality.icp_noise_floor_m) && quality.icp_noise_floor_m >= 0,
+            "icp_noise_floor_m must be >= 0 (0 = no floor), got " << quality.icp_noise_floor_m);
+  KFX_CHECK(
+      quality.min_agreement_fraction >= 0 && quality.min_agreement_fraction <= 1,
+      "min_agreement_fraction must be in [0, 1] (0 = off), got " << quality.min_agreement_fraction);
+  KFX_CHECK(quality.min_agreement_fraction == 0 || quality.photometric_weight == 0,
+            "min_agreement_fraction > 0 needs photometric_weight=0 (the photometric rows would "
+            "count in the agreement, which is read from the ICP's normal matrix)");
   KFX_CHECK(std::isfinite(quality.photometric_weight) && quality.photometric_weight >= 0,
             "photometric_weight must be >= 0 (0 = off), got " << quality.photometric_weight);
   KFX_CHECK(quality.photometric_max_residual > 0 && quality.photometric_max_residual <= 1,
@@ -697,10 +716,12 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.icp.robust = config.quality.icp_robust;
   p.icp.robust_scale_m = config.quality.icp_robust_scale_m;
   p.icp.noise_weight = config.quality.icp_noise_weight;
+  p.icp.noise_floor_m = config.quality.icp_noise_floor_m;
   p.icp.photometric.weight = config.quality.photometric_weight;
   p.icp.photometric.max_residual = config.quality.photometric_max_residual;
   p.accept.max_rms_error_m = config.tracking.max_rms_error_m;
   p.accept.min_inlier_fraction = config.tracking.min_inlier_fraction;
+  p.accept.min_agreement_fraction = config.quality.min_agreement_fraction;
   p.accept.compute_pixels = compute_width_px * compute_height_px;
   p.integrate.k = compute_k;
   p.integrate.mu_m = config.volume.mu_m;

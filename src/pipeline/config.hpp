@@ -104,6 +104,10 @@ struct PipelineConfig {
     IcpRobust icp_robust = IcpRobust::kNone;  ///< none | huber | tukey
     float icp_robust_scale_m = 0.01f;         ///< robust scale c, point-to-plane metres
     IcpNoiseWeight icp_noise_weight = IcpNoiseWeight::kOff;  ///< off | nguyen (1/σ(z)²)
+    float icp_noise_floor_m = 0.0f;  ///< nguyen's floor f: (f² + σ(0.4)²)/(f² + σ(z)²); 0 = none
+    /// Accept test: reject a frame whose inliers' summed ICP fit weight / compute pixels is
+    /// below this (kernels/frame_logic.hpp agreement_fraction); 0 = off.
+    float min_agreement_fraction = 0.0f;
     IntegrationWeight integration_weight = IntegrationWeight::kConstant;  ///< constant | depth |
                                                                           ///< depth_angle
     float integration_weight_ref_m = 1.0f;  ///< full weight up to this depth, (ref/d)² beyond
