@@ -442,6 +442,38 @@ TEST(QualityKnobs, AngleWeightUsesTheNormalAndCapsAtMaxWeight) {
   EXPECT_EQ(vol.view().at(3, 3, 3).weight, 2 * kWeightUnits);
 }
 
+/// With agreement_when_reacquiring the agreement judges only the first accept after a rejected
+/// frame: a frame tracked on from an accept passes with the same low agreement.
+TEST(QualityKnobs, AgreementWhenReacquiringJudgesOnlyTheFirstAcceptAfterARejection) {
+  TrackingState s{};
+  AcceptParams p;
+  p.compute_pixels = 1000;
+  p.min_agreement_fraction = 0.5f;
+  p.agreement_when_reacquiring = true;
+  auto run = [&](double inliers, double agreeing) {
+    s.T_world_cam_before = Mat4f::translation(Vec3f{0, 0, 0});
+    s.T_world_cam = Mat4f::translation(Vec3f{0, 0, 0.1f});
+    s.accumulator[kAccInliers] = inliers;
+    s.accumulator[kAccErrorSq] = inliers * 0.01 * 0.01;
+    s.accumulator[kAccJtJ + 0] = agreeing;
+    s.accumulator[kAccJtJ + 6] = s.accumulator[kAccJtJ + 11] = 0;
+    accept_or_revert(s, p);
+    return s.tracked;
+  };
+  EXPECT_EQ(s.rejected_since_accept, 0);
+  EXPECT_EQ(run(500, 300), 1);  // tracking on (nothing rejected yet): agreement 0.3 not judged
+  EXPECT_EQ(run(100, 100), 0);  // KFusion's inlier test rejects (10 %)
+  EXPECT_EQ(s.rejected_since_accept, 1);
+  EXPECT_EQ(run(500, 300), 0);  // re-acquiring: agreement 0.3 < 0.5 rejects
+  EXPECT_EQ(s.T_world_cam.m[2][3], 0.0f);
+  EXPECT_EQ(s.rejected_since_accept, 1);
+  EXPECT_EQ(run(500, 600), 1);  // re-acquires with agreement 0.6
+  EXPECT_EQ(s.rejected_since_accept, 0);
+  EXPECT_EQ(run(500, 300), 1);  // tracking on again: not judged
+  p.agreement_when_reacquiring = false;
+  EXPECT_EQ(run(500, 300), 0);  // judged on every frame
+}
+
 TEST(QualityKnobs, CpuAndGpuAgreeWithEveryQualityKnobOn) {
   std::string why_not;
   if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
@@ -461,6 +493,15 @@ TEST(QualityKnobs, CpuAndGpuAgreeWithEveryQualityKnobOn) {
     set_config_assignment(config, a);
   }
   test::expect_backends_agree(input, config, 60);
+  // Judged on re-acquisition only: the device keeps rejected_since_accept as the host does
+  // (a blank stretch makes frames 30-34 rejected, so frame 35 re-acquires).
+  const std::string blank = "synthetic:frames=60,width=320,height=240,blank=30-34";
+  config = base_config(blank);
+  for (const char* a : {"icp_robust=huber", "icp_robust_scale_m=0.0035",
+                        "min_agreement_fraction=0.1", "agreement_when_reacquiring=on"}) {
+    set_config_assignment(config, a);
+  }
+  test::expect_backends_agree(blank, config, 60);
 }
 
 }  // namespace

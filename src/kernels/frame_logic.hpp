@@ -86,6 +86,9 @@ struct AcceptParams {
   float min_inlier_fraction = 0.15f;  ///< reject if inliers/(compute w·h) is below this
   /// Reject if agreement_fraction is below this (0 = off, KFusion's test alone).
   float min_agreement_fraction = 0.0f;
+  /// Apply min_agreement_fraction only to a frame that would re-acquire tracking (the first
+  /// accept after a rejected frame); false: to every frame.
+  bool agreement_when_reacquiring = false;
   int compute_pixels = 0;  ///< compute width × height
 };
 
@@ -110,16 +113,20 @@ KFX_HD inline double agreement_fraction(const double* acc, int compute_pixels) {
 KFX_HD inline void accept_or_revert(TrackingState& s, const AcceptParams& p) {
   const double inliers = s.accumulator[kAccInliers];
   const double rms = sqrt(s.accumulator[kAccErrorSq] / inliers);  // NaN when no inliers
-  const bool reject =
-      rms > p.max_rms_error_m || inliers / p.compute_pixels < p.min_inlier_fraction ||
-      (p.min_agreement_fraction > 0.0f &&
-       agreement_fraction(s.accumulator, p.compute_pixels) < p.min_agreement_fraction);
+  const bool agreement_applies = p.min_agreement_fraction > 0.0f &&
+                                 (!p.agreement_when_reacquiring || s.rejected_since_accept != 0);
+  const bool reject = rms > p.max_rms_error_m ||
+                      inliers / p.compute_pixels < p.min_inlier_fraction ||
+                      (agreement_applies && agreement_fraction(s.accumulator, p.compute_pixels) <
+                                                p.min_agreement_fraction);
   if (reject) {
     s.T_world_cam = s.T_world_cam_before;
     s.tracked = 0;
     s.accepted_run = 0;
+    s.rejected_since_accept = 1;
   } else {
     s.tracked = 1;
+    s.rejected_since_accept = 0;
     s.T_world_cam_prev = s.T_world_cam_before;
     s.accepted_run = s.accepted_run < 2 ? s.accepted_run + 1 : 2;
   }

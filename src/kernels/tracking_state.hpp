@@ -41,6 +41,9 @@ struct TrackingState {
   int iterations_run;   ///< ICP iterations actually run this frame (all levels)
   int frame_index;      ///< frame number f, counted on the device (−1 before frame 0)
   int accepted_run;     ///< tracked frames accepted in a row, counted up to 2 (0 after a reject)
+  /// 1 from a rejected tracked frame until the next accepted one: the next accept re-acquires
+  /// (the bootstrap frames, which are not tracked, leave it 0).
+  int rejected_since_accept;
   // The block map (volume=blocks; 0 with the dense cube):
   int map_blocks;          ///< blocks allocated after this frame
   int map_blocks_dropped;  ///< blocks this frame's band reached that the map had no room for

@@ -481,6 +481,10 @@ std::vector<ConfigField> build_fields() {
       "divided by the compute pixels, is below this: how much of the view agrees with the map "
       "(0 = off; in [0, 1]; needs photometric_weight=0)",
       [](C& c) -> float& { return c.quality.min_agreement_fraction; });
+  on_off("agreement_when_reacquiring", "quality",
+         "accept test: apply min_agreement_fraction only to a frame that would re-acquire "
+         "tracking, the first accept after a rejected frame (off = to every frame; on|off)",
+         [](C& c) -> bool& { return c.quality.agreement_when_reacquiring; });
   quality_choice("integration_weight",
                  "integrate: weight of a new measurement in the running average: constant (1) | "
                  "depth (min(1, (ref/d)^2), ref = integration_weight_ref_m) | depth_angle (that "
@@ -722,6 +726,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.accept.max_rms_error_m = config.tracking.max_rms_error_m;
   p.accept.min_inlier_fraction = config.tracking.min_inlier_fraction;
   p.accept.min_agreement_fraction = config.quality.min_agreement_fraction;
+  p.accept.agreement_when_reacquiring = config.quality.agreement_when_reacquiring;
   p.accept.compute_pixels = compute_width_px * compute_height_px;
   p.integrate.k = compute_k;
   p.integrate.mu_m = config.volume.mu_m;

@@ -108,6 +108,8 @@ struct PipelineConfig {
     /// Accept test: reject a frame whose inliers' summed ICP fit weight / compute pixels is
     /// below this (kernels/frame_logic.hpp agreement_fraction); 0 = off.
     float min_agreement_fraction = 0.0f;
+    /// min_agreement_fraction applies only to the first accept after a rejected frame.
+    bool agreement_when_reacquiring = false;
     IntegrationWeight integration_weight = IntegrationWeight::kConstant;  ///< constant | depth |
                                                                           ///< depth_angle
     float integration_weight_ref_m = 1.0f;  ///< full weight up to this depth, (ref/d)² beyond
