@@ -51,6 +51,42 @@ bool identical(const std::vector<io::StampedPose>& a, const std::vector<io::Stam
   return true;
 }
 
+/// The vertex and normal maps of an 80×60 depth image and of a reference depth image, and the
+/// TrackArgs that track the first against the second from the identity pose. Not copyable: the
+/// args point into the maps and the state.
+struct TrackPair {
+  HostImage<Vec3f> vertex{80, 60}, normal{80, 60}, ref_vertex{80, 60}, ref_normal{80, 60};
+  TrackingState state{};
+  TrackArgs args;
+
+  TrackPair(const Intrinsics& k, HostImage<float>& depth, HostImage<float>& ref_depth) {
+    maps(k, depth, vertex, normal);
+    maps(k, ref_depth, ref_vertex, ref_normal);
+    state.T_world_cam = Mat4f::identity();
+    set_reference_view(state, k);
+    args.in_vertex = vertex.view();
+    args.in_normal = normal.view();
+    args.ref_vertex = ref_vertex.view();
+    args.ref_normal = ref_normal.view();
+    args.state = &state;
+  }
+  TrackPair(const TrackPair&) = delete;
+  TrackPair& operator=(const TrackPair&) = delete;
+
+ private:
+  static void maps(const Intrinsics& k, HostImage<float>& d, HostImage<Vec3f>& v,
+                   HostImage<Vec3f>& n) {
+    const DepthToVertexArgs va{d.view(), v.view(), k.inverse_matrix()};
+    const VertexToNormalArgs na{v.view(), n.view(), 1.0f};
+    for (int y = 0; y < 60; ++y) {
+      for (int x = 0; x < 80; ++x) depth_to_vertex_pixel(x, y, va);
+    }
+    for (int y = 0; y < 60; ++y) {
+      for (int x = 0; x < 80; ++x) vertex_to_normal_pixel(x, y, na);
+    }
+  }
+};
+
 TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
   const auto exact = trajectory_with({});
   // The defaults, written out, change nothing (the robust scale and the reference depth only
@@ -259,28 +295,8 @@ TEST(QualityKnobs, RobustWeightDownweightsAnOutlierPlaneInTheSample) {
   for (int y = 0; y < 60; ++y) {
     for (int x = 40; x < 80; ++x) ref_depth(x, y) = 2.03f;
   }
-  HostImage<Vec3f> vertex(80, 60), normal(80, 60), ref_vertex(80, 60), ref_normal(80, 60);
-  auto maps = [&](HostImage<float>& d, HostImage<Vec3f>& v, HostImage<Vec3f>& n) {
-    const DepthToVertexArgs va{d.view(), v.view(), k.inverse_matrix()};
-    const VertexToNormalArgs na{v.view(), n.view(), 1.0f};
-    for (int y = 0; y < 60; ++y) {
-      for (int x = 0; x < 80; ++x) depth_to_vertex_pixel(x, y, va);
-    }
-    for (int y = 0; y < 60; ++y) {
-      for (int x = 0; x < 80; ++x) vertex_to_normal_pixel(x, y, na);
-    }
-  };
-  maps(depth, vertex, normal);
-  maps(ref_depth, ref_vertex, ref_normal);
-  TrackingState state{};
-  state.T_world_cam = Mat4f::identity();
-  set_reference_view(state, k);
-  TrackArgs a;
-  a.in_vertex = vertex.view();
-  a.in_normal = normal.view();
-  a.ref_vertex = ref_vertex.view();
-  a.ref_normal = ref_normal.view();
-  a.state = &state;
+  TrackPair pair(k, depth, ref_depth);
+  TrackArgs& a = pair.args;
   auto reduce = [&](const TrackArgs& args, double* acc) {
     for (int j = 0; j < track_grid_height(args); ++j) {
       for (int i = 0; i < track_grid_width(args); ++i) track_sample(i, j, args, acc);
@@ -318,28 +334,9 @@ TEST(QualityKnobs, AgreementFractionIsTheInliersSummedFitWeight) {
       ref_depth(x, y) = depth(x, y) + (x >= 40 ? 0.02f : 0.0f);
     }
   }
-  HostImage<Vec3f> vertex(80, 60), normal(80, 60), ref_vertex(80, 60), ref_normal(80, 60);
-  auto maps = [&](HostImage<float>& d, HostImage<Vec3f>& v, HostImage<Vec3f>& n) {
-    const DepthToVertexArgs va{d.view(), v.view(), k.inverse_matrix()};
-    const VertexToNormalArgs na{v.view(), n.view(), 1.0f};
-    for (int y = 0; y < 60; ++y) {
-      for (int x = 0; x < 80; ++x) depth_to_vertex_pixel(x, y, va);
-    }
-    for (int y = 0; y < 60; ++y) {
-      for (int x = 0; x < 80; ++x) vertex_to_normal_pixel(x, y, na);
-    }
-  };
-  maps(depth, vertex, normal);
-  maps(ref_depth, ref_vertex, ref_normal);
-  TrackingState state{};
-  state.T_world_cam = Mat4f::identity();
-  set_reference_view(state, k);
-  TrackArgs a;
-  a.in_vertex = vertex.view();
-  a.in_normal = normal.view();
-  a.ref_vertex = ref_vertex.view();
-  a.ref_normal = ref_normal.view();
-  a.state = &state;
+  TrackPair pair(k, depth, ref_depth);
+  TrackArgs& a = pair.args;
+  const HostImage<Vec3f>& vertex = pair.vertex;
   a.robust = IcpRobust::kHuber;
   a.robust_scale_m = 0.0035f;
   const int pixels = 80 * 60;
