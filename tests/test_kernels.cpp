@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <Eigen/Dense>
+#include <algorithm>
 #include <cmath>
 #include <random>
 #include <vector>
@@ -469,6 +470,78 @@ TEST(Raycast, PlaneDepthAndNormalAreAnalytic) {
     EXPECT_NEAR(vertex(x, y).z, 2.0f, 0.01f) << x << "," << y;  // within a fifth of a voxel
     EXPECT_NEAR(normal(x, y).z, -1.0f, 0.01f);
   }
+}
+
+TEST(Raycast, NormalSpanGivesAPlanesNormalAndAveragesNoise) {
+  // A tsdf that is a plane's signed distance / 0.5 m in every voxel: trilinear samples
+  // reproduce it exactly, so the wide central differences (raycast_normal_span_m's
+  // volume_gradient_span) give the plane's normal. With noise on every voxel, they give it more
+  // closely than the one-voxel gradient (the reason for the setting).
+  const Vec3f n = normalize(Vec3f{0.3f, -0.5f, -1.0f}), p0{1.6f, 1.6f, 1.7f};
+  std::mt19937 rng(11);
+  std::normal_distribution<float> noise(0.0f, 0.01f);    // tsdf units: 5 mm of distance
+  std::uniform_real_distribution<float> u(-0.1f, 0.1f);  // every read within the band
+  for (const bool noisy : {false, true}) {
+    VolumeFixture vol;  // 5 cm voxels
+    for (int z = 0; z < vol.res; ++z) {
+      for (int y = 0; y < vol.res; ++y) {
+        for (int x = 0; x < vol.res; ++x) {
+          const Vec3f c = voxel_centre_m(x, y, z, vol.size_m / vol.res);
+          const float tsdf = dot(n, c - p0) / 0.5f + (noisy ? noise(rng) : 0.0f);
+          vol.voxels[x + y * vol.res + z * vol.res * vol.res].tsdf =
+              static_cast<int16_t>(std::lround(std::clamp(tsdf, -1.0f, 1.0f) * kTsdfScale));
+        }
+      }
+    }
+    const VolumeView view = vol.view();
+    double error_span = 0, error_one = 0;
+    for (int i = 0; i < 200; ++i) {
+      const Vec3f p = p0 + Vec3f{u(rng), u(rng), u(rng)};
+      const Vec3f g_span = normalize(volume_gradient_span(view, p, 0.15f));
+      const Vec3f g_one = normalize(volume_gradient(view, p));
+      if (!noisy) ASSERT_GT(dot(g_span, n), 0.99999f) << i;
+      error_span += std::acos(std::min(1.0f, dot(g_span, n)));
+      error_one += std::acos(std::min(1.0f, dot(g_one, n)));
+    }
+    if (noisy) EXPECT_LT(error_span, 0.5 * error_one);
+  }
+}
+
+TEST(Raycast, NormalSpanChangesOnlyTheNormalsAndZeroIsTheDefault) {
+  // A plane tilted about the camera's y axis: with the setting on, the same hits and normals
+  // that face the camera; at 0, every normal bit for bit the one-voxel gradient's.
+  constexpr float z0_m = 2.0f, s = 0.3f;
+  VolumeFixture vol;
+  TrackingState state{};
+  state.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
+  HostImage<float> depth(80, 60);
+  for_each(80, 60, [&](int x, int y) { depth(x, y) = z0_m / (1.0f - s * (x - kK.cx) / kK.fx); });
+  for (int i = 0; i < 3; ++i) integrate_all(vol, depth, state, true);
+  set_reference_view(state, kK);
+  HostImage<Vec3f> vertex(80, 60), normal(80, 60), v_span(80, 60), n_span(80, 60);
+  RaycastArgs a = raycast_args(vol, vertex, normal, state, vol.size_m / vol.res, 0.075f);
+  for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
+  a.vertex = v_span.view();
+  a.normal = n_span.view();
+  a.normal_span_m = 1.5f * vol.size_m / vol.res;
+  for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
+  int hits = 0;
+  for_each(80, 60, [&](int x, int y) {
+    ASSERT_EQ(v_span(x, y).z, vertex(x, y).z);  // the march does not read the setting
+    // Away from the image's sides, where the band ends and a wide span reads past it.
+    if (normal(x, y).x == kInvalidNormal || x < 10 || x >= 70 || y < 10 || y >= 50) return;
+    ++hits;
+    ASSERT_LT(n_span(x, y).z, 0.0f) << x << "," << y;  // facing the camera
+    ASSERT_NEAR(length(n_span(x, y)), 1.0f, 1e-5f);
+  });
+  EXPECT_GT(hits, 2000);
+  a.normal_span_m = 0.0f;
+  for_each(80, 60, [&](int x, int y) { raycast_pixel(x, y, a); });
+  for_each(80, 60, [&](int x, int y) {
+    ASSERT_EQ(n_span(x, y).x, normal(x, y).x);
+    ASSERT_EQ(n_span(x, y).y, normal(x, y).y);
+    ASSERT_EQ(n_span(x, y).z, normal(x, y).z);
+  });
 }
 
 TEST(Raycast, SkippingUntouchedBricksChangesNothing) {

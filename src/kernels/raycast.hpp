@@ -85,6 +85,22 @@ KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
   return g;
 }
 
+/// Unnormalised tsdf gradient from central differences of ±span_m along each axis, each end a
+/// trilinear sample (setting raycast_normal_span_m). Wider than volume_gradient's one voxel, it
+/// averages the surface over more voxels: with voxels finer than the depth noise, one-voxel
+/// differences give noisy normals, and ICP against them can slide to a wrong minimum after a
+/// gap (bench/RESULTS.md, "Session 16").
+template <class Map>
+KFX_HD inline Vec3f volume_gradient_span(const Map& vol, Vec3f p_m, float span_m) {
+  const float dx = volume_interp(vol, p_m + Vec3f{span_m, 0.0f, 0.0f}) -
+                   volume_interp(vol, p_m - Vec3f{span_m, 0.0f, 0.0f});
+  const float dy = volume_interp(vol, p_m + Vec3f{0.0f, span_m, 0.0f}) -
+                   volume_interp(vol, p_m - Vec3f{0.0f, span_m, 0.0f});
+  const float dz = volume_interp(vol, p_m + Vec3f{0.0f, 0.0f, span_m}) -
+                   volume_interp(vol, p_m - Vec3f{0.0f, 0.0f, span_m});
+  return Vec3f{dx, dy, dz};
+}
+
 /// The march switches from the large step to the one-voxel step at the first sample below this
 /// tsdf (SLAMBench's 0.8).
 constexpr float kFineStepBelowTsdf = 0.8f;
@@ -291,6 +307,9 @@ struct RaycastParams {
   /// Speed only (setting raycast_tile_bounds): with a block map, each ray marches only through
   /// the depth range its tile's touched blocks cover (kernels/ray_range.hpp); the same bits.
   bool tile_bounds = true;
+  /// Quality (setting raycast_normal_span_m): > 0: the hit's normal from central differences of
+  /// ± this many metres (volume_gradient_span); 0: KFusion's one-voxel gradient.
+  float normal_span_m = 0.0f;
 };
 
 /// The ray-range arguments (ray_range.hpp) of a raycast with settings `p` over a compute image
@@ -501,7 +520,8 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
           : raycast_ray<kRaycastBatch>(a, origin, direction, hit, touched_from_m, touched_to_m);
   if (t_hit > 0.0f) {
     a.vertex(x, y) = hit;
-    const Vec3f g = volume_gradient(a.volume, hit);
+    const Vec3f g = a.normal_span_m > 0.0f ? volume_gradient_span(a.volume, hit, a.normal_span_m)
+                                           : volume_gradient(a.volume, hit);
     const float len = length(g);
     a.normal(x, y) = len == 0.0f ? Vec3f{kInvalidNormal, 0.0f, 0.0f} : normalize(g);
   } else {

@@ -475,6 +475,11 @@ std::vector<ConfigField> build_fields() {
       "becomes (f^2 + sigma(0.4)^2) / (f^2 + sigma(z)^2), so points whose sigma is below f "
       "weigh alike (0 = no floor, 1/sigma(z)^2; >= 0)",
       [](C& c) -> float& { return c.quality.icp_noise_floor_m; });
+  num("raycast_normal_span_m", "quality", "", "",
+      "raycast: the model's normals (ICP's reference) from central differences of +- this many "
+      "metres, each end a trilinear sample, instead of one voxel: smoother normals where voxels "
+      "are finer than the depth noise (0 = one voxel, KFusion's; >= 0)",
+      [](C& c) -> float& { return c.quality.raycast_normal_span_m; });
   num("min_agreement_fraction", "quality", "", "",
       "accept test: reject a frame when the sum over the last ICP iteration's inliers of their "
       "fit weight (icp_robust's weight, e.g. huber's min(1, c/|e|), times icp_noise_weight's), "
@@ -634,6 +639,9 @@ void PipelineConfig::validate() const {
             "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
   KFX_CHECK(quality.icp_robust_scale_m > 0,
             "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
+  KFX_CHECK(
+      std::isfinite(quality.raycast_normal_span_m) && quality.raycast_normal_span_m >= 0,
+      "raycast_normal_span_m must be >= 0 (0 = one voxel), got " << quality.raycast_normal_span_m);
   KFX_CHECK(std::isfinite(quality.icp_noise_floor_m) && quality.icp_noise_floor_m >= 0,
             "icp_noise_floor_m must be >= 0 (0 = no floor), got " << quality.icp_noise_floor_m);
   KFX_CHECK(
@@ -747,6 +755,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.raycast.block_x_px = approx.raycast_block_px[0];
   p.raycast.block_y_px = approx.raycast_block_px[1];
   p.raycast.tile_bounds = config.raycast.tile_bounds;
+  p.raycast.normal_span_m = config.quality.raycast_normal_span_m;
   // SLAMBench's renders: depth over [near, far], the volume marched exactly (whatever the
   // raycast approximations) out to twice the far plane, lit by a point light at (1, 1, −1) m.
   p.render.depth_near_m = config.raycast.near_m;
@@ -756,6 +765,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.render.volume_ray.block_x_px = p.render.volume_ray.block_y_px = 1;
   p.render.volume_ray.constant_step_m = 0.0f;
   p.render.volume_ray.interp = RaycastInterp::kTrilinear;
+  p.render.volume_ray.normal_span_m = 0.0f;
   return p;
 }
 

@@ -124,6 +124,9 @@ struct PipelineConfig {
     /// off (KFusion's, and the ICP's sums stay bit for bit); > 0 needs colour images.
     float photometric_weight = 0.0f;
     float photometric_max_residual = 0.2f;  ///< drop photometric rows beyond this residual
+    /// The raycast's normals from central differences of ± this many metres (0 = one voxel,
+    /// KFusion's); kernels/raycast.hpp volume_gradient_span.
+    float raycast_normal_span_m = 0.0f;
   } quality;
 
   /// Colour fused beside the TSDF (docs/colour.md). Never read by tracking: the trajectory is
