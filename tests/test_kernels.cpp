@@ -507,6 +507,18 @@ TEST(Raycast, NormalSpanGivesAPlanesNormalAndAveragesNoise) {
   }
 }
 
+TEST(Raycast, NormalSpanGrowsWithTheDepthNoiseWhereAsked) {
+  RaycastParams p;
+  EXPECT_EQ(normal_span_at_m(p, 2.0f), 0.0f);  // the defaults: one voxel
+  p.normal_span_m = 0.01f;
+  EXPECT_EQ(normal_span_at_m(p, 3.0f), 0.01f);
+  p.normal_span_noise = 3.0f;  // σ(1 m) = 1.88 mm, σ(3 m) = 14.04 mm
+  EXPECT_EQ(normal_span_at_m(p, 1.0f), 0.01f);
+  EXPECT_NEAR(normal_span_at_m(p, 3.0f), 3.0f * 0.014044f, 1e-6f);
+  p.normal_span_m = 0.0f;
+  EXPECT_NEAR(normal_span_at_m(p, 1.0f), 3.0f * 0.001884f, 1e-6f);
+}
+
 TEST(Raycast, NormalSpanChangesOnlyTheNormalsAndZeroIsTheDefault) {
   // A plane tilted about the camera's y axis: with the setting on, the same hits and normals
   // that face the camera; at 0, every normal bit for bit the one-voxel gradient's.

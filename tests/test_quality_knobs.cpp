@@ -92,10 +92,11 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
   // The defaults, written out, change nothing (the robust scale and the reference depth only
   // matter once their technique is on).
   EXPECT_TRUE(identical(
-      exact, trajectory_with({"max_depth_m=0", "icp_robust=none", "icp_robust_scale_m=0.003",
-                              "icp_noise_weight=off", "integration_weight=constant",
-                              "integration_weight_ref_m=0.5", "icp_noise_floor_m=0.003",
-                              "min_agreement_fraction=0", "raycast_normal_span_m=0"})));
+      exact,
+      trajectory_with(
+          {"max_depth_m=0", "icp_robust=none", "icp_robust_scale_m=0.003", "icp_noise_weight=off",
+           "integration_weight=constant", "integration_weight_ref_m=0.5", "icp_noise_floor_m=0.003",
+           "min_agreement_fraction=0", "raycast_normal_span_m=0", "raycast_normal_span_noise=0"})));
   const std::vector<std::vector<std::string>> on = {
       {"max_depth_m=2.5"},
       {"icp_robust=huber", "icp_robust_scale_m=0.002"},
@@ -105,6 +106,7 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
       {"integration_weight=depth", "integration_weight_ref_m=0.5"},
       {"integration_weight=depth_angle"},
       {"raycast_normal_span_m=0.03"},
+      {"raycast_normal_span_noise=3"},
   };
   for (const auto& assignments : on) {
     EXPECT_FALSE(identical(exact, trajectory_with(assignments))) << assignments[0];
@@ -138,6 +140,9 @@ TEST(QualityKnobs, SettingsAreValidated) {
   c.quality.raycast_normal_span_m = -0.01f;
   EXPECT_THROW(c.validate(), Error);
   c.quality.raycast_normal_span_m = 0.0f;
+  c.quality.raycast_normal_span_noise = -1.0f;
+  EXPECT_THROW(c.validate(), Error);
+  c.quality.raycast_normal_span_noise = 0.0f;
   EXPECT_THROW(set_config_value(c, "icp_noise_floor_m", "3mm"), Error);
   c.quality.icp_noise_floor_m = -0.001f;
   EXPECT_THROW(c.validate(), Error);
@@ -483,9 +488,10 @@ TEST(QualityKnobs, CpuAndGpuAgreeWithEveryQualityKnobOn) {
   if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
   const std::string input = "synthetic:frames=60,width=320,height=240";
   PipelineConfig config = base_config(input);
-  for (const char* a : {"max_depth_m=3", "icp_robust=huber", "icp_robust_scale_m=0.005",
-                        "icp_noise_weight=nguyen", "icp_noise_floor_m=0.003",
-                        "integration_weight=depth_angle", "raycast_normal_span_m=0.03"}) {
+  for (const char* a :
+       {"max_depth_m=3", "icp_robust=huber", "icp_robust_scale_m=0.005", "icp_noise_weight=nguyen",
+        "icp_noise_floor_m=0.003", "integration_weight=depth_angle", "raycast_normal_span_m=0.01",
+        "raycast_normal_span_noise=3"}) {
     set_config_assignment(config, a);
   }
   test::expect_backends_agree(input, config, 60);

@@ -5,6 +5,7 @@
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "core/volume.hpp"
+#include "kernels/depth_noise.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/ray_range.hpp"
 #include "kernels/tracking_state.hpp"
@@ -307,10 +308,17 @@ struct RaycastParams {
   /// Speed only (setting raycast_tile_bounds): with a block map, each ray marches only through
   /// the depth range its tile's touched blocks cover (kernels/ray_range.hpp); the same bits.
   bool tile_bounds = true;
-  /// Quality (setting raycast_normal_span_m): > 0: the hit's normal from central differences of
-  /// ± this many metres (volume_gradient_span); 0: KFusion's one-voxel gradient.
+  /// Quality (settings raycast_normal_span_m, raycast_normal_span_noise): the hit's normal from
+  /// central differences of ± max(normal_span_m, normal_span_noise · σ(depth)) metres
+  /// (volume_gradient_span, σ: kinect_axial_sigma_m); both 0: KFusion's one-voxel gradient.
   float normal_span_m = 0.0f;
+  float normal_span_noise = 0.0f;
 };
+
+/// The normal's half-span at a hit `depth_m` from the camera (RaycastParams); 0: one voxel.
+KFX_HD inline float normal_span_at_m(const RaycastParams& p, float depth_m) {
+  return max_f(p.normal_span_m, p.normal_span_noise * kinect_axial_sigma_m(depth_m));
+}
 
 /// The ray-range arguments (ray_range.hpp) of a raycast with settings `p` over a compute image
 /// of width × height pixels, into `tiles`.
@@ -520,8 +528,10 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
           : raycast_ray<kRaycastBatch>(a, origin, direction, hit, touched_from_m, touched_to_m);
   if (t_hit > 0.0f) {
     a.vertex(x, y) = hit;
-    const Vec3f g = a.normal_span_m > 0.0f ? volume_gradient_span(a.volume, hit, a.normal_span_m)
-                                           : volume_gradient(a.volume, hit);
+    // t is the hit's camera depth: the ray's direction has z = 1 in the camera frame.
+    const float span_m = normal_span_at_m(a, t_hit);
+    const Vec3f g = span_m > 0.0f ? volume_gradient_span(a.volume, hit, span_m)
+                                  : volume_gradient(a.volume, hit);
     const float len = length(g);
     a.normal(x, y) = len == 0.0f ? Vec3f{kInvalidNormal, 0.0f, 0.0f} : normalize(g);
   } else {

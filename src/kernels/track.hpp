@@ -4,6 +4,7 @@
 
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "kernels/depth_noise.hpp"
 #include "kernels/photometric.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/tracking_state.hpp"
@@ -115,13 +116,6 @@ KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
   row.jacobian[4] = rot.y;
   row.jacobian[5] = rot.z;
   return row;
-}
-
-/// Kinect axial depth noise σ(z) in metres at depth z (Nguyen, Izadi, Lovell 2012, eq. 2, the
-/// surface facing the camera): 0.0012 + 0.0019 (z − 0.4)².
-KFX_HD inline float kinect_axial_sigma_m(float z_m) {
-  const float d = z_m - 0.4f;
-  return 0.0012f + 0.0019f * d * d;
 }
 
 /// Weight of an inlier row in the normal equations (not in the counts and Σe² of the accept

@@ -127,6 +127,8 @@ struct PipelineConfig {
     /// The raycast's normals from central differences of ± this many metres (0 = one voxel,
     /// KFusion's); kernels/raycast.hpp volume_gradient_span.
     float raycast_normal_span_m = 0.0f;
+    /// ... or of ± this many times the Kinect's depth noise σ(z) at the hit, where larger.
+    float raycast_normal_span_noise = 0.0f;
   } quality;
 
   /// Colour fused beside the TSDF (docs/colour.md). Never read by tracking: the trajectory is
