@@ -263,6 +263,15 @@ TEST(BlockMap, SameTrajectoryAndMeshAsTheDenseCubeOnTheSyntheticRoom) {
   expect_same_as_dense(input, synthetic_config(input), 40);
 }
 
+TEST(BlockMap, SameTrajectoryAndMeshAsTheDenseCubeWithTheNormalsNoiseSpan) {
+  // raycast_normal_span_noise reads its wide differences through the block map's reader as the
+  // cube's through its array: the same answers.
+  const std::string input = "synthetic:frames=40,width=160,height=120";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "raycast_normal_span_noise", "2.5");
+  expect_same_as_dense(input, config, 40);
+}
+
 TEST(BlockMap, SameTrajectoryAndMeshAsTheDenseCubeOnIclOffice) {
   if (!test::shared_exists("data/icl_office_kt0")) GTEST_SKIP() << "needs ../shared/data";
   PipelineConfig c;  // SLAMBench's ICL-NUIM setting at 320x240

@@ -213,6 +213,14 @@ TEST(BlockMapCuda, AgreesWithCpuBlocksAndCudaDenseOnTheSyntheticRoom) {
   expect_cuda_blocks_agree(input, synthetic_config(input), 40);
 }
 
+TEST(BlockMapCuda, AgreesWithCpuBlocksAndCudaDenseWithTheNormalsNoiseSpan) {
+  KFX_REQUIRE_CUDA();
+  const std::string input = "synthetic:frames=40,width=160,height=120";
+  PipelineConfig config = synthetic_config(input);
+  set_config_value(config, "raycast_normal_span_noise", "2.5");
+  expect_cuda_blocks_agree(input, config, 40);
+}
+
 TEST(BlockMapCuda, AgreesWithCpuBlocksAndCudaDenseOnIclOffice) {
   KFX_REQUIRE_CUDA();
   if (!test::shared_exists("data/icl_office_kt0")) GTEST_SKIP() << "needs ../shared/data";
