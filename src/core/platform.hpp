@@ -21,6 +21,16 @@
 #define KFX_NOINLINE
 #endif
 
+/// Keep a function out of line on the host and on the GPU: for a variant that, inlined, would
+/// change how GCC contracts the common path's arithmetic into FMAs (and so its last bits).
+#if defined(__CUDACC__)
+#define KFX_OUT_OF_LINE __noinline__
+#elif defined(__GNUC__)
+#define KFX_OUT_OF_LINE __attribute__((noinline))
+#else
+#define KFX_OUT_OF_LINE
+#endif
+
 // kfx::Error, the one exception type, is public (the API throws it).
 #include "kfx/error.hpp"
 

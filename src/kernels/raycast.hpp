@@ -91,8 +91,10 @@ KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
 /// averages the surface over more voxels: with voxels finer than the depth noise, one-voxel
 /// differences give noisy normals, and ICP against them can slide to a wrong minimum after a
 /// gap (bench/RESULTS.md, "Session 16").
+/// Out of line: inlined into raycast_pixel, its six samples changed how GCC compiled the
+/// march's samples, and with them `exact`'s CPU trajectory in its last bits.
 template <class Map>
-KFX_HD inline Vec3f volume_gradient_span(const Map& vol, Vec3f p_m, float span_m) {
+KFX_HD KFX_OUT_OF_LINE Vec3f volume_gradient_span(const Map& vol, Vec3f p_m, float span_m) {
   const float dx = volume_interp(vol, p_m + Vec3f{span_m, 0.0f, 0.0f}) -
                    volume_interp(vol, p_m - Vec3f{span_m, 0.0f, 0.0f});
   const float dy = volume_interp(vol, p_m + Vec3f{0.0f, span_m, 0.0f}) -
