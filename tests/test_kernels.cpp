@@ -17,6 +17,7 @@
 #include "kernels/raycast.hpp"
 #include "kernels/solve.hpp"
 #include "kernels/track.hpp"
+#include "preprocess_test_support.hpp"
 
 namespace kfx {
 namespace {
@@ -88,15 +89,7 @@ TEST(Preprocess, HalfSampleIsRobust) {
   EXPECT_FLOAT_EQ(out(1, 1), 0.5f);  // 1.0 neighbours are 0.5 away, 2.0 is 1.5 away
 }
 
-void vertices_and_normals(const HostImage<float>& depth, const Intrinsics& k,
-                          HostImage<Vec3f>& vertex, HostImage<Vec3f>& normal) {
-  vertex = HostImage<Vec3f>(depth.width(), depth.height());
-  normal = HostImage<Vec3f>(depth.width(), depth.height());
-  const DepthToVertexArgs v{depth.view(), vertex.view(), k.inverse_matrix()};
-  for_each(depth.width(), depth.height(), [&](int x, int y) { depth_to_vertex_pixel(x, y, v); });
-  const VertexToNormalArgs n{vertex.view(), normal.view(), k.handedness()};
-  for_each(depth.width(), depth.height(), [&](int x, int y) { vertex_to_normal_pixel(x, y, n); });
-}
+using test::vertices_and_normals;
 
 TEST(Preprocess, PlaneVerticesAndNormalsFaceTheCamera) {
   for (const Intrinsics k : {kK, Intrinsics{120.0f, -120.0f, 40.0f, 30.0f}}) {

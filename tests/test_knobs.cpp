@@ -14,6 +14,7 @@
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/track.hpp"
+#include "preprocess_test_support.hpp"
 #include "sequence_runner.hpp"
 
 namespace kfx {
@@ -123,15 +124,8 @@ TEST(Knobs, IcpStrideTracksOnePixelPerBlockWeighted) {
   // A fronto-parallel plane against itself: every valid normal is an inlier.
   const Intrinsics k{120, 120, 40, 30};
   HostImage<float> depth(80, 60, 2.0f);
-  HostImage<Vec3f> vertex(80, 60), normal(80, 60);
-  const DepthToVertexArgs v{depth.view(), vertex.view(), k.inverse_matrix()};
-  const VertexToNormalArgs n{vertex.view(), normal.view(), 1.0f};
-  for (int y = 0; y < 60; ++y) {
-    for (int x = 0; x < 80; ++x) depth_to_vertex_pixel(x, y, v);
-  }
-  for (int y = 0; y < 60; ++y) {
-    for (int x = 0; x < 80; ++x) vertex_to_normal_pixel(x, y, n);
-  }
+  HostImage<Vec3f> vertex, normal;
+  test::vertices_and_normals(depth, k, vertex, normal);
   TrackingState state{};
   state.T_world_cam = Mat4f::identity();
   set_reference_view(state, k);

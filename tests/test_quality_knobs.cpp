@@ -17,6 +17,7 @@
 #include "kernels/integrate.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/track.hpp"
+#include "preprocess_test_support.hpp"
 #include "sequence_runner.hpp"
 
 namespace kfx {
@@ -51,17 +52,17 @@ bool identical(const std::vector<io::StampedPose>& a, const std::vector<io::Stam
   return true;
 }
 
-/// The vertex and normal maps of an 80×60 depth image and of a reference depth image, and the
+/// The vertex and normal maps of a depth image and of a reference depth image, and the
 /// TrackArgs that track the first against the second from the identity pose. Not copyable: the
 /// args point into the maps and the state.
 struct TrackPair {
-  HostImage<Vec3f> vertex{80, 60}, normal{80, 60}, ref_vertex{80, 60}, ref_normal{80, 60};
+  HostImage<Vec3f> vertex, normal, ref_vertex, ref_normal;
   TrackingState state{};
   TrackArgs args;
 
   TrackPair(const Intrinsics& k, HostImage<float>& depth, HostImage<float>& ref_depth) {
-    maps(k, depth, vertex, normal);
-    maps(k, ref_depth, ref_vertex, ref_normal);
+    test::vertices_and_normals(depth, k, vertex, normal);
+    test::vertices_and_normals(ref_depth, k, ref_vertex, ref_normal);
     state.T_world_cam = Mat4f::identity();
     set_reference_view(state, k);
     args.in_vertex = vertex.view();
@@ -72,19 +73,6 @@ struct TrackPair {
   }
   TrackPair(const TrackPair&) = delete;
   TrackPair& operator=(const TrackPair&) = delete;
-
- private:
-  static void maps(const Intrinsics& k, HostImage<float>& d, HostImage<Vec3f>& v,
-                   HostImage<Vec3f>& n) {
-    const DepthToVertexArgs va{d.view(), v.view(), k.inverse_matrix()};
-    const VertexToNormalArgs na{v.view(), n.view(), 1.0f};
-    for (int y = 0; y < 60; ++y) {
-      for (int x = 0; x < 80; ++x) depth_to_vertex_pixel(x, y, va);
-    }
-    for (int y = 0; y < 60; ++y) {
-      for (int x = 0; x < 80; ++x) vertex_to_normal_pixel(x, y, na);
-    }
-  }
 };
 
 TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {

@@ -87,10 +87,10 @@ KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
 }
 
 /// Unnormalised tsdf gradient from central differences of ±span_m along each axis, each end a
-/// trilinear sample (setting raycast_normal_span_m). Wider than volume_gradient's one voxel, it
-/// averages the surface over more voxels: with voxels finer than the depth noise, one-voxel
-/// differences give noisy normals, and ICP against them can slide to a wrong minimum after a
-/// gap (bench/RESULTS.md, "Session 16").
+/// trilinear sample (settings raycast_normal_span_m, raycast_normal_span_noise: normal_span_at_m).
+/// Wider than volume_gradient's one voxel, it averages the surface over more voxels: with
+/// voxels finer than the depth noise, one-voxel differences give noisy normals, and ICP against
+/// them can slide to a wrong minimum after a gap (bench/RESULTS.md, "Session 16").
 /// Out of line: inlined into raycast_pixel, its six samples changed how GCC compiled the
 /// march's samples, and with them `exact`'s CPU trajectory in its last bits.
 template <class Map>
