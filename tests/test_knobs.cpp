@@ -94,6 +94,21 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(quality.quality.integration_weight, IntegrationWeight::kDepthAngle);
   EXPECT_TRUE(quality.quality.depth_undistortion);  // the lens of TUM's fr1 camera
   EXPECT_EQ(quality.tracking.iterations_per_level, (std::vector<int>{20, 10, 8}));
+  // fine: quality's tracking on 5 mm blocks at full resolution, with the noise-aware ICP weight
+  // and model normals; everything else is quality's.
+  PipelineConfig fine = make_preset("fine");
+  EXPECT_EQ(fine.volume.kind, MapKind::kBlocks);
+  EXPECT_FLOAT_EQ(fine.volume.voxel_size_m, 0.005f);
+  EXPECT_EQ(fine.input.compute_size_ratio, 1);
+  EXPECT_EQ(fine.quality.icp_noise_weight, IcpNoiseWeight::kNguyen);
+  EXPECT_FLOAT_EQ(fine.quality.icp_noise_floor_m, 0.002f);
+  EXPECT_FLOAT_EQ(fine.quality.raycast_normal_span_noise, 2.5f);
+  for (const char* a :
+       {"volume=dense", "voxel_size_m=0", "compute_size_ratio=2", "icp_noise_weight=off",
+        "icp_noise_floor_m=0", "raycast_normal_span_noise=0"}) {
+    set_config_assignment(fine, a);
+  }
+  EXPECT_EQ(fine.dump(), quality.dump());
 }
 
 TEST(Knobs, SpatialBilateralIsAWeightedMeanWithoutRangeTerm) {
