@@ -80,11 +80,11 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
   // The defaults, written out, change nothing (the robust scale and the reference depth only
   // matter once their technique is on).
   EXPECT_TRUE(identical(
-      exact,
-      trajectory_with(
-          {"max_depth_m=0", "icp_robust=none", "icp_robust_scale_m=0.003", "icp_noise_weight=off",
-           "integration_weight=constant", "integration_weight_ref_m=0.5", "icp_noise_floor_m=0.003",
-           "min_agreement_fraction=0", "raycast_normal_span_m=0", "raycast_normal_span_noise=0"})));
+      exact, trajectory_with({"max_depth_m=0", "icp_robust=none", "icp_robust_scale_m=0.003",
+                              "icp_noise_weight=off", "integration_weight=constant",
+                              "integration_weight_ref_m=0.5", "icp_noise_floor_m=0.003",
+                              "min_agreement_fraction=0", "raycast_normal_span_m=0",
+                              "raycast_normal_span_noise=0", "accept_rms_weighted=off"})));
   const std::vector<std::vector<std::string>> on = {
       {"max_depth_m=2.5"},
       {"icp_robust=huber", "icp_robust_scale_m=0.002"},
@@ -145,6 +145,13 @@ TEST(QualityKnobs, SettingsAreValidated) {
   EXPECT_THROW(c.validate(), Error);
   c.quality.min_agreement_fraction = 0.0f;
   EXPECT_NO_THROW(c.validate());
+  // So is the weighted RMS's weight sum.
+  set_config_value(c, "accept_rms_weighted", "on");
+  EXPECT_TRUE(c.quality.accept_rms_weighted);
+  EXPECT_THROW(c.validate(), Error);
+  c.quality.photometric_weight = 0.0f;
+  EXPECT_NO_THROW(c.validate());
+  EXPECT_THROW(set_config_value(c, "accept_rms_weighted", "sometimes"), Error);
   // Weighted integration stores weights in 1/16 steps in an int16: the cap must fit.
   c = PipelineConfig{};
   set_config_value(c, "integration_weight", "depth");
@@ -271,6 +278,82 @@ TEST(QualityKnobs, AgreementTestRejectsBelowItsFractionAndIsOffAtZero) {
   // Off, it adds no reject even when nothing agrees.
   s.accumulator[kAccJtJ + 0] = s.accumulator[kAccJtJ + 6] = s.accumulator[kAccJtJ + 11] = 0;
   EXPECT_EQ(run(0.0f), 1);
+}
+
+TEST(QualityKnobs, WeightedRmsJudgesTheResidualTheFitMinimised) {
+  TrackingState s{};
+  AcceptParams p;
+  p.compute_pixels = 1000;
+  // 500 inliers, plain RMS 2.5 cm: KFusion's 2 cm limit rejects. Their fit-weighted Σw·e² is
+  // 0.045 over Σw = 200 (JᵀJ's translation trace): a weighted RMS of 1.5 cm, accepted.
+  s.accumulator[kAccInliers] = 500;
+  s.accumulator[kAccJtJ + 0] = 50;
+  s.accumulator[kAccJtJ + 6] = 100;
+  s.accumulator[kAccJtJ + 11] = 50;
+  auto run = [&](bool weighted, double error_sq) {
+    s.T_world_cam_before = Mat4f::translation(Vec3f{1, 2, 3});
+    s.T_world_cam = Mat4f::translation(Vec3f{1, 2, 3.5f});
+    s.accumulator[kAccErrorSq] = error_sq;
+    p.rms_weighted = weighted;
+    accept_or_revert(s, p);
+    return s.tracked;
+  };
+  EXPECT_EQ(run(false, 500 * 0.025 * 0.025), 0);
+  EXPECT_EQ(run(true, 200 * 0.015 * 0.015), 1);
+  EXPECT_EQ(s.T_world_cam.m[2][3], 3.5f);
+  EXPECT_EQ(run(true, 200 * 0.021 * 0.021), 0);  // the same limit, on the weighted RMS
+  EXPECT_EQ(s.T_world_cam.m[2][3], 3.0f);
+  // Inliers but no fit weight (all beyond Tukey's scale, say): 0 / 0, rejected.
+  s.accumulator[kAccJtJ + 0] = s.accumulator[kAccJtJ + 6] = s.accumulator[kAccJtJ + 11] = 0;
+  EXPECT_EQ(run(true, 0.0), 0);
+}
+
+TEST(QualityKnobs, FitWeightedErrorSumIsTheWeightedSquaresOfTheSample) {
+  // track_sample with fit_weighted_error_sq sums s²·w·e² into the Σe² slot: checked against
+  // the sum taken pixel by pixel (Huber and the floored noise weight, perforated or not), on a
+  // tilted plane whose right half lies 2 cm off; without it the slot is KFusion's Σ s²·e².
+  const Intrinsics k{120, 120, 40, 30};
+  HostImage<float> depth(80, 60), ref_depth(80, 60);
+  for (int y = 0; y < 60; ++y) {
+    for (int x = 0; x < 80; ++x) {
+      depth(x, y) = 1.5f + 0.01f * x + 0.005f * y;
+      ref_depth(x, y) = depth(x, y) + (x >= 40 ? 0.02f : 0.0f);
+    }
+  }
+  TrackPair pair(k, depth, ref_depth);
+  TrackArgs& a = pair.args;
+  a.robust = IcpRobust::kHuber;
+  a.robust_scale_m = 0.0035f;
+  a.noise_weight = IcpNoiseWeight::kNguyen;
+  a.noise_floor_m = 0.002f;
+  for (const int stride : {1, 2}) {
+    a.stride_px = stride;
+    double plain[kAccumulatorSize] = {}, weighted[kAccumulatorSize] = {};
+    double expected = 0.0, expected_plain = 0.0;
+    for (int j = 0; j < track_grid_height(a); ++j) {
+      for (int i = 0; i < track_grid_width(a); ++i) {
+        a.fit_weighted_error_sq = false;
+        track_sample(i, j, a, plain);
+        a.fit_weighted_error_sq = true;
+        track_sample(i, j, a, weighted);
+        const int x = i * stride, y = j * stride;
+        const TrackRow row = track_pixel(x, y, a);
+        if (row.outcome != kTrackInlier) continue;
+        const double s2 = static_cast<double>(stride) * stride, e = row.error_m;
+        expected += s2 * icp_fit_weight(row, pair.vertex(x, y).z, a) * e * e;
+        expected_plain += s2 * e * e;
+      }
+    }
+    EXPECT_NEAR(weighted[kAccErrorSq], expected, 1e-9 * expected) << stride;
+    EXPECT_NEAR(plain[kAccErrorSq], expected_plain, 1e-9 * expected_plain) << stride;
+    // Only the Σe² slot differs.
+    for (int i = 1; i < kAccumulatorSize; ++i) EXPECT_EQ(weighted[i], plain[i]) << i;
+    // Huber discounts the 2 cm half: the weighted RMS lies well below the plain one.
+    const double rms_plain = std::sqrt(plain[kAccErrorSq] / plain[kAccInliers]);
+    const double rms_weighted = std::sqrt(weighted[kAccErrorSq] / fit_weight_sum(weighted));
+    EXPECT_GT(rms_plain, 0.01) << stride;
+    EXPECT_LT(rms_weighted, 0.75 * rms_plain) << stride;
+  }
 }
 
 TEST(QualityKnobs, FitWeightScalesTheNormalEquationsNotTheAcceptTest) {
@@ -479,7 +562,7 @@ TEST(QualityKnobs, CpuAndGpuAgreeWithEveryQualityKnobOn) {
   for (const char* a :
        {"max_depth_m=3", "icp_robust=huber", "icp_robust_scale_m=0.005", "icp_noise_weight=nguyen",
         "icp_noise_floor_m=0.003", "integration_weight=depth_angle", "raycast_normal_span_m=0.01",
-        "raycast_normal_span_noise=3"}) {
+        "raycast_normal_span_noise=3", "accept_rms_weighted=on"}) {
     set_config_assignment(config, a);
   }
   test::expect_backends_agree(input, config, 60);

@@ -89,21 +89,26 @@ struct AcceptParams {
   /// Apply min_agreement_fraction only to a frame that would re-acquire tracking (the first
   /// accept after a rejected frame); false: to every frame.
   bool agreement_when_reacquiring = false;
+  /// The RMS over the fit weights, sqrt(Σ w·e² / Σ w) (fit_weight_sum; the track kernels then
+  /// sum w·e², IcpParams::fit_weighted_error_sq), instead of over the inliers.
+  bool rms_weighted = false;
   int compute_pixels = 0;  ///< compute width × height
 };
 
-/// The share of the view that agrees with the map: Σ over the last ICP iteration's inliers of
-/// their fit weight (kernels/track.hpp icp_fit_weight: the robust weight, e.g. Huber's
-/// min(1, c/|e|), times the noise weight when icp_noise_weight is on; 1 when both are off),
-/// divided by the compute pixels. Read from the accumulator without a slot of its own: the
-/// translation block of JᵀJ holds Σ w·n·nᵀ, w = sample weight (s² under perforation, as in the
-/// inlier count) × fit weight, n the map's normal, a unit vector (normalize in the raycast), so
-/// its trace is Σ w·|n|² = Σ w to float rounding (|n|² = 1 within a few 1e-7). With the
-/// photometric term on, its rows add to JᵀJ too (config validation refuses that combination).
+/// Σ over the last ICP iteration's inliers of their fit weight (kernels/track.hpp
+/// icp_fit_weight: the robust weight, e.g. Huber's min(1, c/|e|), times the noise weight when
+/// icp_noise_weight is on; 1 when both are off), each times its sample weight (s² under
+/// perforation, as in the inlier count). Read from the accumulator without a slot of its own:
+/// the translation block of JᵀJ holds Σ w·n·nᵀ, n the map's normal, a unit vector (normalize in
+/// the raycast), so its trace is Σ w·|n|² = Σ w to float rounding (|n|² = 1 within a few 1e-7).
+/// With the photometric term on, its rows add to JᵀJ too (config validation refuses the
+/// settings that read it together with that term).
+KFX_HD inline double fit_weight_sum(const double* acc) {
+  return acc[kAccJtJ + 0] + acc[kAccJtJ + 6] + acc[kAccJtJ + 11];  // (0,0) (1,1) (2,2)
+}
+/// The share of the view that agrees with the map: fit_weight_sum over the compute pixels.
 KFX_HD inline double agreement_fraction(const double* acc, int compute_pixels) {
-  const double weight =
-      acc[kAccJtJ + 0] + acc[kAccJtJ + 6] + acc[kAccJtJ + 11];  // (0,0) (1,1) (2,2)
-  return weight / compute_pixels;
+  return fit_weight_sum(acc) / compute_pixels;
 }
 
 /// Accept test on the last iteration's accumulator (KFusion's residual RMS and inlier share,
@@ -112,11 +117,15 @@ KFX_HD inline double agreement_fraction(const double* acc, int compute_pixels) {
 /// accepted frames in a row for the next frame's guess.
 KFX_HD inline void accept_or_revert(TrackingState& s, const AcceptParams& p) {
   const double inliers = s.accumulator[kAccInliers];
-  const double rms = sqrt(s.accumulator[kAccErrorSq] / inliers);  // NaN when no inliers
+  // NaN when no inliers (or no fit weight)
+  const double rms =
+      sqrt(s.accumulator[kAccErrorSq] / (p.rms_weighted ? fit_weight_sum(s.accumulator) : inliers));
   const bool agreement_applies = p.min_agreement_fraction > 0.0f &&
                                  (!p.agreement_when_reacquiring || s.rejected_since_accept != 0);
-  const bool reject = rms > p.max_rms_error_m ||
-                      inliers / p.compute_pixels < p.min_inlier_fraction ||
+  // A weighted RMS over no weight (0 / 0, inliers that Tukey's weight all dropped) rejects; the
+  // plain RMS is NaN only without inliers, which the inlier test rejects.
+  const bool rms_fails = p.rms_weighted ? !(rms <= p.max_rms_error_m) : rms > p.max_rms_error_m;
+  const bool reject = rms_fails || inliers / p.compute_pixels < p.min_inlier_fraction ||
                       (agreement_applies && agreement_fraction(s.accumulator, p.compute_pixels) <
                                                 p.min_agreement_fraction);
   if (reject) {

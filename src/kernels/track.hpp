@@ -57,6 +57,8 @@ struct IcpParams {
   /// Floor f of the noise model, metres (0 = none): σ² becomes f² + σ², so near points stop
   /// outweighing far ones once σ(z) < f (the map and the association have errors of their own).
   float noise_floor_m = 0.0f;
+  /// The accept test's Σe² slot sums fit-weighted squares, Σ w·e² (accept_rms_weighted).
+  bool fit_weighted_error_sq = false;
   PhotometricParams photometric;  ///< the photometric term beside the ICP (weight 0: off)
 };
 
@@ -147,9 +149,10 @@ KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const Icp
 /// Adds one row to a packed accumulator (kAccumulatorSize doubles), scaled by `weight`
 /// (1 for exact; >1 when pixels are perforated and one stands for a block). `fit_weight` (the
 /// robust and noise weight) further scales the row's Σe·J and JᵀJ only, so the accept test's
-/// residual RMS and inlier count keep their meaning.
+/// residual RMS and inlier count keep their meaning; with `fit_weighted_error_sq` it scales the
+/// Σe² too, for the weighted RMS (accept_rms_weighted).
 KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weight = 1.0,
-                                  double fit_weight = 1.0) {
+                                  double fit_weight = 1.0, bool fit_weighted_error_sq = false) {
   if (row.outcome < 1) {
     if (row.outcome == kTrackTooFar) {
       acc[kAccTooFar] += weight;
@@ -163,8 +166,8 @@ KFX_HD inline void accumulate_row(double* acc, const TrackRow& row, double weigh
   const double e = row.error_m;
   double j[6];
   for (int i = 0; i < 6; ++i) j[i] = row.jacobian[i];
-  acc[kAccErrorSq] += weight * e * e;
   const double w = weight * fit_weight;  // == weight when fit_weight is 1: exact stays bit-exact
+  acc[kAccErrorSq] += (fit_weighted_error_sq ? w : weight) * e * e;
   for (int i = 0; i < 6; ++i) acc[kAccJtE + i] += w * e * j[i];
   int k = kAccJtJ;
   for (int r = 0; r < 6; ++r) {
@@ -195,7 +198,7 @@ KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
   const float fit =
       weighted && row.outcome == kTrackInlier ? icp_fit_weight(row, a.in_vertex(x, y).z, a) : 1.0f;
   const double sample_weight = static_cast<double>(a.stride_px) * a.stride_px;
-  accumulate_row(acc, row, sample_weight, fit);
+  accumulate_row(acc, row, sample_weight, fit, a.fit_weighted_error_sq);
   if (a.outcome.data) a.outcome(x, y) = static_cast<int8_t>(row.outcome);
   // The photometric row of an ICP inlier: the inlier test is its occlusion test (the reference
   // view sees the same surface there). Weight 0 adds nothing: the ICP's sums stay bit for bit.

@@ -495,6 +495,13 @@ std::vector<ConfigField> build_fields() {
          "accept test: apply min_agreement_fraction only to a frame that would re-acquire "
          "tracking, the first accept after a rejected frame (off = to every frame; on|off)",
          [](C& c) -> bool& { return c.quality.agreement_when_reacquiring; });
+  on_off("accept_rms_weighted", "quality",
+         "accept test: judge the residual RMS over the ICP's own fit weights, sqrt(sum w e^2 / "
+         "sum w), w = icp_robust's weight times icp_noise_weight's, against the same "
+         "max_rms_error_m, instead of KFusion's plain RMS of the inliers: far, noisy depth that "
+         "the fit already discounts no longer rejects a frame (off = KFusion's; on|off; needs "
+         "photometric_weight=0)",
+         [](C& c) -> bool& { return c.quality.accept_rms_weighted; });
   quality_choice("integration_weight",
                  "integrate: weight of a new measurement in the running average: constant (1) | "
                  "depth (min(1, (ref/d)^2), ref = integration_weight_ref_m) | depth_angle (that "
@@ -659,6 +666,9 @@ void PipelineConfig::validate() const {
   KFX_CHECK(quality.min_agreement_fraction == 0 || quality.photometric_weight == 0,
             "min_agreement_fraction > 0 needs photometric_weight=0 (the photometric rows would "
             "count in the agreement, which is read from the ICP's normal matrix)");
+  KFX_CHECK(!quality.accept_rms_weighted || quality.photometric_weight == 0,
+            "accept_rms_weighted=on needs photometric_weight=0 (the photometric rows would count "
+            "in the weight sum, which is read from the ICP's normal matrix)");
   KFX_CHECK(std::isfinite(quality.photometric_weight) && quality.photometric_weight >= 0,
             "photometric_weight must be >= 0 (0 = off), got " << quality.photometric_weight);
   KFX_CHECK(quality.photometric_max_residual > 0 && quality.photometric_max_residual <= 1,
@@ -738,12 +748,14 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.icp.robust_scale_m = config.quality.icp_robust_scale_m;
   p.icp.noise_weight = config.quality.icp_noise_weight;
   p.icp.noise_floor_m = config.quality.icp_noise_floor_m;
+  p.icp.fit_weighted_error_sq = config.quality.accept_rms_weighted;
   p.icp.photometric.weight = config.quality.photometric_weight;
   p.icp.photometric.max_residual = config.quality.photometric_max_residual;
   p.accept.max_rms_error_m = config.tracking.max_rms_error_m;
   p.accept.min_inlier_fraction = config.tracking.min_inlier_fraction;
   p.accept.min_agreement_fraction = config.quality.min_agreement_fraction;
   p.accept.agreement_when_reacquiring = config.quality.agreement_when_reacquiring;
+  p.accept.rms_weighted = config.quality.accept_rms_weighted;
   p.accept.compute_pixels = compute_width_px * compute_height_px;
   p.integrate.k = compute_k;
   p.integrate.mu_m = config.volume.mu_m;

@@ -110,6 +110,9 @@ struct PipelineConfig {
     float min_agreement_fraction = 0.0f;
     /// min_agreement_fraction applies only to the first accept after a rejected frame.
     bool agreement_when_reacquiring = false;
+    /// Accept test: the residual RMS over the ICP's fit weights, sqrt(Σ w·e² / Σ w), instead of
+    /// KFusion's plain RMS over the inliers (kernels/frame_logic.hpp accept_or_revert).
+    bool accept_rms_weighted = false;
     IntegrationWeight integration_weight = IntegrationWeight::kConstant;  ///< constant | depth |
                                                                           ///< depth_angle
     float integration_weight_ref_m = 1.0f;  ///< full weight up to this depth, (ref/d)² beyond
