@@ -103,9 +103,10 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(fine.quality.icp_noise_weight, IcpNoiseWeight::kNguyen);
   EXPECT_FLOAT_EQ(fine.quality.icp_noise_floor_m, 0.002f);
   EXPECT_FLOAT_EQ(fine.quality.raycast_normal_span_noise, 2.5f);
+  EXPECT_TRUE(fine.quality.accept_rms_weighted);
   for (const char* a :
        {"volume=dense", "voxel_size_m=0", "compute_size_ratio=2", "icp_noise_weight=off",
-        "icp_noise_floor_m=0", "raycast_normal_span_noise=0"}) {
+        "icp_noise_floor_m=0", "raycast_normal_span_noise=0", "accept_rms_weighted=off"}) {
     set_config_assignment(fine, a);
   }
   EXPECT_EQ(fine.dump(), quality.dump());
