@@ -280,6 +280,20 @@ TEST(QualityKnobs, AgreementTestRejectsBelowItsFractionAndIsOffAtZero) {
   EXPECT_EQ(run(0.0f), 1);
 }
 
+/// Intrinsics of tilted_plane_offset_right_half's 80 × 60 images.
+const Intrinsics kTiltedPlaneK{120, 120, 40, 30};
+
+/// A tilted plane 1.5–2.6 m away (normals not along an axis) as the frame's depth, and as the
+/// reference the same plane with its right half (x ≥ 40) 2 cm farther: 80 × 60 pixels.
+void tilted_plane_offset_right_half(HostImage<float>& depth, HostImage<float>& ref_depth) {
+  for (int y = 0; y < 60; ++y) {
+    for (int x = 0; x < 80; ++x) {
+      depth(x, y) = 1.5f + 0.01f * x + 0.005f * y;
+      ref_depth(x, y) = depth(x, y) + (x >= 40 ? 0.02f : 0.0f);
+    }
+  }
+}
+
 TEST(QualityKnobs, WeightedRmsJudgesTheResidualTheFitMinimised) {
   TrackingState s{};
   AcceptParams p;
@@ -312,15 +326,9 @@ TEST(QualityKnobs, FitWeightedErrorSumIsTheWeightedSquaresOfTheSample) {
   // track_sample with fit_weighted_error_sq sums s²·w·e² into the Σe² slot: checked against
   // the sum taken pixel by pixel (Huber and the floored noise weight, perforated or not), on a
   // tilted plane whose right half lies 2 cm off; without it the slot is KFusion's Σ s²·e².
-  const Intrinsics k{120, 120, 40, 30};
   HostImage<float> depth(80, 60), ref_depth(80, 60);
-  for (int y = 0; y < 60; ++y) {
-    for (int x = 0; x < 80; ++x) {
-      depth(x, y) = 1.5f + 0.01f * x + 0.005f * y;
-      ref_depth(x, y) = depth(x, y) + (x >= 40 ? 0.02f : 0.0f);
-    }
-  }
-  TrackPair pair(k, depth, ref_depth);
+  tilted_plane_offset_right_half(depth, ref_depth);
+  TrackPair pair(kTiltedPlaneK, depth, ref_depth);
   TrackArgs& a = pair.args;
   a.robust = IcpRobust::kHuber;
   a.robust_scale_m = 0.0035f;
@@ -409,15 +417,9 @@ TEST(QualityKnobs, AgreementFractionIsTheInliersSummedFitWeight) {
   // JᵀJ's translation block, Σ s²·w·|n|², n the reference's unit normal. Check it against the
   // sum taken pixel by pixel, with Huber and the floored noise weight, with and without
   // perforation, on a tilted plane (normals not along an axis) with an offset on its right half.
-  const Intrinsics k{120, 120, 40, 30};
   HostImage<float> depth(80, 60), ref_depth(80, 60);
-  for (int y = 0; y < 60; ++y) {
-    for (int x = 0; x < 80; ++x) {
-      depth(x, y) = 1.5f + 0.01f * x + 0.005f * y;
-      ref_depth(x, y) = depth(x, y) + (x >= 40 ? 0.02f : 0.0f);
-    }
-  }
-  TrackPair pair(k, depth, ref_depth);
+  tilted_plane_offset_right_half(depth, ref_depth);
+  TrackPair pair(kTiltedPlaneK, depth, ref_depth);
   TrackArgs& a = pair.args;
   const HostImage<Vec3f>& vertex = pair.vertex;
   a.robust = IcpRobust::kHuber;
