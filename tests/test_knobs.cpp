@@ -94,8 +94,8 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_EQ(quality.quality.integration_weight, IntegrationWeight::kDepthAngle);
   EXPECT_TRUE(quality.quality.depth_undistortion);  // the lens of TUM's fr1 camera
   EXPECT_EQ(quality.tracking.iterations_per_level, (std::vector<int>{20, 10, 8}));
-  // fine: quality's tracking on 5 mm blocks at full resolution, with the noise-aware ICP weight
-  // and model normals; everything else is quality's.
+  // fine: quality's tracking on 5 mm blocks at full resolution, with the noise-aware ICP weight,
+  // the accept test on the weighted residual and model normals; everything else is quality's.
   PipelineConfig fine = make_preset("fine");
   EXPECT_EQ(fine.volume.kind, MapKind::kBlocks);
   EXPECT_FLOAT_EQ(fine.volume.voxel_size_m, 0.005f);

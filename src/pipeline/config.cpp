@@ -862,8 +862,8 @@ PipelineConfig make_preset(const std::string& name) {
     // stretch. The most accurate point that held on every shared sequence, their later-start
     // cuts, its neighbouring settings and twelve synthetic hard rooms (six with seeds chosen
     // after it), on the GPU (bench/RESULTS.md, "Session 16"; docs/presets.md). The accept test
-    // judges the fit-weighted residual: the plain RMS of far, noisy depth rejected 55 frames of
-    // tum_fr1_rpy (bench/RESULTS.md, "Session 17").
+    // judges the fit-weighted residual: the plain RMS of far, noisy depth rejected frames of
+    // tum_fr1_rpy that the fit tracked (bench/RESULTS.md, "Session 17").
     c = make_preset("quality");
     for (const char* a :
          {"volume=blocks", "voxel_size_m=0.005", "compute_size_ratio=1", "icp_noise_weight=nguyen",
