@@ -179,7 +179,14 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                 << report.map_blocks << " blocks, map_budget_mb "
                 << pipeline.config().volume.map_budget_mb << "): " << report.map_blocks_dropped
                 << " blocks of this frame's surface were not stored (" << summary.map_frames_short
-                << " frame(s) short so far)\n";
+                << " frame(s) short so far)";
+      if (pipeline.config().volume.map_swap) {
+        std::cerr << "; the blocks within map_swap_distance_m (" << pipeline.swap_distance_m()
+                  << " m) of the camera fill it alone: raise map_budget_mb or lower "
+                  << "map_swap_distance_m (at least " << pipeline.swap_reach_m() + kSwapMinMarginM
+                  << " m)";
+      }
+      std::cerr << "\n";
     }
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
@@ -191,6 +198,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       if (report.map_blocks > 0) {
         std::cerr << ", map " << report.map_blocks << " blocks ("
                   << static_cast<double>(report.map_bytes) / (1 << 20) << " MiB)";
+        if (report.map_blocks_swapped > 0) {
+          std::cerr << " + " << report.map_blocks_swapped << " swapped to host memory ("
+                    << static_cast<double>(report.map_swapped_bytes) / (1 << 20) << " MiB)";
+        }
       }
       std::cerr << "\n";
     }
@@ -284,7 +295,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       outputs.mesh || outputs.cloud ? output::read_colour_field(pipeline) : output::ColourField{};
   if (outputs.mesh) {
     const auto start = Clock::now();
-    MeshView mesh = pipeline.backend().extract_mesh();
+    MeshView mesh = pipeline.extract_mesh();
     std::vector<Rgb8> mesh_colours;
     if (!colour.empty()) {
       mesh_colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);

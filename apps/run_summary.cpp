@@ -43,6 +43,10 @@ void RunSummary::add(const FrameReport& report) {
   }
   map_blocks = report.map_blocks;
   map_bytes = report.map_bytes;
+  map_blocks_swapped = report.map_blocks_swapped;
+  map_swapped_bytes = report.map_swapped_bytes;
+  map_swap_passes = report.map_swap_passes;
+  map_swap_s += report.map_swap_ms / 1000.0;
   if (report.map_blocks_dropped > 0) {
     map_blocks_dropped += report.map_blocks_dropped;
     ++map_frames_short;
@@ -82,6 +86,10 @@ nlohmann::json RunSummary::to_json() const {
     j["map_blocks_dropped"] = map_blocks_dropped;
     j["map_frames_short_of_blocks"] = map_frames_short;
     j["map_first_frame_short_of_blocks"] = map_first_short_frame;
+    j["map_blocks_swapped"] = map_blocks_swapped;
+    j["map_swapped_bytes"] = map_swapped_bytes;
+    j["map_swap_passes"] = map_swap_passes;
+    j["map_swap_seconds"] = map_swap_s;
   }
   return j;
 }

@@ -26,6 +26,10 @@ struct RunSummary {
   long long map_blocks_dropped = 0;  ///< blocks frames needed that the budget had no room for
   int map_frames_short = 0;          ///< frames with blocks dropped
   int map_first_short_frame = -1;    ///< the first of them, −1 if none
+  int map_blocks_swapped = 0;        ///< blocks swapped out to host memory (map_swap)
+  unsigned long long map_swapped_bytes = 0;  ///< bytes they take
+  int map_swap_passes = 0;                   ///< swap passes run
+  double map_swap_s = 0;                     ///< their wall time, seconds
   /// The tracking constraint (FrameReport::constraint's smallest eigenvalue) of every tracked
   /// frame, and the frame with the lowest.
   std::vector<double> tracking_constraint;
@@ -39,7 +43,8 @@ struct RunSummary {
   /// {"frames", "tracked", "lost", "lost_frames", "integrated", "frames_per_second", "stages_ms":
   /// {name: {mean, median}}, "computation_ms": {mean, median}}; with a block map also
   /// "map_blocks", "map_bytes" (blocks × block_bytes(colour)), "map_blocks_dropped",
-  /// "map_frames_short_of_blocks", "map_first_frame_short_of_blocks"; when a frame was tracked,
+  /// "map_frames_short_of_blocks", "map_first_frame_short_of_blocks", "map_blocks_swapped",
+  /// "map_swapped_bytes", "map_swap_passes", "map_swap_seconds"; when a frame was tracked,
   /// "tracking_constraint": {"min", "min_frame", "median"}.
   nlohmann::json to_json() const;
   /// "500 frames, 496 tracked, 20.1 frames/s, ATE 0.84 cm".

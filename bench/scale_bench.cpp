@@ -278,7 +278,7 @@ int main(int argc, char** argv) try {
       std::fflush(stdout);
     }
   }
-  const kfx::Mesh mesh(pipeline.backend().extract_mesh());
+  const kfx::Mesh mesh(pipeline.extract_mesh());
   const double run_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   const int n = static_cast<int>(poses.size());
 

@@ -217,7 +217,7 @@ int Reconstruction::frame_count() const { return impl_->pipeline->frame_count();
 
 TriangleMesh Reconstruction::mesh() {
   impl_->drain();
-  const MeshView view = impl_->pipeline->backend().extract_mesh();
+  const MeshView view = impl_->pipeline->extract_mesh();
   TriangleMesh mesh;
   mesh.vertices_m.resize(view.vertex_count * 3);
   mesh.normals.resize(view.vertex_count * 3);
@@ -307,7 +307,7 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
   impl_->drain();
-  MeshView mesh = impl_->pipeline->backend().extract_mesh();
+  MeshView mesh = impl_->pipeline->extract_mesh();
   const output::ColourField colour = impl_->colour_field();
   std::vector<Rgb8> colours;
   if (!colour.empty()) {
@@ -327,7 +327,7 @@ void Reconstruction::save_map(const std::string& path) {
   if (impl_->config.volume.kind == MapKind::kBlocks) {  // map.kfxblocks
     impl_->drain();
     output::SavedBlockMap map;
-    map.map = impl_->pipeline->backend().read_blocks();
+    map.map = impl_->pipeline->read_map();
     output::write_block_map_file(path, map);
     return;
   }
@@ -339,7 +339,7 @@ void Reconstruction::load_map(const std::string& path) {
   if (impl_->config.volume.kind == MapKind::kBlocks) {
     const output::SavedBlockMap saved = output::read_block_map_file(path);
     impl_->drain();
-    impl_->pipeline->backend().upload_blocks(saved.map);
+    impl_->pipeline->load_map(saved.map);
     return;
   }
   output::SavedVolume v = output::read_volume_file(path);

@@ -7,6 +7,7 @@
 
 #include "core/mesh.hpp"
 #include "map/block_map.hpp"
+#include "map/host_block_map.hpp"
 
 namespace kfx {
 
@@ -15,6 +16,12 @@ namespace kfx {
 /// returned view points into them. Throws kfx::Error when the mesh has more vertices or
 /// triangles than PLY's int indices address.
 MeshView extract_block_map_mesh(const BlockMapView& map, std::vector<MeshVertex>& vertices,
+                                std::vector<MeshTriangle>& triangles);
+
+/// The same for a map's contents (a host copy of a device map, or a map with blocks swapped
+/// out): loaded into a host map of its own size first.
+MeshView extract_block_map_mesh(const BlockMapContents& contents,
+                                std::vector<MeshVertex>& vertices,
                                 std::vector<MeshTriangle>& triangles);
 
 }  // namespace kfx

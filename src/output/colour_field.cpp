@@ -28,7 +28,7 @@ bool ColourField::sample(Vec3f p_m, Vec3f& rgb) const {
 ColourField read_colour_field(Pipeline& pipeline) {
   const PipelineConfig& config = pipeline.config();
   if (!config.colour.fuse) return {};
-  if (config.volume.kind == MapKind::kBlocks) return ColourField(pipeline.backend().read_blocks());
+  if (config.volume.kind == MapKind::kBlocks) return ColourField(pipeline.read_map());
   return ColourField(pipeline.backend().read_colour_volume(), config.volume.resolution_vox,
                      config.volume.size_m);
 }

@@ -101,7 +101,22 @@ window.onerror = function (message, source, line) {
   } else {
     rows.push(["ATE", S.ate_error ? "not computed: " + S.ate_error : "no ground truth"]);
   }
-  // Energy per frame (stats.json "energy"): each domain's figures, or why it was not measured.
+  // The block map's memory (stats.json "map_*"), as the progress line gives it.
+  if (S.map_blocks !== undefined) {
+    var mib = function (b) { return fixed(b / 1048576, 1) + " MiB"; };
+    var map = S.map_blocks + " blocks, " + mib(S.map_bytes) + " of map_budget_mb " +
+              S.config.volume.map_budget_mb;
+    if (S.map_blocks_swapped > 0) {
+      map += "; " + S.map_blocks_swapped + " blocks swapped to host memory (" +
+             mib(S.map_swapped_bytes) + ", " + S.map_swap_passes + " passes)";
+    }
+    map += "; " + (S.map_frames_short_of_blocks > 0
+                   ? S.map_frames_short_of_blocks + " frame(s) short of blocks, from frame " +
+                     S.map_first_frame_short_of_blocks
+                   : "no frame short of blocks");
+    rows.push(["Map (volume=blocks)", map]);
+  }
+    // Energy per frame (stats.json "energy"): each domain's figures, or why it was not measured.
   ["gpu", "cpu"].forEach(function (domain) {
     var e = (S.energy || {})[domain];
     if (!e) return;

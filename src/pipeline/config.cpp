@@ -239,6 +239,17 @@ std::vector<ConfigField> build_fields() {
           "volume=blocks: memory for voxel blocks in MiB; its blocks are all the map can hold "
           "(1..1048576)",
           [](C& c) -> int& { return c.volume.map_budget_mb; });
+  on_off("map_swap", "volume",
+         "volume=blocks: once the map fills 7/8 of map_budget_mb, move the blocks farther than "
+         "map_swap_distance_m from the camera to host memory and bring them back as the camera "
+         "nears them; mesh, cloud and save include them (on|off; a run that never fills 7/8 "
+         "gives the same bits either way)",
+         [](C& c) -> bool& { return c.volume.map_swap; });
+  num("map_swap_distance_m", "volume", "", "",
+      "volume=blocks, map_swap=on: blocks whose centres lie farther than this from the camera "
+      "may leave the active map (0 = the raycast's reach + 2, where the reach is the distance "
+      "to the far plane's corners + mu_m + a block's diagonal; else at least the reach + 0.25)",
+      [](C& c) -> float& { return c.volume.map_swap_distance_m; });
   num("mu_m", "volume", "m", "mu", "TSDF truncation distance in metres",
       [](C& c) -> float& { return c.volume.mu_m; });
   integer("max_weight", "volume", "", "", "voxel weight cap (1..32767)",
@@ -605,6 +616,9 @@ void PipelineConfig::validate() const {
           << volume.voxel_size_m);
   KFX_CHECK(volume.map_budget_mb >= 1 && volume.map_budget_mb <= (1 << 20),
             "map_budget_mb must be in 1..1048576 MiB, got " << volume.map_budget_mb);
+  KFX_CHECK(volume.map_swap_distance_m >= 0.0f,
+            "map_swap_distance_m must be >= 0 (0 = the default), got "
+                << volume.map_swap_distance_m);
   for (float f : volume.init_pose_factor) {
     KFX_CHECK(f >= 0 && f <= 1, "init_pose_factor components must be in [0, 1], got " << f);
   }

@@ -20,6 +20,10 @@
 
 namespace kfx {
 
+/// Least room, metres, between map_swap_distance_m and the reach of the raycast
+/// (Pipeline::swap_reach_m()): the camera moves half the room between swap passes.
+constexpr float kSwapMinMarginM = 0.25f;
+
 /// All pipeline settings. Defaults are SLAMBench KFusion's (the `exact` preset).
 struct PipelineConfig {
   struct Input {
@@ -42,6 +46,12 @@ struct PipelineConfig {
     MapKind kind = MapKind::kDense;
     float voxel_size_m = 0.0f;  ///< blocks: voxel side; 0 = size_m / resolution_vox
     int map_budget_mb = 2048;   ///< blocks: memory for blocks, MiB (fixes the block capacity)
+    /// blocks: when the map nears its budget, move blocks far from the camera to a host store
+    /// and back when the camera nears them (map/block_swap.hpp).
+    bool map_swap = true;
+    /// blocks: blocks whose centres lie farther than this from the camera may be swapped out;
+    /// 0 = the reach of the raycast + 2 m (Pipeline::swap_distance_m()).
+    float map_swap_distance_m = 0.0f;
     /// The voxel size as the maps keep it, the ratio size / res (map/block_map.hpp).
     int grid_res() const {
       return kind == MapKind::kBlocks && voxel_size_m > 0 ? 1 : resolution_vox;

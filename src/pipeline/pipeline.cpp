@@ -2,7 +2,12 @@
 
 #include "pipeline/pipeline.hpp"
 
+#include <algorithm>
+#include <cmath>
+
+#include "backend/block_map_mesh.hpp"
 #include "backend/memory_budget.hpp"
+#include "kernels/integrate.hpp"
 #include "map/host_block_map.hpp"
 #include "pipeline/depth_undistortion.hpp"
 
@@ -58,6 +63,35 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
       params_.integrate.colour_camera.k.scaled_down(static_cast<float>(ratio));
   params_.icp.photometric.T_colour_cam = params_.integrate.colour_camera.T_colour_cam;
 
+  // A swap merges two copies of a block as integration would have: with the same caps.
+  VoxelWeightCaps caps;
+  caps.tsdf = config_.volume.max_weight *
+              (params_.integrate.weight_mode == IntegrationWeight::kConstant ? 1 : kWeightUnits);
+  caps.colour = config_.volume.max_weight;
+  swap_store_ = BlockSwapStore(caps);
+  // The raycast's t is camera depth: its far plane lies farthest at the image's corners.
+  float corner = 1.0f;
+  for (float x : {0.0f, static_cast<float>(cw)}) {
+    for (float y : {0.0f, static_cast<float>(ch)}) {
+      const float rx = (x - compute_k_.cx) / compute_k_.fx, ry = (y - compute_k_.cy) / compute_k_.fy;
+      corner = std::max(corner, std::sqrt(1.0f + rx * rx + ry * ry));
+    }
+  }
+  const float voxel_m = config_.volume.grid_size_m() / config_.volume.grid_res();
+  swap_reach_m_ = (config_.raycast.far_m + config_.volume.mu_m) * corner +
+                  std::sqrt(3.0f) * kBlockSide * voxel_m;
+  swap_distance_m_ = config_.volume.map_swap_distance_m > 0.0f
+                         ? config_.volume.map_swap_distance_m
+                         : swap_reach_m_ + 2.0f;
+  KFX_CHECK(setup_.map_kind != MapKind::kBlocks || !config_.volume.map_swap ||
+                swap_distance_m_ >= swap_reach_m_ + kSwapMinMarginM,
+            "map_swap_distance_m " << swap_distance_m_ << " m is too short: the raycast reads up to "
+                                   << swap_reach_m_ << " m from the camera (far_m, mu_m and a "
+                                   << "block's diagonal at this camera's corners), and the camera "
+                                   << "needs " << kSwapMinMarginM << " m more to move between "
+                                   << "swap passes; set at least " << swap_reach_m_ + kSwapMinMarginM
+                                   << " m, 0 for the default, or map_swap=off");
+
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
 }
@@ -69,6 +103,38 @@ void Pipeline::reset() {
   backend_->reset(initial_pose_);
   frame_ = 0;
   have_reference_ = false;
+  swap_store_.clear();
+  swap_due_ = false;
+  swap_passes_ = 0;
+  blocks_after_pass_ = 0;
+}
+
+void Pipeline::swap_pass() {
+  // Frames in flight finish first: read_blocks waits for the backend.
+  BlockMapContents active = backend_->read_blocks();
+  const int capacity = static_cast<int>(setup_.block_capacity);
+  // Blocks come back only while the map keeps a sixteenth of its budget free below the point
+  // where a pass is due, so the next pass is not due at once.
+  const int max_active = capacity - capacity / 8 - capacity / 16;
+  swap_store_.pass(active, camera_m_, swap_distance_m_, max_active);
+  backend_->upload_blocks(active);
+  blocks_after_pass_ = static_cast<int>(active.keys.size());
+  pass_camera_m_ = camera_m_;
+  ++swap_passes_;
+  swap_due_ = false;
+}
+
+BlockMapContents Pipeline::read_map() { return swap_store_.with_store(backend_->read_blocks()); }
+
+void Pipeline::load_map(const BlockMapContents& contents) {
+  swap_store_.clear();
+  backend_->upload_blocks(contents);
+  blocks_after_pass_ = 0;
+}
+
+MeshView Pipeline::extract_mesh() {
+  if (swap_store_.empty()) return backend_->extract_mesh();
+  return extract_block_map_mesh(read_map(), mesh_vertices_, mesh_triangles_);
 }
 
 FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostImage<Rgb8>* rgb) {
@@ -80,6 +146,13 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   const int f = frame_;
   FrameReport report;
   report.index = f;
+  if (swap_due_) {
+    const auto start = std::chrono::steady_clock::now();
+    swap_pass();
+    report.map_swap_passes_now = 1;
+    report.map_swap_ms =
+        std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  }
   Backend& b = *backend_;
   b.upload_depth(depth_mm);
   if (config_.colour.fuse || setup_.photometric) {
@@ -186,6 +259,25 @@ FrameReport Pipeline::collect() {
   report.map_blocks = state.map_blocks;
   report.map_bytes = block_bytes(setup_.colour) * static_cast<uint64_t>(state.map_blocks);
   report.map_blocks_dropped = report.integrated ? state.map_blocks_dropped : 0;
+  report.map_blocks_swapped = swap_store_.block_count();
+  report.map_swapped_bytes =
+      block_bytes(setup_.colour) * static_cast<uint64_t>(report.map_blocks_swapped);
+  report.map_swap_passes = swap_passes_;
+  if (setup_.map_kind == MapKind::kBlocks && config_.volume.map_swap) {
+    // A pass is due when the map nears its budget (and has grown since the last pass, which
+    // may have left it there), or when blocks are stored away and the camera has moved half
+    // the room between the swap distance and the reach since the last pass: so every block
+    // within reach of the camera was within the swap distance of the last pass's camera, and
+    // stayed or came back (the other half covers the frames between decision and pass).
+    camera_m_ = state.T_world_cam.translation_part();
+    const int capacity = static_cast<int>(setup_.block_capacity);
+    const bool filling = state.map_blocks >= capacity - capacity / 8 &&
+                         state.map_blocks >= blocks_after_pass_ + capacity / 32;
+    const bool moved = !swap_store_.empty() &&
+                       length(camera_m_ - pass_camera_m_) >=
+                           0.5f * (swap_distance_m_ - swap_reach_m_);
+    if (filling || moved) swap_due_ = true;
+  }
   report.icp_iterations = track ? state.iterations_run : 0;
   report.inlier_fraction =
       track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)

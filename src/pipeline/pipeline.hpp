@@ -4,6 +4,7 @@
 /// the stages.
 
 #include <array>
+#include <chrono>
 #include <deque>
 #include <memory>
 
@@ -11,6 +12,7 @@
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "kernels/tracking_constraint.hpp"
+#include "map/block_swap.hpp"
 #include "pipeline/config.hpp"
 
 namespace kfx {
@@ -38,6 +40,15 @@ struct FrameReport {
   int map_blocks = 0;
   int map_blocks_dropped = 0;
   uint64_t map_bytes = 0;  ///< bytes the allocated blocks take (block_bytes each)
+  /// Blocks swapped out to host memory (setting map_swap) after the frame, and their bytes;
+  /// map_blocks counts only the active map's.
+  int map_blocks_swapped = 0;
+  uint64_t map_swapped_bytes = 0;
+  /// Swap passes run before this frame (0 or 1) and so far, and the wall time of this frame's
+  /// (outside the stages and the computation time: read, sort and write back the map).
+  int map_swap_passes_now = 0;
+  int map_swap_passes = 0;
+  double map_swap_ms = 0;
 };
 
 /// A KinectFusion pipeline over one backend.
@@ -86,6 +97,23 @@ class Pipeline {
   uint64_t colour_bytes() const;
   /// Frames submitted so far.
   int frame_count() const { return frame_; }
+  /// How far from the camera the raycast may read a block (and integration write one, up to
+  /// the far plane's depth), metres: the far plane's corner rays' length + mu + a block's
+  /// diagonal.
+  float swap_reach_m() const { return swap_reach_m_; }
+  /// Blocks farther than this from the camera may be swapped out, metres
+  /// (map_swap_distance_m, or swap_reach_m() + 2).
+  float swap_distance_m() const { return swap_distance_m_; }
+
+  /// The block map's contents: the active map's blocks with those swapped out to host memory
+  /// (volume=blocks only). Waits for the frames in flight to finish on the backend.
+  BlockMapContents read_map();
+  /// Replaces the block map by `contents` (a saved map) and empties the swap store.
+  void load_map(const BlockMapContents& contents);
+  /// The model's mesh: the backend's, or with blocks swapped out, the host's marching cubes
+  /// over the whole map (the same bytes as a map that never swapped). The view lives until the
+  /// next call.
+  MeshView extract_mesh();
 
  private:
   PipelineConfig config_;
@@ -103,6 +131,21 @@ class Pipeline {
   int frame_ = 0;
   bool have_reference_ = false;  ///< a raycast has run: frames can be tracked
   bool rendering_ = false;
+
+  /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
+  /// next frame; decided in collect() (swap_due_).
+  void swap_pass();
+  BlockSwapStore swap_store_;
+  float swap_reach_m_ = 0.0f;
+  float swap_distance_m_ = 0.0f;
+  bool swap_due_ = false;
+  int swap_passes_ = 0;
+  int swap_passes_pending_report_ = 0;  ///< passes run since the last submitted frame
+  int blocks_after_pass_ = 0;           ///< active blocks when the last pass ended
+  Vec3f camera_m_{};                    ///< the last collected frame's camera position
+  Vec3f pass_camera_m_{};               ///< the camera position of the last pass
+  std::vector<MeshVertex> mesh_vertices_;      ///< the whole map's mesh, with blocks swapped out
+  std::vector<MeshTriangle> mesh_triangles_;
 };
 
 }  // namespace kfx

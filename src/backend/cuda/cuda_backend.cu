@@ -572,11 +572,8 @@ class CudaBackend final : public Backend {
     if (blocks()) {
       // The host's marching cubes over a host copy of the blocks (block_map_mesh.hpp): the
       // CPU's bodies and order, so both backends give the same bytes for the same map.
-      const BlockMapContents contents = block_map_.download(stream_.get());
-      HostBlockMap host(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
-                        contents.grid_res, contents.grid_size_m, !contents.colours.empty());
-      host.load(contents);
-      return extract_block_map_mesh(host.view(), block_mesh_vertices_, block_mesh_triangles_);
+      return extract_block_map_mesh(block_map_.download(stream_.get()), block_mesh_vertices_,
+                                    block_mesh_triangles_);
     }
     // In stream order after any submitted frame.
     return mesh_.extract(buffers_.volume_view(), stream_.get(), debug_sync_);

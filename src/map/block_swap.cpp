@@ -1,0 +1,187 @@
+#include "map/block_swap.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <utility>
+#include <vector>
+
+namespace kfx {
+
+namespace {
+
+/// Appends block i of `from` (key and voxels) to `to`.
+void append_block(BlockMapContents& to, const BlockMapContents& from, size_t i) {
+  to.keys.push_back(from.keys[i]);
+  to.voxels.insert(to.voxels.end(), from.voxels.begin() + i * kBlockVoxels,
+                   from.voxels.begin() + (i + 1) * kBlockVoxels);
+}
+
+/// An empty contents of `like`'s voxel size.
+BlockMapContents empty_like(const BlockMapContents& like) {
+  BlockMapContents c;
+  c.grid_res = like.grid_res;
+  c.grid_size_m = like.grid_size_m;
+  return c;
+}
+
+/// Appends block i's colours of `from` to `to`, or none yet when `from` carries none.
+void append_colours(BlockMapContents& to, const BlockMapContents& from, size_t i) {
+  if (from.colours.empty()) {
+    to.colours.resize(to.colours.size() + kBlockVoxels, ColourVoxel{0, 0, 0, 0});
+  } else {
+    to.colours.insert(to.colours.end(), from.colours.begin() + i * kBlockVoxels,
+                      from.colours.begin() + (i + 1) * kBlockVoxels);
+  }
+}
+
+}  // namespace
+
+Voxel merge_voxel(Voxel a, Voxel b, int tsdf_weight_cap) {
+  if (b.weight <= 0) return a;
+  if (a.weight <= 0) return b;
+  const double wa = a.weight, wb = b.weight;
+  const double tsdf = (wa * a.tsdf + wb * b.tsdf) / (wa + wb);
+  Voxel m;
+  m.tsdf = static_cast<int16_t>(std::lround(tsdf));
+  m.weight = static_cast<int16_t>(std::min(wa + wb, static_cast<double>(tsdf_weight_cap)));
+  return m;
+}
+
+ColourVoxel merge_colour(ColourVoxel a, ColourVoxel b, int colour_weight_cap) {
+  if (b.weight == 0) return a;
+  if (a.weight == 0) return b;
+  const double wa = a.weight, wb = b.weight, inv = 1.0 / (wa + wb);
+  auto mean = [&](uint16_t x, uint16_t y) {
+    return static_cast<uint16_t>(std::lround((wa * x + wb * y) * inv));
+  };
+  ColourVoxel m;
+  m.r = mean(a.r, b.r);
+  m.g = mean(a.g, b.g);
+  m.b = mean(a.b, b.b);
+  m.weight = static_cast<uint16_t>(std::min(wa + wb, static_cast<double>(colour_weight_cap)));
+  return m;
+}
+
+BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContents& b,
+                                const VoxelWeightCaps& caps) {
+  BlockMapContents out = empty_like(a.keys.empty() ? b : a);
+  const bool colour = !a.colours.empty() || !b.colours.empty();
+  out.keys.reserve(a.keys.size() + b.keys.size());
+  out.voxels.reserve((a.keys.size() + b.keys.size()) * kBlockVoxels);
+  size_t i = 0, j = 0;
+  while (i < a.keys.size() || j < b.keys.size()) {
+    const bool take_a = j == b.keys.size() || (i < a.keys.size() && a.keys[i] < b.keys[j]);
+    const bool take_b = i == a.keys.size() || (j < b.keys.size() && b.keys[j] < a.keys[i]);
+    if (take_a) {
+      append_block(out, a, i);
+      if (colour) append_colours(out, a, i);
+      ++i;
+    } else if (take_b) {
+      append_block(out, b, j);
+      if (colour) append_colours(out, b, j);
+      ++j;
+    } else {  // the same key on both sides
+      out.keys.push_back(a.keys[i]);
+      for (int v = 0; v < kBlockVoxels; ++v) {
+        out.voxels.push_back(merge_voxel(a.voxels[i * kBlockVoxels + v],
+                                         b.voxels[j * kBlockVoxels + v], caps.tsdf));
+      }
+      if (colour) {
+        const ColourVoxel none{0, 0, 0, 0};
+        for (int v = 0; v < kBlockVoxels; ++v) {
+          const ColourVoxel ca = a.colours.empty() ? none : a.colours[i * kBlockVoxels + v];
+          const ColourVoxel cb = b.colours.empty() ? none : b.colours[j * kBlockVoxels + v];
+          out.colours.push_back(merge_colour(ca, cb, caps.colour));
+        }
+      }
+      ++i;
+      ++j;
+    }
+  }
+  return out;
+}
+
+float block_centre_distance_m(uint64_t key, float voxel_m, Vec3f point_m) {
+  const Vec3i c = unpack_block_key(key);
+  const float half = 0.5f * kBlockSide;
+  const Vec3f centre{(c.x * kBlockSide + half) * voxel_m, (c.y * kBlockSide + half) * voxel_m,
+                     (c.z * kBlockSide + half) * voxel_m};
+  return length(centre - point_m);
+}
+
+namespace {
+
+/// Splits `map` into the blocks `keep` selects and the rest, both in key order.
+template <class Keep>
+std::pair<BlockMapContents, BlockMapContents> split(const BlockMapContents& map, Keep&& keep) {
+  std::pair<BlockMapContents, BlockMapContents> parts{empty_like(map), empty_like(map)};
+  for (size_t i = 0; i < map.keys.size(); ++i) {
+    BlockMapContents& to = keep(i) ? parts.first : parts.second;
+    append_block(to, map, i);
+    if (!map.colours.empty()) append_colours(to, map, i);
+  }
+  return parts;
+}
+
+/// Keys both sorted key lists hold.
+int shared_keys(const std::vector<uint64_t>& a, const std::vector<uint64_t>& b) {
+  int n = 0;
+  for (size_t i = 0, j = 0; i < a.size() && j < b.size();) {
+    if (a[i] < b[j]) {
+      ++i;
+    } else if (b[j] < a[i]) {
+      ++j;
+    } else {
+      ++n, ++i, ++j;
+    }
+  }
+  return n;
+}
+
+}  // namespace
+
+SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, float distance_m,
+                                    int max_active_blocks) {
+  SwapPassResult result;
+  const float voxel_m = active.grid_size_m / active.grid_res;
+  auto near = [&](const BlockMapContents& map, size_t i) {
+    return block_centre_distance_m(map.keys[i], voxel_m, camera_m) <= distance_m;
+  };
+  auto [kept, out] = split(active, [&](size_t i) { return near(active, i); });
+  result.swapped_out = static_cast<int>(out.keys.size());
+  if (store_.keys.empty()) store_ = empty_like(active);
+  result.merged += shared_keys(store_.keys, out.keys);
+  store_ = merge_contents(store_, out, caps_);
+
+  // The store's blocks within the distance, nearest first (ties by key), as many as fit.
+  std::vector<std::pair<float, uint64_t>> back;
+  for (size_t i = 0; i < store_.keys.size(); ++i) {
+    const float d = block_centre_distance_m(store_.keys[i], voxel_m, camera_m);
+    if (d <= distance_m) back.emplace_back(d, store_.keys[i]);
+  }
+  const size_t room = static_cast<size_t>(
+      std::max(0, max_active_blocks - static_cast<int>(kept.keys.size())));
+  if (back.size() > room) {
+    std::nth_element(back.begin(), back.begin() + room, back.end());
+    back.resize(room);
+  }
+  std::vector<uint64_t> back_keys;
+  back_keys.reserve(back.size());
+  for (const auto& b : back) back_keys.push_back(b.second);
+  std::sort(back_keys.begin(), back_keys.end());
+  auto [returning, staying] = split(store_, [&](size_t i) {
+    return std::binary_search(back_keys.begin(), back_keys.end(), store_.keys[i]);
+  });
+  result.swapped_in = static_cast<int>(returning.keys.size());
+  result.merged += shared_keys(kept.keys, returning.keys);
+  store_ = std::move(staying);
+  active = merge_contents(kept, returning, caps_);
+  return result;
+}
+
+BlockMapContents BlockSwapStore::with_store(const BlockMapContents& active) const {
+  if (store_.keys.empty()) return active;
+  return merge_contents(active, store_, caps_);
+}
+
+}  // namespace kfx
