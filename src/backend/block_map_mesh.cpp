@@ -70,8 +70,7 @@ MeshView extract_block_map_mesh(const BlockMapView& map, std::vector<MeshVertex>
   return MeshView{vertices.data(), vertex_total, triangles.data(), triangle_total};
 }
 
-MeshView extract_block_map_mesh(const BlockMapContents& contents,
-                                std::vector<MeshVertex>& vertices,
+MeshView extract_block_map_mesh(const BlockMapContents& contents, std::vector<MeshVertex>& vertices,
                                 std::vector<MeshTriangle>& triangles) {
   HostBlockMap host(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
                     contents.grid_res, contents.grid_size_m, !contents.colours.empty());

@@ -20,8 +20,7 @@ MeshView extract_block_map_mesh(const BlockMapView& map, std::vector<MeshVertex>
 
 /// The same for a map's contents (a host copy of a device map, or a map with blocks swapped
 /// out): loaded into a host map of its own size first.
-MeshView extract_block_map_mesh(const BlockMapContents& contents,
-                                std::vector<MeshVertex>& vertices,
+MeshView extract_block_map_mesh(const BlockMapContents& contents, std::vector<MeshVertex>& vertices,
                                 std::vector<MeshTriangle>& triangles);
 
 }  // namespace kfx

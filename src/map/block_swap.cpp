@@ -83,8 +83,8 @@ BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContent
     } else {  // the same key on both sides
       out.keys.push_back(a.keys[i]);
       for (int v = 0; v < kBlockVoxels; ++v) {
-        out.voxels.push_back(merge_voxel(a.voxels[i * kBlockVoxels + v],
-                                         b.voxels[j * kBlockVoxels + v], caps.tsdf));
+        out.voxels.push_back(
+            merge_voxel(a.voxels[i * kBlockVoxels + v], b.voxels[j * kBlockVoxels + v], caps.tsdf));
       }
       if (colour) {
         const ColourVoxel none{0, 0, 0, 0};
@@ -159,8 +159,8 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
     const float d = block_centre_distance_m(store_.keys[i], voxel_m, camera_m);
     if (d <= distance_m) back.emplace_back(d, store_.keys[i]);
   }
-  const size_t room = static_cast<size_t>(
-      std::max(0, max_active_blocks - static_cast<int>(kept.keys.size())));
+  const size_t room =
+      static_cast<size_t>(std::max(0, max_active_blocks - static_cast<int>(kept.keys.size())));
   if (back.size() > room) {
     std::nth_element(back.begin(), back.begin() + room, back.end());
     back.resize(room);

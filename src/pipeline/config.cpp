@@ -616,9 +616,9 @@ void PipelineConfig::validate() const {
           << volume.voxel_size_m);
   KFX_CHECK(volume.map_budget_mb >= 1 && volume.map_budget_mb <= (1 << 20),
             "map_budget_mb must be in 1..1048576 MiB, got " << volume.map_budget_mb);
-  KFX_CHECK(volume.map_swap_distance_m >= 0.0f,
-            "map_swap_distance_m must be >= 0 (0 = the default), got "
-                << volume.map_swap_distance_m);
+  KFX_CHECK(
+      volume.map_swap_distance_m >= 0.0f,
+      "map_swap_distance_m must be >= 0 (0 = the default), got " << volume.map_swap_distance_m);
   for (float f : volume.init_pose_factor) {
     KFX_CHECK(f >= 0 && f <= 1, "init_pose_factor components must be in [0, 1], got " << f);
   }

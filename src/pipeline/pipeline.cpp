@@ -73,24 +73,25 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   float corner = 1.0f;
   for (float x : {0.0f, static_cast<float>(cw)}) {
     for (float y : {0.0f, static_cast<float>(ch)}) {
-      const float rx = (x - compute_k_.cx) / compute_k_.fx, ry = (y - compute_k_.cy) / compute_k_.fy;
+      const float rx = (x - compute_k_.cx) / compute_k_.fx,
+                  ry = (y - compute_k_.cy) / compute_k_.fy;
       corner = std::max(corner, std::sqrt(1.0f + rx * rx + ry * ry));
     }
   }
   const float voxel_m = config_.volume.grid_size_m() / config_.volume.grid_res();
   swap_reach_m_ = (config_.raycast.far_m + config_.volume.mu_m) * corner +
                   std::sqrt(3.0f) * kBlockSide * voxel_m;
-  swap_distance_m_ = config_.volume.map_swap_distance_m > 0.0f
-                         ? config_.volume.map_swap_distance_m
-                         : swap_reach_m_ + 2.0f;
+  swap_distance_m_ = config_.volume.map_swap_distance_m > 0.0f ? config_.volume.map_swap_distance_m
+                                                               : swap_reach_m_ + 2.0f;
   KFX_CHECK(setup_.map_kind != MapKind::kBlocks || !config_.volume.map_swap ||
                 swap_distance_m_ >= swap_reach_m_ + kSwapMinMarginM,
-            "map_swap_distance_m " << swap_distance_m_ << " m is too short: the raycast reads up to "
-                                   << swap_reach_m_ << " m from the camera (far_m, mu_m and a "
-                                   << "block's diagonal at this camera's corners), and the camera "
-                                   << "needs " << kSwapMinMarginM << " m more to move between "
-                                   << "swap passes; set at least " << swap_reach_m_ + kSwapMinMarginM
-                                   << " m, 0 for the default, or map_swap=off");
+            "map_swap_distance_m "
+                << swap_distance_m_ << " m is too short: the raycast reads up to " << swap_reach_m_
+                << " m from the camera (far_m, mu_m and a "
+                << "block's diagonal at this camera's corners), and the camera "
+                << "needs " << kSwapMinMarginM << " m more to move between "
+                << "swap passes; set at least " << swap_reach_m_ + kSwapMinMarginM
+                << " m, 0 for the default, or map_swap=off");
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
@@ -273,9 +274,8 @@ FrameReport Pipeline::collect() {
     const int capacity = static_cast<int>(setup_.block_capacity);
     const bool filling = state.map_blocks >= capacity - capacity / 8 &&
                          state.map_blocks >= blocks_after_pass_ + capacity / 32;
-    const bool moved = !swap_store_.empty() &&
-                       length(camera_m_ - pass_camera_m_) >=
-                           0.5f * (swap_distance_m_ - swap_reach_m_);
+    const bool moved = !swap_store_.empty() && length(camera_m_ - pass_camera_m_) >=
+                                                   0.5f * (swap_distance_m_ - swap_reach_m_);
     if (filling || moved) swap_due_ = true;
   }
   report.icp_iterations = track ? state.iterations_run : 0;

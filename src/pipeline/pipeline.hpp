@@ -140,11 +140,11 @@ class Pipeline {
   float swap_distance_m_ = 0.0f;
   bool swap_due_ = false;
   int swap_passes_ = 0;
-  int swap_passes_pending_report_ = 0;  ///< passes run since the last submitted frame
-  int blocks_after_pass_ = 0;           ///< active blocks when the last pass ended
-  Vec3f camera_m_{};                    ///< the last collected frame's camera position
-  Vec3f pass_camera_m_{};               ///< the camera position of the last pass
-  std::vector<MeshVertex> mesh_vertices_;      ///< the whole map's mesh, with blocks swapped out
+  int swap_passes_pending_report_ = 0;     ///< passes run since the last submitted frame
+  int blocks_after_pass_ = 0;              ///< active blocks when the last pass ended
+  Vec3f camera_m_{};                       ///< the last collected frame's camera position
+  Vec3f pass_camera_m_{};                  ///< the camera position of the last pass
+  std::vector<MeshVertex> mesh_vertices_;  ///< the whole map's mesh, with blocks swapped out
   std::vector<MeshTriangle> mesh_triangles_;
 };
 
