@@ -253,8 +253,10 @@ int main(int argc, char** argv) try {
                          reader->height_px(), backend);
   std::vector<kfx::Mat4f> poses;
   int tracked = 0, integrated = 0, frames_short = 0, first_short = -1, map_blocks = 0;
+  // With swapping (map_swap), map_blocks counts the active map and the host store together.
+  int active_blocks_peak = 0, swapped_blocks = 0, swap_passes = 0;
   long long blocks_dropped = 0;
-  double computation_ms = 0;
+  double computation_ms = 0, swap_ms = 0;
   kfx::io::Frame frame;
   for (int skipped = 0; skipped < opt.first_frame; ++skipped) {
     KFX_CHECK(reader->next(frame).status == kfx::io::ReadStatus::kOk,
@@ -266,7 +268,11 @@ int main(int argc, char** argv) try {
     tracked += r.tracked;
     integrated += r.integrated;
     computation_ms += r.computation_ms;
-    map_blocks = r.map_blocks;
+    map_blocks = r.map_blocks + r.map_blocks_swapped;
+    active_blocks_peak = std::max(active_blocks_peak, r.map_blocks);
+    swapped_blocks = r.map_blocks_swapped;
+    swap_passes = r.map_swap_passes;
+    swap_ms += r.map_swap_ms;
     blocks_dropped += r.map_blocks_dropped;
     if (r.map_blocks_dropped > 0) {
       ++frames_short;
@@ -381,6 +387,11 @@ int main(int argc, char** argv) try {
       map_bytes / surface_bytes, bytes_per_voxel, band_bytes / 1048576.0, map_bytes / band_bytes);
   std::printf("frames short of blocks: %d (first %d), blocks dropped %lld, budget %d MiB\n",
               frames_short, first_short, blocks_dropped, config.volume.map_budget_mb);
+  std::printf(
+      "swapping: %d blocks in host memory at the end, %d passes (%.1f s), active map at most %d "
+      "blocks = %.1f MiB\n",
+      swapped_blocks, swap_passes, swap_ms / 1000.0, active_blocks_peak,
+      static_cast<double>(active_blocks_peak) * kfx::kBytesPerBlock / 1048576.0);
 
   if (!opt.json_path.empty()) {
     std::ofstream out(opt.json_path);
@@ -412,7 +423,11 @@ int main(int argc, char** argv) try {
         << "  \"surface_bytes\": " << surface_bytes << ",\n"
         << "  \"band_bytes\": " << band_bytes << ",\n"
         << "  \"frames_short_of_blocks\": " << frames_short << ",\n"
-        << "  \"blocks_dropped\": " << blocks_dropped << "\n"
+        << "  \"blocks_dropped\": " << blocks_dropped << ",\n"
+        << "  \"active_blocks_peak\": " << active_blocks_peak << ",\n"
+        << "  \"swapped_blocks\": " << swapped_blocks << ",\n"
+        << "  \"swap_passes\": " << swap_passes << ",\n"
+        << "  \"swap_s\": " << swap_ms / 1000.0 << "\n"
         << "}\n";
   }
   return 0;

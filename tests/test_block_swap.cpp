@@ -153,8 +153,8 @@ struct HouseRun {
 /// size with the raycast's far plane and the depth cut at 3 m, on 1 cm blocks.
 HouseRun run_house(const std::vector<std::pair<std::string, std::string>>& settings,
                    BackendKind backend) {
-  auto reader = io::make_synthetic_reader(
-      "synthetic:scene=house,frames=500,width=160,height=120,speed=3");
+  auto reader =
+      io::make_synthetic_reader("synthetic:scene=house,frames=500,width=160,height=120,speed=3");
   PipelineConfig config;
   for (const auto& [key, value] : reader->recommended_settings()) {
     set_config_value(config, key, value);
@@ -199,9 +199,8 @@ void expect_swapping_changes_no_bytes(BackendKind backend) {
   EXPECT_LE(static_cast<uint32_t>(swapped.most_active_blocks), capacity);
 
   ASSERT_EQ(whole.poses.size(), swapped.poses.size());
-  EXPECT_EQ(std::memcmp(whole.poses.data(), swapped.poses.data(),
-                        whole.poses.size() * sizeof(Mat4f)),
-            0);
+  EXPECT_EQ(
+      std::memcmp(whole.poses.data(), swapped.poses.data(), whole.poses.size() * sizeof(Mat4f)), 0);
   EXPECT_EQ(whole.map.keys, swapped.map.keys);
   ASSERT_EQ(whole.map.voxels.size(), swapped.map.voxels.size());
   EXPECT_EQ(std::memcmp(whole.map.voxels.data(), swapped.map.voxels.data(),
@@ -239,8 +238,7 @@ TEST(BlockSwap, SwapDistanceShorterThanTheRaycastsReachIsRefused) {
                       reader->height_px(), BackendKind::kCpu);
     FAIL() << "a swap distance inside the raycast's reach was accepted";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("map_swap_distance_m 4 m is too short"),
-              std::string::npos)
+    EXPECT_NE(std::string(e.what()).find("map_swap_distance_m 4 m is too short"), std::string::npos)
         << e.what();
   }
   // Swapping off, the distance is not used.
