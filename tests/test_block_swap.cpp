@@ -95,7 +95,12 @@ TEST(BlockSwap, PassMovesFarBlocksOutAndNearOnesBack) {
   BlockSwapStore store;
   BlockMapContents active = map;
   const Vec3f camera{0.04f, 0.04f, 0.04f};
-  SwapPassResult r = store.pass(active, camera, 1.0f, 100);
+  // Everything within 4 m: nothing moves.
+  SwapPassResult r = store.pass(active, camera, 4.0f, 100);
+  EXPECT_EQ(r.swapped_out + r.swapped_in + r.merged, 0);
+  EXPECT_EQ(active.keys, map.keys);
+  EXPECT_TRUE(store.empty());
+  r = store.pass(active, camera, 1.0f, 100);
   // Centres 0.04 + 0.4 i: within 1 m of the camera for i = 0, 1, 2.
   EXPECT_EQ(r.swapped_out, 7);
   EXPECT_EQ(r.swapped_in, 0);

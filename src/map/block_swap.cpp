@@ -147,6 +147,11 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
   auto near = [&](const BlockMapContents& map, size_t i) {
     return block_centre_distance_m(map.keys[i], voxel_m, camera_m) <= distance_m;
   };
+  // Nothing to move (the keys alone tell): the active map stays as it is, uncopied.
+  bool moves = false;
+  for (size_t i = 0; !moves && i < active.keys.size(); ++i) moves = !near(active, i);
+  for (size_t i = 0; !moves && i < store_.keys.size(); ++i) moves = near(store_, i);
+  if (!moves) return result;
   auto [kept, out] = split(active, [&](size_t i) { return near(active, i); });
   result.swapped_out = static_cast<int>(out.keys.size());
   if (store_.keys.empty()) store_ = empty_like(active);

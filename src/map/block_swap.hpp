@@ -55,7 +55,8 @@ class BlockSwapStore {
   /// `camera_m` move to the store (merged with the store's copy of the same key); the store's
   /// blocks within `distance_m` come back, nearest first, as long as the active map stays at
   /// most `max_active_blocks` (merged with active's copy of the same key). `active` becomes the
-  /// new active contents, in increasing key order.
+  /// new active contents, in increasing key order; it is left untouched when no block moves
+  /// (the result's counts are then 0).
   SwapPassResult pass(BlockMapContents& active, Vec3f camera_m, float distance_m,
                       int max_active_blocks);
   /// The active map's contents with the store's blocks, merged (what mesh, cloud and save read).

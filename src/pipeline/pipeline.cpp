@@ -117,8 +117,8 @@ void Pipeline::swap_pass() {
   // Blocks come back only while the map keeps a sixteenth of its budget free below the point
   // where a pass is due, so the next pass is not due at once.
   const int max_active = capacity - capacity / 8 - capacity / 16;
-  swap_store_.pass(active, camera_m_, swap_distance_m_, max_active);
-  backend_->upload_blocks(active);
+  const SwapPassResult moved = swap_store_.pass(active, camera_m_, swap_distance_m_, max_active);
+  if (moved.swapped_out > 0 || moved.swapped_in > 0) backend_->upload_blocks(active);
   blocks_after_pass_ = static_cast<int>(active.keys.size());
   pass_camera_m_ = camera_m_;
   ++swap_passes_;
