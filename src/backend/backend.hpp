@@ -217,6 +217,9 @@ class Backend {
   virtual void upload_blocks(const BlockMapContents&) {
     KFX_FAIL("upload_blocks(): this backend keeps no block map");
   }
+  /// read_blocks() into `out`, reusing its arrays' memory (the swap passes read the map again
+  /// and again: fresh arrays of that size cost more in page faults than the copy).
+  virtual void read_blocks_into(BlockMapContents& out) { out = read_blocks(); }
 };
 
 /// Scratch bytes mesh extraction needs for a res³ volume: a byte per voxel (owned vertex

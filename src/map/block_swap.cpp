@@ -16,12 +16,14 @@ void append_block(BlockMapContents& to, const BlockMapContents& from, size_t i) 
                    from.voxels.begin() + (i + 1) * kBlockVoxels);
 }
 
-/// An empty contents of `like`'s voxel size.
-BlockMapContents empty_like(const BlockMapContents& like) {
-  BlockMapContents c;
+/// Empties `c` (keeping its arrays' capacity, so a pass after the first allocates nothing new)
+/// and gives it `like`'s voxel size.
+void clear_like(BlockMapContents& c, const BlockMapContents& like) {
+  c.keys.clear();
+  c.voxels.clear();
+  c.colours.clear();
   c.grid_res = like.grid_res;
   c.grid_size_m = like.grid_size_m;
-  return c;
 }
 
 /// Appends block i's colours of `from` to `to`, or none yet when `from` carries none.
@@ -62,9 +64,9 @@ ColourVoxel merge_colour(ColourVoxel a, ColourVoxel b, int colour_weight_cap) {
   return m;
 }
 
-BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContents& b,
-                                const VoxelWeightCaps& caps) {
-  BlockMapContents out = empty_like(a.keys.empty() ? b : a);
+void merge_contents_into(const BlockMapContents& a, const BlockMapContents& b,
+                         const VoxelWeightCaps& caps, BlockMapContents& out) {
+  clear_like(out, a.keys.empty() ? b : a);
   const bool colour = !a.colours.empty() || !b.colours.empty();
   out.keys.reserve(a.keys.size() + b.keys.size());
   out.voxels.reserve((a.keys.size() + b.keys.size()) * kBlockVoxels);
@@ -98,6 +100,12 @@ BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContent
       ++j;
     }
   }
+}
+
+BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContents& b,
+                                const VoxelWeightCaps& caps) {
+  BlockMapContents out;
+  merge_contents_into(a, b, caps, out);
   return out;
 }
 
@@ -111,16 +119,18 @@ float block_centre_distance_m(uint64_t key, float voxel_m, Vec3f point_m) {
 
 namespace {
 
-/// Splits `map` into the blocks `keep` selects and the rest, both in key order.
+/// Splits `map` into the blocks `keep` selects (`first`) and the rest (`second`), both in key
+/// order; neither may be `map`.
 template <class Keep>
-std::pair<BlockMapContents, BlockMapContents> split(const BlockMapContents& map, Keep&& keep) {
-  std::pair<BlockMapContents, BlockMapContents> parts{empty_like(map), empty_like(map)};
+void split_into(const BlockMapContents& map, Keep&& keep, BlockMapContents& first,
+                BlockMapContents& second) {
+  clear_like(first, map);
+  clear_like(second, map);
   for (size_t i = 0; i < map.keys.size(); ++i) {
-    BlockMapContents& to = keep(i) ? parts.first : parts.second;
+    BlockMapContents& to = keep(i) ? first : second;
     append_block(to, map, i);
     if (!map.colours.empty()) append_colours(to, map, i);
   }
-  return parts;
 }
 
 /// Keys both sorted key lists hold.
@@ -152,11 +162,12 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
   for (size_t i = 0; !moves && i < active.keys.size(); ++i) moves = !near(active, i);
   for (size_t i = 0; !moves && i < store_.keys.size(); ++i) moves = near(store_, i);
   if (!moves) return result;
-  auto [kept, out] = split(active, [&](size_t i) { return near(active, i); });
-  result.swapped_out = static_cast<int>(out.keys.size());
-  if (store_.keys.empty()) store_ = empty_like(active);
-  result.merged += shared_keys(store_.keys, out.keys);
-  store_ = merge_contents(store_, out, caps_);
+  split_into(
+      active, [&](size_t i) { return near(active, i); }, kept_, out_);
+  result.swapped_out = static_cast<int>(out_.keys.size());
+  result.merged += shared_keys(store_.keys, out_.keys);
+  merge_contents_into(store_, out_, caps_, scratch_);
+  std::swap(store_, scratch_);
 
   // The store's blocks within the distance, nearest first (ties by key), as many as fit.
   std::vector<std::pair<float, uint64_t>> back;
@@ -165,7 +176,7 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
     if (d <= distance_m) back.emplace_back(d, store_.keys[i]);
   }
   const size_t room =
-      static_cast<size_t>(std::max(0, max_active_blocks - static_cast<int>(kept.keys.size())));
+      static_cast<size_t>(std::max(0, max_active_blocks - static_cast<int>(kept_.keys.size())));
   if (back.size() > room) {
     std::nth_element(back.begin(), back.begin() + room, back.end());
     back.resize(room);
@@ -174,13 +185,16 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
   back_keys.reserve(back.size());
   for (const auto& b : back) back_keys.push_back(b.second);
   std::sort(back_keys.begin(), back_keys.end());
-  auto [returning, staying] = split(store_, [&](size_t i) {
-    return std::binary_search(back_keys.begin(), back_keys.end(), store_.keys[i]);
-  });
-  result.swapped_in = static_cast<int>(returning.keys.size());
-  result.merged += shared_keys(kept.keys, returning.keys);
-  store_ = std::move(staying);
-  active = merge_contents(kept, returning, caps_);
+  split_into(
+      store_,
+      [&](size_t i) {
+        return std::binary_search(back_keys.begin(), back_keys.end(), store_.keys[i]);
+      },
+      returning_, scratch_);
+  std::swap(store_, scratch_);
+  result.swapped_in = static_cast<int>(returning_.keys.size());
+  result.merged += shared_keys(kept_.keys, returning_.keys);
+  merge_contents_into(kept_, returning_, caps_, active);
   return result;
 }
 

@@ -65,12 +65,15 @@ class BlockSwapStore {
   int block_count() const { return static_cast<int>(store_.keys.size()); }
   /// True when nothing is stored.
   bool empty() const { return store_.keys.empty(); }
-  /// Empties the store.
-  void clear() { store_ = BlockMapContents{}; }
+  /// Empties the store (and frees the pass's working copies).
+  void clear() { *this = BlockSwapStore(caps_); }
 
  private:
   VoxelWeightCaps caps_;
   BlockMapContents store_;  ///< increasing key order
+  /// A pass's working copies, kept between passes so that later passes reuse their memory
+  /// (fresh arrays of hundreds of megabytes cost more in page faults than the copying).
+  BlockMapContents kept_, out_, returning_, scratch_;
 };
 
 }  // namespace kfx

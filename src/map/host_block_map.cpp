@@ -100,13 +100,21 @@ void HostBlockMap::insert_new_block(uint64_t key) {
 }
 
 BlockMapContents HostBlockMap::contents() const {
+  BlockMapContents c;
+  contents_into(c);
+  return c;
+}
+
+void HostBlockMap::contents_into(BlockMapContents& c) const {
   std::vector<int32_t> order(static_cast<size_t>(block_count_));
   for (int b = 0; b < block_count_; ++b) order[b] = b;
   std::sort(order.begin(), order.end(),
             [&](int32_t l, int32_t r) { return block_keys_[l] < block_keys_[r]; });
-  BlockMapContents c;
   c.grid_res = grid_res_;
   c.grid_size_m = grid_size_m_;
+  c.keys.clear();
+  c.voxels.clear();
+  c.colours.clear();
   c.keys.reserve(order.size());
   c.voxels.reserve(order.size() * kBlockVoxels);
   for (const int32_t b : order) {
@@ -118,7 +126,6 @@ BlockMapContents HostBlockMap::contents() const {
                        colours_.get() + first + kBlockVoxels);
     }
   }
-  return c;
 }
 
 void HostBlockMap::load(const BlockMapContents& c) {

@@ -105,6 +105,7 @@ void Pipeline::reset() {
   frame_ = 0;
   have_reference_ = false;
   swap_store_.clear();
+  swap_active_ = BlockMapContents{};
   swap_due_ = false;
   swap_passes_ = 0;
   blocks_after_pass_ = 0;
@@ -112,7 +113,8 @@ void Pipeline::reset() {
 
 void Pipeline::swap_pass() {
   // Frames in flight finish first: read_blocks waits for the backend.
-  BlockMapContents active = backend_->read_blocks();
+  BlockMapContents& active = swap_active_;
+  backend_->read_blocks_into(active);
   const int capacity = static_cast<int>(setup_.block_capacity);
   // Blocks come back only while the map keeps a sixteenth of its budget free below the point
   // where a pass is due, so the next pass is not due at once.

@@ -136,6 +136,7 @@ class Pipeline {
   /// next frame; decided in collect() (swap_due_).
   void swap_pass();
   BlockSwapStore swap_store_;
+  BlockMapContents swap_active_;  ///< a pass's copy of the active map (its memory reused)
   float swap_reach_m_ = 0.0f;
   float swap_distance_m_ = 0.0f;
   bool swap_due_ = false;

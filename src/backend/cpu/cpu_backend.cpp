@@ -429,6 +429,10 @@ class CpuBackend final : public Backend {
     KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
     return blocks_.contents();
   }
+  void read_blocks_into(BlockMapContents& out) override {
+    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
+    blocks_.contents_into(out);
+  }
   void upload_blocks(const BlockMapContents& contents) override {
     KFX_CHECK(blocks(), "upload_blocks(): the map is the dense cube (volume=dense)");
     blocks_.load(contents);

@@ -583,6 +583,10 @@ class CudaBackend final : public Backend {
     KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
     return block_map_.download(stream_.get());
   }
+  void read_blocks_into(BlockMapContents& out) override {
+    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
+    block_map_.download_into(out, stream_.get());
+  }
 
   void upload_blocks(const BlockMapContents& contents) override {
     KFX_CHECK(blocks(), "upload_blocks(): the map is the dense cube (volume=dense)");

@@ -315,13 +315,24 @@ class DeviceBlockMap {
   /// A host copy of the blocks in increasing key order (HostBlockMap::contents' form). Waits
   /// for `stream`.
   BlockMapContents download(cudaStream_t stream) const {
+    BlockMapContents c;
+    download_into(c, stream);
+    return c;
+  }
+
+  /// The same into `c`, reusing its arrays' memory and this map's host staging arrays (the
+  /// swap passes download the map again and again).
+  void download_into(BlockMapContents& c, cudaStream_t stream) const {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
     BlockMapCounts counts{};
     KFX_CUDA_CHECK(cudaMemcpy(&counts, counts_.data(), sizeof(counts), cudaMemcpyDeviceToHost));
     const size_t n = static_cast<size_t>(counts.blocks);
-    std::vector<uint64_t> keys(n);
-    std::vector<Voxel> voxels(n * kBlockVoxels);
-    std::vector<ColourVoxel> colours(colours_.size() > 0 ? n * kBlockVoxels : 0);
+    std::vector<uint64_t>& keys = staging_keys_;
+    std::vector<Voxel>& voxels = staging_voxels_;
+    std::vector<ColourVoxel>& colours = staging_colours_;
+    keys.resize(n);
+    voxels.resize(n * kBlockVoxels);
+    colours.resize(colours_.size() > 0 ? n * kBlockVoxels : 0);
     if (!colours.empty()) {
       KFX_CUDA_CHECK(cudaMemcpy(colours.data(), colours_.data(),
                                 colours.size() * sizeof(ColourVoxel), cudaMemcpyDeviceToHost));
@@ -335,9 +346,11 @@ class DeviceBlockMap {
     std::vector<size_t> order(n);
     std::iota(order.begin(), order.end(), size_t{0});
     std::sort(order.begin(), order.end(), [&](size_t l, size_t r) { return keys[l] < keys[r]; });
-    BlockMapContents c;
     c.grid_res = grid_res_;
     c.grid_size_m = grid_size_m_;
+    c.keys.clear();
+    c.voxels.clear();
+    c.colours.clear();
     c.keys.reserve(n);
     c.voxels.reserve(voxels.size());
     for (const size_t b : order) {
@@ -349,7 +362,6 @@ class DeviceBlockMap {
                          colours.begin() + (b + 1) * kBlockVoxels);
       }
     }
-    return c;
   }
 
   /// Replaces the map by `contents` (HostBlockMap::load's checks and layout: every block
@@ -400,6 +412,10 @@ class DeviceBlockMap {
   DeviceBuffer<uint64_t> new_keys_;
   DeviceBuffer<uint32_t> new_key_slots_;
   DeviceBuffer<int32_t> visible_;
+  /// download_into's host copies in the device's block order, kept between calls.
+  mutable std::vector<uint64_t> staging_keys_;
+  mutable std::vector<Voxel> staging_voxels_;
+  mutable std::vector<ColourVoxel> staging_colours_;
   uint32_t capacity_ = 0;
   int new_key_capacity_ = 0;
   int grid_res_ = 1;
