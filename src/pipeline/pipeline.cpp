@@ -152,7 +152,6 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   if (swap_due_) {
     const auto start = std::chrono::steady_clock::now();
     swap_pass();
-    report.map_swap_passes_now = 1;
     report.map_swap_ms =
         std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   }

@@ -44,9 +44,8 @@ struct FrameReport {
   /// map_blocks counts only the active map's.
   int map_blocks_swapped = 0;
   uint64_t map_swapped_bytes = 0;
-  /// Swap passes run before this frame (0 or 1) and so far, and the wall time of this frame's
-  /// (outside the stages and the computation time: read, sort and write back the map).
-  int map_swap_passes_now = 0;
+  /// Swap passes run so far, and the wall time of the one run before this frame (0 if none;
+  /// outside the stages and the computation time: read, sort and write back the map).
   int map_swap_passes = 0;
   double map_swap_ms = 0;
 };
@@ -141,7 +140,6 @@ class Pipeline {
   float swap_distance_m_ = 0.0f;
   bool swap_due_ = false;
   int swap_passes_ = 0;
-  int swap_passes_pending_report_ = 0;     ///< passes run since the last submitted frame
   int blocks_after_pass_ = 0;              ///< active blocks when the last pass ended
   Vec3f camera_m_{};                       ///< the last collected frame's camera position
   Vec3f pass_camera_m_{};                  ///< the camera position of the last pass
