@@ -64,9 +64,10 @@ ColourVoxel merge_colour(ColourVoxel a, ColourVoxel b, int colour_weight_cap) {
   return m;
 }
 
-void merge_contents_into(const BlockMapContents& a, const BlockMapContents& b,
-                         const VoxelWeightCaps& caps, BlockMapContents& out) {
+int merge_contents_into(const BlockMapContents& a, const BlockMapContents& b,
+                        const VoxelWeightCaps& caps, BlockMapContents& out) {
   clear_like(out, a.keys.empty() ? b : a);
+  int merged = 0;
   const bool colour = !a.colours.empty() || !b.colours.empty();
   out.keys.reserve(a.keys.size() + b.keys.size());
   out.voxels.reserve((a.keys.size() + b.keys.size()) * kBlockVoxels);
@@ -98,8 +99,10 @@ void merge_contents_into(const BlockMapContents& a, const BlockMapContents& b,
       }
       ++i;
       ++j;
+      ++merged;
     }
   }
+  return merged;
 }
 
 BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContents& b,
@@ -133,21 +136,6 @@ void split_into(const BlockMapContents& map, Keep&& keep, BlockMapContents& firs
   }
 }
 
-/// Keys both sorted key lists hold.
-int shared_keys(const std::vector<uint64_t>& a, const std::vector<uint64_t>& b) {
-  int n = 0;
-  for (size_t i = 0, j = 0; i < a.size() && j < b.size();) {
-    if (a[i] < b[j]) {
-      ++i;
-    } else if (b[j] < a[i]) {
-      ++j;
-    } else {
-      ++n, ++i, ++j;
-    }
-  }
-  return n;
-}
-
 }  // namespace
 
 SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, float distance_m,
@@ -165,8 +153,7 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
   split_into(
       active, [&](size_t i) { return near(active, i); }, kept_, out_);
   result.swapped_out = static_cast<int>(out_.keys.size());
-  result.merged += shared_keys(store_.keys, out_.keys);
-  merge_contents_into(store_, out_, caps_, scratch_);
+  result.merged += merge_contents_into(store_, out_, caps_, scratch_);
   std::swap(store_, scratch_);
 
   // The store's blocks within the distance, nearest first (ties by key), as many as fit.
@@ -193,8 +180,7 @@ SwapPassResult BlockSwapStore::pass(BlockMapContents& active, Vec3f camera_m, fl
       returning_, scratch_);
   std::swap(store_, scratch_);
   result.swapped_in = static_cast<int>(returning_.keys.size());
-  result.merged += shared_keys(kept_.keys, returning_.keys);
-  merge_contents_into(kept_, returning_, caps_, active);
+  result.merged += merge_contents_into(kept_, returning_, caps_, active);
   return result;
 }
 

@@ -35,6 +35,10 @@ ColourVoxel merge_colour(ColourVoxel a, ColourVoxel b, int colour_weight_cap);
 /// either side has them (the other side's blocks then have none yet).
 BlockMapContents merge_contents(const BlockMapContents& a, const BlockMapContents& b,
                                 const VoxelWeightCaps& caps);
+/// The same into `out` (neither a nor b), reusing its arrays' memory; returns how many keys
+/// both held.
+int merge_contents_into(const BlockMapContents& a, const BlockMapContents& b,
+                        const VoxelWeightCaps& caps, BlockMapContents& out);
 
 /// Distance in metres from `point_m` to the centre of block `key` of a map of voxel `voxel_m`.
 float block_centre_distance_m(uint64_t key, float voxel_m, Vec3f point_m);
