@@ -284,6 +284,12 @@ json summary_data(const json& stats, const ReportResult& result) {
     if (stats.contains(key)) s[key] = stats[key];
   }
   if (stats.contains("ate_error")) s["ate_error"] = stats["ate_error"];
+  // The block map's memory (volume=blocks only).
+  for (const char* key :
+       {"map_blocks", "map_bytes", "map_blocks_swapped", "map_swapped_bytes", "map_swap_passes",
+        "map_frames_short_of_blocks", "map_first_frame_short_of_blocks"}) {
+    if (stats.contains(key)) s[key] = stats[key];
+  }
   s["ground_truth"] = result.has_ground_truth;
   return s;
 }

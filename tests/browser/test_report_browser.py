@@ -106,7 +106,8 @@ def number_after(text, prefix=""):
 def check_summary_against_stats(check, name, dom, stats):
     """What the page SAYS equals stats.json: frames, tracked, lost (and the frames marked lost),
     frames/s, ATE and RPE (or that there is no ground truth), and the error plot's RMSE equals
-    the ATE (the plots are aligned as the ATE was, y flip included)."""
+    the ATE (the plots are aligned as the ATE was, y flip included), and the block map's memory
+    row (blocks, MiB, budget, blocks swapped, frames short of blocks)."""
     rows = summary_rows(dom)
     check(rows.get("Frames") == str(stats["frames"]), f"{name}: Frames {rows.get('Frames')!r}, stats {stats['frames']}")
     check(number_after(rows.get("Tracked", "")) == stats["tracked"],
@@ -147,6 +148,35 @@ def check_summary_against_stats(check, name, dom, stats):
     else:
         check(rows.get("ATE") == "no ground truth", f"{name}: ATE row {rows.get('ATE')!r} without ground truth")
         check(not any(l.startswith("RPE") for l in rows), f"{name}: an RPE row without ground truth")
+    # The block map's memory row (stats.json's map_*); none for the dense cube.
+    map_row = rows.get("Map (volume=blocks)")
+    if "map_blocks" not in stats:
+        check(map_row is None, f"{name}: a map row without a block map: {map_row!r}")
+        return
+    check(map_row is not None, f"{name}: no map row (rows: {list(rows)})")
+    if map_row is None:
+        return
+    check(number_after(map_row) == stats["map_blocks"], f"{name}: map {map_row!r}, stats {stats['map_blocks']} blocks")
+    check(abs(number_after(map_row, "blocks,") - stats["map_bytes"] / 1048576) <= 0.051,
+          f"{name}: map {map_row!r}, stats {stats['map_bytes']} bytes")
+    check(number_after(map_row, "map_budget_mb") == float(stats["config"]["volume"]["map_budget_mb"]),
+          f"{name}: map {map_row!r}, budget {stats['config']['volume']['map_budget_mb']}")
+    swapped = re.search(r"(\d+) blocks swapped to host memory \(([0-9.]+) MiB, (\d+) passes\)", map_row)
+    if stats["map_blocks_swapped"] > 0:
+        check(swapped is not None and int(swapped.group(1)) == stats["map_blocks_swapped"]
+              and abs(float(swapped.group(2)) - stats["map_swapped_bytes"] / 1048576) <= 0.051
+              and int(swapped.group(3)) == stats["map_swap_passes"],
+              f"{name}: map {map_row!r}, stats {stats['map_blocks_swapped']} swapped in {stats['map_swap_passes']} passes")
+    else:
+        check(swapped is None, f"{name}: map {map_row!r} says blocks were swapped, stats none")
+    short = re.search(r"(\d+) frame\(s\) short of blocks, from frame (\d+)", map_row)
+    if stats["map_frames_short_of_blocks"] > 0:
+        check(short is not None and int(short.group(1)) == stats["map_frames_short_of_blocks"]
+              and int(short.group(2)) == stats["map_first_frame_short_of_blocks"],
+              f"{name}: map {map_row!r}, stats {stats['map_frames_short_of_blocks']} frames short from "
+              f"{stats['map_first_frame_short_of_blocks']}")
+    else:
+        check("no frame short of blocks" in map_row, f"{name}: map {map_row!r}, stats no frame short")
 
 
 def read_stats(run):
@@ -261,6 +291,8 @@ def main():
         with open(raw + ".json", "w") as f:
             json.dump(sidecar, f)
         cases["no ground truth"] = [raw]
+        # A block map whose 1 MiB budget is full from the first frame: the map row says so.
+        cases["blocks, budget full"] = [small, "--set", "volume=blocks", "--set", "map_budget_mb=1"]
         for name, args in cases.items():
             folder = os.path.join(tmp, name.replace(" ", "_"))
             subprocess.run([kfx, "run", *args, "--backend", "cpu", "-q", "--no-mesh", "--out", folder],
@@ -268,6 +300,9 @@ def main():
             stats = read_stats(folder)
             if name == "flip":
                 check(stats.get("ate_flip_y") is True, "the mirrored run's ATE did not flip y")
+            if name == "blocks, budget full":
+                check(stats.get("map_frames_short_of_blocks", 0) > 0,
+                      f"the 1 MiB block map had no frame short of blocks: {stats.get('map_frames_short_of_blocks')}")
             if name == "bootstrap1":
                 check(stats["lost"] == 11, f"bootstrap_frames=1 run: {stats['lost']} lost, expected 11 (frames 1..11)")
             dom, log = load_page(chromium, os.path.join(folder, "report.html"), tmp)
