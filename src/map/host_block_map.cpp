@@ -3,6 +3,7 @@
 #include "map/host_block_map.hpp"
 
 #include <algorithm>
+#include <numeric>
 
 namespace kfx {
 
@@ -11,6 +12,29 @@ uint32_t block_capacity_for_budget(uint64_t budget_bytes, bool colour) {
   // The hash's slot count (a power of two ≥ 2 × capacity) must fit 32 bits.
   constexpr uint64_t kMaxBlocks = uint64_t{1} << 30;
   return static_cast<uint32_t>(std::max<uint64_t>(1, std::min(blocks, kMaxBlocks)));
+}
+
+void gather_blocks_in_key_order(const uint64_t* keys, const Voxel* voxels,
+                                const ColourVoxel* colours, size_t block_count, int grid_res,
+                                float grid_size_m, BlockMapContents& out) {
+  std::vector<size_t> order(block_count);
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(), [&](size_t l, size_t r) { return keys[l] < keys[r]; });
+  out.grid_res = grid_res;
+  out.grid_size_m = grid_size_m;
+  out.keys.clear();
+  out.voxels.clear();
+  out.colours.clear();
+  out.keys.reserve(block_count);
+  out.voxels.reserve(block_count * kBlockVoxels);
+  if (colours) out.colours.reserve(block_count * kBlockVoxels);
+  for (const size_t b : order) {
+    out.keys.push_back(keys[b]);
+    const size_t first = b * kBlockVoxels;
+    out.voxels.insert(out.voxels.end(), voxels + first, voxels + first + kBlockVoxels);
+    if (colours)
+      out.colours.insert(out.colours.end(), colours + first, colours + first + kBlockVoxels);
+  }
 }
 
 HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour)
@@ -106,26 +130,8 @@ BlockMapContents HostBlockMap::contents() const {
 }
 
 void HostBlockMap::contents_into(BlockMapContents& c) const {
-  std::vector<int32_t> order(static_cast<size_t>(block_count_));
-  for (int b = 0; b < block_count_; ++b) order[b] = b;
-  std::sort(order.begin(), order.end(),
-            [&](int32_t l, int32_t r) { return block_keys_[l] < block_keys_[r]; });
-  c.grid_res = grid_res_;
-  c.grid_size_m = grid_size_m_;
-  c.keys.clear();
-  c.voxels.clear();
-  c.colours.clear();
-  c.keys.reserve(order.size());
-  c.voxels.reserve(order.size() * kBlockVoxels);
-  for (const int32_t b : order) {
-    c.keys.push_back(block_keys_[b]);
-    const size_t first = static_cast<size_t>(b) * kBlockVoxels;
-    c.voxels.insert(c.voxels.end(), voxels_.get() + first, voxels_.get() + first + kBlockVoxels);
-    if (colours_) {
-      c.colours.insert(c.colours.end(), colours_.get() + first,
-                       colours_.get() + first + kBlockVoxels);
-    }
-  }
+  gather_blocks_in_key_order(block_keys_.data(), voxels_.get(), colours_.get(),
+                             static_cast<size_t>(block_count_), grid_res_, grid_size_m_, c);
 }
 
 void HostBlockMap::load(const BlockMapContents& c) {

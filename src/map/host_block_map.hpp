@@ -42,6 +42,13 @@ struct BlockMapContents {
   std::vector<ColourVoxel> colours;
 };
 
+/// Fills `out` with `block_count` blocks stored in any order (`keys[b]` and the kBlockVoxels
+/// voxels and colours from b × kBlockVoxels; `colours` null: none) in increasing key order, the
+/// form of BlockMapContents; `out`'s arrays' memory is reused.
+void gather_blocks_in_key_order(const uint64_t* keys, const Voxel* voxels,
+                                const ColourVoxel* colours, size_t block_count, int grid_res,
+                                float grid_size_m, BlockMapContents& out);
+
 /// An owning block map in host memory.
 class HostBlockMap {
  public:

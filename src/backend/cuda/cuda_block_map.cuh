@@ -16,7 +16,6 @@
 #include <cuda_runtime.h>
 
 #include <algorithm>
-#include <numeric>
 #include <vector>
 
 #include "backend/cuda/cuda_kernels.cuh"
@@ -343,25 +342,9 @@ class DeviceBlockMap {
       KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), voxels_.data(), voxels.size() * sizeof(Voxel),
                                 cudaMemcpyDeviceToHost));
     }
-    std::vector<size_t> order(n);
-    std::iota(order.begin(), order.end(), size_t{0});
-    std::sort(order.begin(), order.end(), [&](size_t l, size_t r) { return keys[l] < keys[r]; });
-    c.grid_res = grid_res_;
-    c.grid_size_m = grid_size_m_;
-    c.keys.clear();
-    c.voxels.clear();
-    c.colours.clear();
-    c.keys.reserve(n);
-    c.voxels.reserve(voxels.size());
-    for (const size_t b : order) {
-      c.keys.push_back(keys[b]);
-      c.voxels.insert(c.voxels.end(), voxels.begin() + b * kBlockVoxels,
-                      voxels.begin() + (b + 1) * kBlockVoxels);
-      if (!colours.empty()) {
-        c.colours.insert(c.colours.end(), colours.begin() + b * kBlockVoxels,
-                         colours.begin() + (b + 1) * kBlockVoxels);
-      }
-    }
+    gather_blocks_in_key_order(keys.data(), voxels.data(),
+                               colours.empty() ? nullptr : colours.data(), n, grid_res_,
+                               grid_size_m_, c);
   }
 
   /// Replaces the map by `contents` (HostBlockMap::load's checks and layout: every block
