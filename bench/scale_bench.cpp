@@ -19,7 +19,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -29,6 +28,7 @@
 #include "eval/ate.hpp"
 #include "io/synthetic.hpp"
 #include "map/host_block_map.hpp"
+#include "output/stats_json.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/pipeline.hpp"
 
@@ -300,6 +300,7 @@ int main(int argc, char** argv) try {
   const kfx::eval::AteResult ate = kfx::eval::compute_ate(est_m, gt_m);
   // Drift: each estimated position taken to the scene frame through frame 0 (no fitting),
   // against the ground truth, every 250 frames: where along the path tracking went wrong.
+  nlohmann::json drift = nlohmann::json::array();
   {
     double Ra[3][3], ta[3];
     scene.pose(opt.first_frame, Ra, ta);
@@ -307,10 +308,11 @@ int main(int argc, char** argv) try {
     std::printf("drift (scene frame through frame 0, no alignment):");
     for (int i = 0; i<n; i += opt.first_frame> 0 ? 25 : 250) {
       const Vec3d p = anchor.apply(est_m(0, i), est_m(1, i), est_m(2, i));
-      std::printf(" %d: %.1f cm;", opt.first_frame + i,
-                  100 * std::sqrt((p.x - gt_m(0, i)) * (p.x - gt_m(0, i)) +
-                                  (p.y - gt_m(1, i)) * (p.y - gt_m(1, i)) +
-                                  (p.z - gt_m(2, i)) * (p.z - gt_m(2, i))));
+      const double drift_m = std::sqrt((p.x - gt_m(0, i)) * (p.x - gt_m(0, i)) +
+                                       (p.y - gt_m(1, i)) * (p.y - gt_m(1, i)) +
+                                       (p.z - gt_m(2, i)) * (p.z - gt_m(2, i)));
+      std::printf(" %d: %.1f cm;", opt.first_frame + i, 100 * drift_m);
+      drift.push_back({{"frame", opt.first_frame + i}, {"drift_m", drift_m}});
     }
     std::printf("\n");
   }
@@ -394,41 +396,43 @@ int main(int argc, char** argv) try {
       static_cast<double>(active_blocks_peak) * kfx::kBytesPerBlock / 1048576.0);
 
   if (!opt.json_path.empty()) {
-    std::ofstream out(opt.json_path);
-    KFX_CHECK(out, "cannot write " << opt.json_path);
-    out << "{\n"
-        << "  \"input\": \"" << opt.scene_spec << "\",\n"
-        << "  \"backend\": \"" << opt.backend << "\",\n"
-        << "  \"preset\": \"" << opt.preset << "\",\n"
-        << "  \"voxel_m\": " << voxel_m << ",\n"
-        << "  \"mu_m\": " << config.volume.mu_m << ",\n"
-        << "  \"frames\": " << n << ",\n"
-        << "  \"tracked\": " << tracked << ",\n"
-        << "  \"integrated\": " << integrated << ",\n"
-        << "  \"computation_ms_per_frame\": " << computation_ms / n << ",\n"
-        << "  \"wall_s\": " << run_s << ",\n"
-        << "  \"ate_rmse_m\": " << ate.stats_m.rmse << ",\n"
-        << "  \"ate_median_m\": " << ate.stats_m.median << ",\n"
-        << "  \"ate_max_m\": " << ate.stats_m.max << ",\n"
-        << "  \"mesh_vertices\": " << vertices.size() << ",\n"
-        << "  \"mesh_distance_mean_m\": " << mean_distance << ",\n"
-        << "  \"mesh_distance_median_m\": " << percentile(vertex_distance, 0.5) << ",\n"
-        << "  \"mesh_distance_p95_m\": " << percentile(vertex_distance, 0.95) << ",\n"
-        << "  \"visible_area_m2\": " << total_area << ",\n"
-        << "  \"observed_area_m2\": " << observed_area << ",\n"
-        << "  \"coverage_fraction\": " << covered_area / std::max(1e-9, observed_area) << ",\n"
-        << "  \"coverage_threshold_m\": " << opt.coverage_m << ",\n"
-        << "  \"map_blocks\": " << map_blocks << ",\n"
-        << "  \"map_bytes\": " << map_bytes << ",\n"
-        << "  \"surface_bytes\": " << surface_bytes << ",\n"
-        << "  \"band_bytes\": " << band_bytes << ",\n"
-        << "  \"frames_short_of_blocks\": " << frames_short << ",\n"
-        << "  \"blocks_dropped\": " << blocks_dropped << ",\n"
-        << "  \"active_blocks_peak\": " << active_blocks_peak << ",\n"
-        << "  \"swapped_blocks\": " << swapped_blocks << ",\n"
-        << "  \"swap_passes\": " << swap_passes << ",\n"
-        << "  \"swap_s\": " << swap_ms / 1000.0 << "\n"
-        << "}\n";
+    nlohmann::json settings = nlohmann::json::array();
+    for (const auto& [key, value] : opt.sets) settings.push_back(key + "=" + value);
+    nlohmann::json out = {{"input", opt.scene_spec},
+                          {"backend", opt.backend},
+                          {"preset", opt.preset},
+                          {"settings", settings},
+                          {"first_frame", opt.first_frame},
+                          {"voxel_m", voxel_m},
+                          {"mu_m", config.volume.mu_m},
+                          {"frames", n},
+                          {"tracked", tracked},
+                          {"integrated", integrated},
+                          {"computation_ms_per_frame", computation_ms / n},
+                          {"wall_s", run_s},
+                          {"ate_rmse_m", ate.stats_m.rmse},
+                          {"ate_median_m", ate.stats_m.median},
+                          {"ate_max_m", ate.stats_m.max},
+                          {"drift", drift},
+                          {"mesh_vertices", vertices.size()},
+                          {"mesh_distance_mean_m", mean_distance},
+                          {"mesh_distance_median_m", percentile(vertex_distance, 0.5)},
+                          {"mesh_distance_p95_m", percentile(vertex_distance, 0.95)},
+                          {"visible_area_m2", total_area},
+                          {"observed_area_m2", observed_area},
+                          {"coverage_fraction", covered_area / std::max(1e-9, observed_area)},
+                          {"coverage_threshold_m", opt.coverage_m},
+                          {"map_blocks", map_blocks},
+                          {"map_bytes", map_bytes},
+                          {"surface_bytes", surface_bytes},
+                          {"band_bytes", band_bytes},
+                          {"frames_short_of_blocks", frames_short},
+                          {"blocks_dropped", blocks_dropped},
+                          {"active_blocks_peak", active_blocks_peak},
+                          {"swapped_blocks", swapped_blocks},
+                          {"swap_passes", swap_passes},
+                          {"swap_s", swap_ms / 1000.0}};
+    kfx::output::write_json_document(opt.json_path, std::move(out));
   }
   return 0;
 } catch (const std::exception& e) {
