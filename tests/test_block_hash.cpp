@@ -131,6 +131,48 @@ TEST(HostBlockMap, AllocationOrderDoesNotDependOnTheCandidatesOrder) {
   }
 }
 
+TEST(HostBlockMap, GatherPutsBlocksInKeyOrderEachWithItsOwnVoxelsAndColours) {
+  // Blocks in storage order 0..n−1 with shuffled keys; each block's voxels and colours carry
+  // its storage index, so a block that travelled without its data shows.
+  std::mt19937_64 rng(5);
+  std::vector<uint64_t> keys;
+  for (int i = 0; i < 200; ++i) keys.push_back(pack_block_key(i, -i, i % 7));
+  std::shuffle(keys.begin(), keys.end(), rng);
+  const size_t n = keys.size();
+  std::vector<Voxel> voxels(n * kBlockVoxels);
+  std::vector<ColourVoxel> colours(n * kBlockVoxels);
+  for (size_t b = 0; b < n; ++b) {
+    for (int v = 0; v < kBlockVoxels; ++v) {
+      voxels[b * kBlockVoxels + v] = Voxel{static_cast<int16_t>(b), static_cast<int16_t>(v)};
+      colours[b * kBlockVoxels + v] =
+          ColourVoxel{static_cast<uint16_t>(b), 0, 0, static_cast<uint16_t>(v)};
+    }
+  }
+  BlockMapContents out;
+  out.keys = {1, 2, 3};  // stale contents: replaced, not appended to
+  gather_blocks_in_key_order(keys.data(), voxels.data(), colours.data(), n, 256, 2.0f, out);
+  ASSERT_EQ(out.keys.size(), n);
+  EXPECT_TRUE(std::is_sorted(out.keys.begin(), out.keys.end()));
+  EXPECT_EQ(out.grid_res, 256);
+  EXPECT_EQ(out.grid_size_m, 2.0f);
+  ASSERT_EQ(out.voxels.size(), n * kBlockVoxels);
+  ASSERT_EQ(out.colours.size(), n * kBlockVoxels);
+  for (size_t i = 0; i < n; ++i) {
+    const size_t b =
+        static_cast<size_t>(std::find(keys.begin(), keys.end(), out.keys[i]) - keys.begin());
+    for (int v = 0; v < kBlockVoxels; v += 37) {
+      EXPECT_EQ(out.voxels[i * kBlockVoxels + v].tsdf, static_cast<int16_t>(b));
+      EXPECT_EQ(out.voxels[i * kBlockVoxels + v].weight, static_cast<int16_t>(v));
+      EXPECT_EQ(out.colours[i * kBlockVoxels + v].r, static_cast<uint16_t>(b));
+      EXPECT_EQ(out.colours[i * kBlockVoxels + v].weight, static_cast<uint16_t>(v));
+    }
+  }
+  // Without colours the output has none, even where the last call left some.
+  gather_blocks_in_key_order(keys.data(), voxels.data(), nullptr, n, 256, 2.0f, out);
+  EXPECT_EQ(out.keys.size(), n);
+  EXPECT_TRUE(out.colours.empty());
+}
+
 TEST(HostBlockMap, AFullMapDropsAndCountsTheRestAndKeepsWhatItHas) {
   HostBlockMap map(10, 256, 2.0f);
   std::vector<uint64_t> first;
