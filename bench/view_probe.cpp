@@ -6,7 +6,8 @@
 /// direction, the pose (tx ty tz qx qy qz qw, TUM order), the compute-size depth's valid share
 /// and its shares beyond 2, 3 and 4 m, and the level-0 ICP outcomes: the share of pixels with an
 /// input normal whose predicted view had a surface (the map "holds" that much of the view), and
-/// the inliers and their mean |residual| in three depth bands (< 1.5 m, 1.5–2.5 m, > 2.5 m).
+/// the inliers and their mean |residual| in three depth bands (< 1.5 m, 1.5–2.5 m, > 2.5 m), and
+/// the ICP iterations the frame ran (all levels; at the caps' sum, no level converged).
 /// Used for bench/RESULTS.md, "Session 14". A diagnostic, not a test: it asserts nothing.
 
 #include <algorithm>
@@ -68,7 +69,7 @@ int main(int argc, char** argv) try {
       "3x4 "
       "row-major | valid >2m >3m >4m | held | inl<1.5 inl1.5-2.5 inl>2.5 (share of inliers) "
       "res_mm<1.5 res_mm1.5-2.5 res_mm>2.5 (rms and residuals: level 0 at the final pose) | "
-      "weighted inlier fractions: huber(3.5mm) nguyen both\n");
+      "weighted inlier fractions: huber(3.5mm) nguyen both | ICP iterations (all levels)\n");
   kfx::io::Frame frame;
   // The ICP's reference view is the last raycast, made from the pose after the frame before.
   const float ratio = static_cast<float>(sequence.width_px()) / rec.compute_width_px();
@@ -147,7 +148,7 @@ int main(int argc, char** argv) try {
         "%d %.6f %d %.3f %.2f %.5f %+.2f %+.2f %+.2f %+.2f %+.2f %+.2f | %.5f %.5f %.5f %.5f %.5f "
         "%.5f "
         "%.5f %.5f %.5f %.5f %.5f %.5f | %.3f %.3f %.3f %.3f | %.3f | %.3f %.3f %.3f %.2f %.2f "
-        "%.2f | %.3f %.3f %.4f\n",
+        "%.2f | %.3f %.3f %.4f | %d\n",
         f, frame.stamp_s, r.tracking_ran ? (r.tracked ? 1 : -1) : 0,
         r.tracking_ran ? inliers / n_px : 0.0, 1000 * rms, r.tracking_constraint, w[0], w[1], w[2],
         w[3], w[4], w[5], T[0], T[1], T[2], T[3], T[4], T[5], T[6], T[7], T[8], T[9], T[10], T[11],
@@ -157,7 +158,8 @@ int main(int argc, char** argv) try {
         inl_all ? static_cast<double>(inl[1]) / inl_all : 0.0,
         inl_all ? static_cast<double>(inl[2]) / inl_all : 0.0,
         inl[0] ? 1000 * res[0] / inl[0] : 0.0, inl[1] ? 1000 * res[1] / inl[1] : 0.0,
-        inl[2] ? 1000 * res[2] / inl[2] : 0.0, w_huber / n_px, w_nguyen / n_px, w_both / n_px);
+        inl[2] ? 1000 * res[2] / inl[2] : 0.0, w_huber / n_px, w_nguyen / n_px, w_both / n_px,
+        r.icp_iterations);
     std::fflush(stdout);
     T_ref = kfx::api::to_mat4f(r.T_world_cam);
     ref_vertex = maps.ref_vertex;
