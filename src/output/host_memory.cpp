@@ -13,17 +13,26 @@ size_t volume_host_bytes(int res) {
   return r * r * r * sizeof(Voxel);
 }
 
-size_t available_host_bytes() {
-  std::ifstream meminfo("/proc/meminfo");
+namespace {
+
+/// The value in kB of the line starting with `key` in a /proc file, in bytes; 0 if absent.
+size_t proc_kib_field_bytes(const char* path, const std::string& key) {
+  std::ifstream file(path);
   std::string line;
-  while (std::getline(meminfo, line)) {
-    if (line.rfind("MemAvailable:", 0) != 0) continue;
-    std::istringstream fields(line.substr(13));
+  while (std::getline(file, line)) {
+    if (line.rfind(key, 0) != 0) continue;
+    std::istringstream fields(line.substr(key.size()));
     size_t kib = 0;
     if (fields >> kib) return kib * 1024;
   }
   return 0;
 }
+
+}  // namespace
+
+size_t available_host_bytes() { return proc_kib_field_bytes("/proc/meminfo", "MemAvailable:"); }
+
+size_t peak_resident_bytes() { return proc_kib_field_bytes("/proc/self/status", "VmHWM:"); }
 
 void check_host_memory(size_t bytes, const std::string& what) {
   const size_t available = available_host_bytes();
