@@ -11,6 +11,7 @@
 /// docs/map.md ("Swapping") gives the rules and their cost.
 
 #include <cstdint>
+#include <initializer_list>
 
 #include "core/math.hpp"
 #include "map/host_block_map.hpp"
@@ -71,6 +72,12 @@ class BlockSwapStore {
   bool empty() const { return store_.keys.empty(); }
   /// Empties the store (and frees the pass's working copies).
   void clear() { *this = BlockSwapStore(caps_); }
+  /// Frees the pass's working copies (the store stays); the next pass allocates them afresh.
+  void release_working_memory() {
+    // Each from a temporary: a move frees the old arrays, where a copy of an empty one would
+    // keep their capacity.
+    for (BlockMapContents* c : {&kept_, &out_, &returning_, &scratch_}) *c = BlockMapContents{};
+  }
 
  private:
   VoxelWeightCaps caps_;

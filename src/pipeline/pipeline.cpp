@@ -127,7 +127,15 @@ void Pipeline::swap_pass() {
   swap_due_ = false;
 }
 
-BlockMapContents Pipeline::read_map() { return swap_store_.with_store(backend_->read_blocks()); }
+void Pipeline::release_swap_working_memory() {
+  swap_store_.release_working_memory();
+  swap_active_ = BlockMapContents{};
+}
+
+BlockMapContents Pipeline::read_map() {
+  release_swap_working_memory();
+  return swap_store_.with_store(backend_->read_blocks());
+}
 
 void Pipeline::load_map(const BlockMapContents& contents) {
   swap_store_.clear();
@@ -136,6 +144,7 @@ void Pipeline::load_map(const BlockMapContents& contents) {
 }
 
 MeshView Pipeline::extract_mesh() {
+  release_swap_working_memory();
   if (swap_store_.empty()) return backend_->extract_mesh();
   return extract_block_map_mesh(read_map(), mesh_vertices_, mesh_triangles_);
 }

@@ -134,6 +134,9 @@ class Pipeline {
   /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
   /// next frame; decided in collect() (swap_due_).
   void swap_pass();
+  /// Frees what the passes keep for the next pass (their copies of the map), before a read of
+  /// the whole map needs memory of its own: the next pass allocates afresh.
+  void release_swap_working_memory();
   BlockSwapStore swap_store_;
   BlockMapContents swap_active_;  ///< a pass's copy of the active map (its memory reused)
   float swap_reach_m_ = 0.0f;

@@ -312,10 +312,15 @@ class DeviceBlockMap {
   }
 
   /// A host copy of the blocks in increasing key order (HostBlockMap::contents' form). Waits
-  /// for `stream`.
+  /// for `stream`. A one-off read (mesh, save): the staging copy is freed after it, so the host
+  /// holds no second copy of the map afterwards.
   BlockMapContents download(cudaStream_t stream) const {
     BlockMapContents c;
     download_into(c, stream);
+    // Moves from temporaries: `= {}` would assign an empty list and keep the capacity.
+    staging_keys_ = std::vector<uint64_t>();
+    staging_voxels_ = std::vector<Voxel>();
+    staging_colours_ = std::vector<ColourVoxel>();
     return c;
   }
 
