@@ -1,6 +1,6 @@
 #pragma once
-/// Host memory checks made before a run, so an output that cannot fit fails with the sizes
-/// rather than as std::bad_alloc after the run.
+/// Host memory: checks made before a run, so an output that cannot fit fails with the sizes
+/// rather than as std::bad_alloc after the run, and the process's peak (for benchmarks).
 
 #include <cstddef>
 #include <string>
