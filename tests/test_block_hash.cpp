@@ -173,6 +173,45 @@ TEST(HostBlockMap, GatherPutsBlocksInKeyOrderEachWithItsOwnVoxelsAndColours) {
   EXPECT_TRUE(out.colours.empty());
 }
 
+TEST(HostBlockMap, SortInPlaceGivesWhatTheGatherGives) {
+  std::mt19937_64 rng(9);
+  for (const size_t n : {size_t{0}, size_t{1}, size_t{2}, size_t{257}}) {
+    for (const bool colour : {false, true}) {
+      BlockMapContents c;
+      c.grid_res = 512;
+      c.grid_size_m = 2.56f;
+      for (size_t b = 0; b < n; ++b) {
+        c.keys.push_back(pack_block_key(static_cast<int>(b) - 100, static_cast<int>(b % 5), 3));
+      }
+      std::shuffle(c.keys.begin(), c.keys.end(), rng);
+      std::uniform_int_distribution<int> value(-30000, 30000);
+      for (size_t i = 0; i < n * kBlockVoxels; ++i) {
+        c.voxels.push_back(Voxel{static_cast<int16_t>(value(rng)), static_cast<int16_t>(i % 97)});
+        if (colour) c.colours.push_back(ColourVoxel{static_cast<uint16_t>(i), 1, 2, 3});
+      }
+      BlockMapContents gathered;
+      gather_blocks_in_key_order(c.keys.data(), c.voxels.data(),
+                                 colour ? c.colours.data() : nullptr, n, c.grid_res, c.grid_size_m,
+                                 gathered);
+      sort_blocks_by_key(c);
+      EXPECT_EQ(c.keys, gathered.keys) << n << " blocks";
+      ASSERT_EQ(c.voxels.size(), gathered.voxels.size());
+      for (size_t i = 0; i < c.voxels.size(); ++i) {
+        ASSERT_EQ(c.voxels[i].tsdf, gathered.voxels[i].tsdf) << "voxel " << i;
+        ASSERT_EQ(c.voxels[i].weight, gathered.voxels[i].weight) << "voxel " << i;
+      }
+      ASSERT_EQ(c.colours.size(), gathered.colours.size());
+      for (size_t i = 0; i < c.colours.size(); ++i) {
+        ASSERT_EQ(c.colours[i].r, gathered.colours[i].r) << "colour " << i;
+      }
+    }
+  }
+  BlockMapContents torn;
+  torn.keys = {1, 2};
+  torn.voxels.resize(kBlockVoxels);  // one block's voxels for two keys
+  EXPECT_THROW(sort_blocks_by_key(torn), Error);
+}
+
 TEST(HostBlockMap, AFullMapDropsAndCountsTheRestAndKeepsWhatItHas) {
   HostBlockMap map(10, 256, 2.0f);
   std::vector<uint64_t> first;

@@ -37,6 +37,52 @@ void gather_blocks_in_key_order(const uint64_t* keys, const Voxel* voxels,
   }
 }
 
+void sort_blocks_by_key(BlockMapContents& c) {
+  const size_t n = c.keys.size();
+  KFX_CHECK(c.voxels.size() == n * kBlockVoxels &&
+                (c.colours.empty() || c.colours.size() == c.voxels.size()),
+            "a map of " << n << " blocks with " << c.voxels.size() << " voxels and "
+                        << c.colours.size() << " colours");
+  std::vector<size_t> order(n);  // the block that belongs at position i
+  std::iota(order.begin(), order.end(), size_t{0});
+  std::sort(order.begin(), order.end(), [&](size_t l, size_t r) { return c.keys[l] < c.keys[r]; });
+  const bool colour = !c.colours.empty();
+  std::vector<Voxel> held_voxels(kBlockVoxels);
+  std::vector<ColourVoxel> held_colours(colour ? kBlockVoxels : 0);
+  const auto move_block = [&](size_t from, size_t to) {
+    c.keys[to] = c.keys[from];
+    std::copy_n(c.voxels.begin() + from * kBlockVoxels, kBlockVoxels,
+                c.voxels.begin() + to * kBlockVoxels);
+    if (colour) {
+      std::copy_n(c.colours.begin() + from * kBlockVoxels, kBlockVoxels,
+                  c.colours.begin() + to * kBlockVoxels);
+    }
+  };
+  // Each cycle of the permutation: hold its first block, pull each block into the place it
+  // leaves, and put the held one last.
+  std::vector<bool> placed(n, false);
+  for (size_t start = 0; start < n; ++start) {
+    if (placed[start] || order[start] == start) continue;
+    const uint64_t held_key = c.keys[start];
+    std::copy_n(c.voxels.begin() + start * kBlockVoxels, kBlockVoxels, held_voxels.begin());
+    if (colour) {
+      std::copy_n(c.colours.begin() + start * kBlockVoxels, kBlockVoxels, held_colours.begin());
+    }
+    size_t to = start;
+    while (order[to] != start) {
+      move_block(order[to], to);
+      placed[to] = true;
+      to = order[to];
+    }
+    c.keys[to] = held_key;
+    std::copy(held_voxels.begin(), held_voxels.end(), c.voxels.begin() + to * kBlockVoxels);
+    if (colour) {
+      std::copy(held_colours.begin(), held_colours.end(), c.colours.begin() + to * kBlockVoxels);
+    }
+    placed[to] = true;
+  }
+}
+
 HostBlockMap::HostBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour)
     : hash_keys_(block_hash_slot_count(block_capacity), kEmptyBlockKey),
       hash_values_(hash_keys_.size(), -1),

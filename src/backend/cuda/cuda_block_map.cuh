@@ -312,44 +312,37 @@ class DeviceBlockMap {
   }
 
   /// A host copy of the blocks in increasing key order (HostBlockMap::contents' form). Waits
-  /// for `stream`. A one-off read (mesh, save): the staging copy is freed after it, so the host
-  /// holds no second copy of the map afterwards.
+  /// for `stream`.
   BlockMapContents download(cudaStream_t stream) const {
     BlockMapContents c;
     download_into(c, stream);
-    // Moves from temporaries: `= {}` would assign an empty list and keep the capacity.
-    staging_keys_ = std::vector<uint64_t>();
-    staging_voxels_ = std::vector<Voxel>();
-    staging_colours_ = std::vector<ColourVoxel>();
     return c;
   }
 
-  /// The same into `c`, reusing its arrays' memory and this map's host staging arrays (the
-  /// swap passes download the map again and again).
+  /// The same into `c`, reusing its arrays' memory (the swap passes download the map again and
+  /// again). The blocks come down in the device's order and are sorted in place, so the host
+  /// holds one copy of the map, not two.
   void download_into(BlockMapContents& c, cudaStream_t stream) const {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
     BlockMapCounts counts{};
     KFX_CUDA_CHECK(cudaMemcpy(&counts, counts_.data(), sizeof(counts), cudaMemcpyDeviceToHost));
     const size_t n = static_cast<size_t>(counts.blocks);
-    std::vector<uint64_t>& keys = staging_keys_;
-    std::vector<Voxel>& voxels = staging_voxels_;
-    std::vector<ColourVoxel>& colours = staging_colours_;
-    keys.resize(n);
-    voxels.resize(n * kBlockVoxels);
-    colours.resize(colours_.size() > 0 ? n * kBlockVoxels : 0);
-    if (!colours.empty()) {
-      KFX_CUDA_CHECK(cudaMemcpy(colours.data(), colours_.data(),
-                                colours.size() * sizeof(ColourVoxel), cudaMemcpyDeviceToHost));
-    }
+    c.grid_res = grid_res_;
+    c.grid_size_m = grid_size_m_;
+    c.keys.resize(n);
+    c.voxels.resize(n * kBlockVoxels);
+    c.colours.resize(colours_.size() > 0 ? n * kBlockVoxels : 0);
     if (n > 0) {
-      KFX_CUDA_CHECK(cudaMemcpy(keys.data(), block_keys_.data(), n * sizeof(uint64_t),
+      KFX_CUDA_CHECK(cudaMemcpy(c.keys.data(), block_keys_.data(), n * sizeof(uint64_t),
                                 cudaMemcpyDeviceToHost));
-      KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), voxels_.data(), voxels.size() * sizeof(Voxel),
+      KFX_CUDA_CHECK(cudaMemcpy(c.voxels.data(), voxels_.data(), c.voxels.size() * sizeof(Voxel),
                                 cudaMemcpyDeviceToHost));
+      if (!c.colours.empty()) {
+        KFX_CUDA_CHECK(cudaMemcpy(c.colours.data(), colours_.data(),
+                                  c.colours.size() * sizeof(ColourVoxel), cudaMemcpyDeviceToHost));
+      }
     }
-    gather_blocks_in_key_order(keys.data(), voxels.data(),
-                               colours.empty() ? nullptr : colours.data(), n, grid_res_,
-                               grid_size_m_, c);
+    sort_blocks_by_key(c);
   }
 
   /// Replaces the map by `contents` (HostBlockMap::load's checks and layout: every block
@@ -400,10 +393,6 @@ class DeviceBlockMap {
   DeviceBuffer<uint64_t> new_keys_;
   DeviceBuffer<uint32_t> new_key_slots_;
   DeviceBuffer<int32_t> visible_;
-  /// download_into's host copies in the device's block order, kept between calls.
-  mutable std::vector<uint64_t> staging_keys_;
-  mutable std::vector<Voxel> staging_voxels_;
-  mutable std::vector<ColourVoxel> staging_colours_;
   uint32_t capacity_ = 0;
   int new_key_capacity_ = 0;
   int grid_res_ = 1;
