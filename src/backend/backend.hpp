@@ -211,15 +211,19 @@ class Backend {
   virtual void upload_colour_volume(const std::vector<ColourVoxel>& colours) = 0;
   /// Block map only (MapKind::kBlocks): a host copy of its blocks in key order, and replacing
   /// them (e.g. by a saved map). The dense cube throws kfx::Error.
-  virtual BlockMapContents read_blocks() {
-    KFX_FAIL("read_blocks(): this backend keeps no block map");
+  BlockMapContents read_blocks() {
+    BlockMapContents contents;
+    read_blocks_into(contents);
+    return contents;
   }
   virtual void upload_blocks(const BlockMapContents&) {
     KFX_FAIL("upload_blocks(): this backend keeps no block map");
   }
   /// read_blocks() into `out`, reusing its arrays' memory (the swap passes read the map again
   /// and again: fresh arrays of that size cost more in page faults than the copy).
-  virtual void read_blocks_into(BlockMapContents& out) { out = read_blocks(); }
+  virtual void read_blocks_into(BlockMapContents&) {
+    KFX_FAIL("read_blocks(): this backend keeps no block map");
+  }
 };
 
 /// Scratch bytes mesh extraction needs for a res³ volume: a byte per voxel (owned vertex

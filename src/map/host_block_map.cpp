@@ -169,12 +169,6 @@ void HostBlockMap::insert_new_block(uint64_t key) {
   block_keys_[block_count_++] = key;
 }
 
-BlockMapContents HostBlockMap::contents() const {
-  BlockMapContents c;
-  contents_into(c);
-  return c;
-}
-
 void HostBlockMap::contents_into(BlockMapContents& c) const {
   gather_blocks_in_key_order(block_keys_.data(), voxels_.get(), colours_.get(),
                              static_cast<size_t>(block_count_), grid_res_, grid_size_m_, c);

@@ -74,10 +74,9 @@ class HostBlockMap {
   /// Coarse cells in use.
   int coarse_count() const { return coarse_count_; }
 
-  /// The blocks in increasing key order (independent of the order they were allocated in).
-  BlockMapContents contents() const;
-  /// The same into `c`, whose arrays' memory is reused (a caller that reads the map repeatedly
-  /// pays no fresh allocation).
+  /// The blocks in increasing key order (independent of the order they were allocated in),
+  /// into `c`, whose arrays' memory is reused (a caller that reads the map repeatedly pays no
+  /// fresh allocation).
   void contents_into(BlockMapContents& c) const;
   /// Replaces the map by `contents` (same voxel size; blocks must fit the capacity); every block
   /// is marked touched. Throws kfx::Error on a duplicate key or too many blocks. Colours the

@@ -425,10 +425,6 @@ class CpuBackend final : public Backend {
                     mesh_triangles_.data(), triangle_total};
   }
 
-  BlockMapContents read_blocks() override {
-    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
-    return blocks_.contents();
-  }
   void read_blocks_into(BlockMapContents& out) override {
     KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
     blocks_.contents_into(out);

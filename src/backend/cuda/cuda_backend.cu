@@ -579,10 +579,6 @@ class CudaBackend final : public Backend {
     return mesh_.extract(buffers_.volume_view(), stream_.get(), debug_sync_);
   }
 
-  BlockMapContents read_blocks() override {
-    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
-    return block_map_.download(stream_.get());
-  }
   void read_blocks_into(BlockMapContents& out) override {
     KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
     block_map_.download_into(out, stream_.get());

@@ -311,7 +311,7 @@ class DeviceBlockMap {
     return v;
   }
 
-  /// A host copy of the blocks in increasing key order (HostBlockMap::contents' form). Waits
+  /// A host copy of the blocks in increasing key order (HostBlockMap::contents_into's form). Waits
   /// for `stream`.
   BlockMapContents download(cudaStream_t stream) const {
     BlockMapContents c;
