@@ -131,49 +131,51 @@ TEST(HostBlockMap, AllocationOrderDoesNotDependOnTheCandidatesOrder) {
   }
 }
 
-TEST(HostBlockMap, GatherPutsBlocksInKeyOrderEachWithItsOwnVoxelsAndColours) {
-  // Blocks in storage order 0..n−1 with shuffled keys; each block's voxels and colours carry
-  // its storage index, so a block that travelled without its data shows.
+TEST(HostBlockMap, ContentsPutBlocksInKeyOrderEachWithItsOwnVoxelsAndColours) {
+  // Blocks added in shuffled key order (so stored out of key order); each block's voxels and
+  // colours carry its storage index, so a block that travelled without its data shows.
   std::mt19937_64 rng(5);
   std::vector<uint64_t> keys;
   for (int i = 0; i < 200; ++i) keys.push_back(pack_block_key(i, -i, i % 7));
   std::shuffle(keys.begin(), keys.end(), rng);
   const size_t n = keys.size();
-  std::vector<Voxel> voxels(n * kBlockVoxels);
-  std::vector<ColourVoxel> colours(n * kBlockVoxels);
-  for (size_t b = 0; b < n; ++b) {
-    for (int v = 0; v < kBlockVoxels; ++v) {
-      voxels[b * kBlockVoxels + v] = Voxel{static_cast<int16_t>(b), static_cast<int16_t>(v)};
-      colours[b * kBlockVoxels + v] =
-          ColourVoxel{static_cast<uint16_t>(b), 0, 0, static_cast<uint16_t>(v)};
+  for (const bool colour : {true, false}) {
+    HostBlockMap map(256, 256, 2.0f, colour);
+    for (size_t b = 0; b < n; ++b) {
+      std::vector<Voxel> voxels(kBlockVoxels);
+      std::vector<ColourVoxel> colours(kBlockVoxels);
+      for (int v = 0; v < kBlockVoxels; ++v) {
+        voxels[v] = Voxel{static_cast<int16_t>(b), static_cast<int16_t>(v)};
+        colours[v] = ColourVoxel{static_cast<uint16_t>(b), 0, 0, static_cast<uint16_t>(v)};
+      }
+      map.add_block(keys[b], voxels.data(), colours.data());
+    }
+    BlockMapContents out;
+    out.keys = {1, 2, 3};  // stale contents: replaced, not appended to
+    out.colours.resize(7);
+    map.contents_into(out);
+    ASSERT_EQ(out.keys.size(), n);
+    EXPECT_TRUE(std::is_sorted(out.keys.begin(), out.keys.end()));
+    EXPECT_EQ(out.grid_res, 256);
+    EXPECT_EQ(out.grid_size_m, 2.0f);
+    ASSERT_EQ(out.voxels.size(), n * kBlockVoxels);
+    // Without a colour field the contents have no colours, even where the array held some.
+    ASSERT_EQ(out.colours.size(), colour ? n * kBlockVoxels : 0);
+    for (size_t i = 0; i < n; ++i) {
+      const size_t b =
+          static_cast<size_t>(std::find(keys.begin(), keys.end(), out.keys[i]) - keys.begin());
+      for (int v = 0; v < kBlockVoxels; v += 37) {
+        EXPECT_EQ(out.voxels[i * kBlockVoxels + v].tsdf, static_cast<int16_t>(b));
+        EXPECT_EQ(out.voxels[i * kBlockVoxels + v].weight, static_cast<int16_t>(v));
+        if (!colour) continue;
+        EXPECT_EQ(out.colours[i * kBlockVoxels + v].r, static_cast<uint16_t>(b));
+        EXPECT_EQ(out.colours[i * kBlockVoxels + v].weight, static_cast<uint16_t>(v));
+      }
     }
   }
-  BlockMapContents out;
-  out.keys = {1, 2, 3};  // stale contents: replaced, not appended to
-  gather_blocks_in_key_order(keys.data(), voxels.data(), colours.data(), n, 256, 2.0f, out);
-  ASSERT_EQ(out.keys.size(), n);
-  EXPECT_TRUE(std::is_sorted(out.keys.begin(), out.keys.end()));
-  EXPECT_EQ(out.grid_res, 256);
-  EXPECT_EQ(out.grid_size_m, 2.0f);
-  ASSERT_EQ(out.voxels.size(), n * kBlockVoxels);
-  ASSERT_EQ(out.colours.size(), n * kBlockVoxels);
-  for (size_t i = 0; i < n; ++i) {
-    const size_t b =
-        static_cast<size_t>(std::find(keys.begin(), keys.end(), out.keys[i]) - keys.begin());
-    for (int v = 0; v < kBlockVoxels; v += 37) {
-      EXPECT_EQ(out.voxels[i * kBlockVoxels + v].tsdf, static_cast<int16_t>(b));
-      EXPECT_EQ(out.voxels[i * kBlockVoxels + v].weight, static_cast<int16_t>(v));
-      EXPECT_EQ(out.colours[i * kBlockVoxels + v].r, static_cast<uint16_t>(b));
-      EXPECT_EQ(out.colours[i * kBlockVoxels + v].weight, static_cast<uint16_t>(v));
-    }
-  }
-  // Without colours the output has none, even where the last call left some.
-  gather_blocks_in_key_order(keys.data(), voxels.data(), nullptr, n, 256, 2.0f, out);
-  EXPECT_EQ(out.keys.size(), n);
-  EXPECT_TRUE(out.colours.empty());
 }
 
-TEST(HostBlockMap, SortInPlaceGivesWhatTheGatherGives) {
+TEST(HostBlockMap, SortInPlaceGivesEachKeyItsOwnBlock) {
   std::mt19937_64 rng(9);
   for (const size_t n : {size_t{0}, size_t{1}, size_t{2}, size_t{257}}) {
     for (const bool colour : {false, true}) {
@@ -189,20 +191,29 @@ TEST(HostBlockMap, SortInPlaceGivesWhatTheGatherGives) {
         c.voxels.push_back(Voxel{static_cast<int16_t>(value(rng)), static_cast<int16_t>(i % 97)});
         if (colour) c.colours.push_back(ColourVoxel{static_cast<uint16_t>(i), 1, 2, 3});
       }
-      BlockMapContents gathered;
-      gather_blocks_in_key_order(c.keys.data(), c.voxels.data(),
-                                 colour ? c.colours.data() : nullptr, n, c.grid_res, c.grid_size_m,
-                                 gathered);
-      sort_blocks_by_key(c);
-      EXPECT_EQ(c.keys, gathered.keys) << n << " blocks";
-      ASSERT_EQ(c.voxels.size(), gathered.voxels.size());
-      for (size_t i = 0; i < c.voxels.size(); ++i) {
-        ASSERT_EQ(c.voxels[i].tsdf, gathered.voxels[i].tsdf) << "voxel " << i;
-        ASSERT_EQ(c.voxels[i].weight, gathered.voxels[i].weight) << "voxel " << i;
+      // The expected result, gathered block by block through a key → position table.
+      std::map<uint64_t, size_t> position;
+      for (size_t b = 0; b < n; ++b) position[c.keys[b]] = b;
+      BlockMapContents expected;
+      for (const auto& [key, b] : position) {
+        expected.keys.push_back(key);
+        expected.voxels.insert(expected.voxels.end(), c.voxels.begin() + b * kBlockVoxels,
+                               c.voxels.begin() + (b + 1) * kBlockVoxels);
+        if (colour) {
+          expected.colours.insert(expected.colours.end(), c.colours.begin() + b * kBlockVoxels,
+                                  c.colours.begin() + (b + 1) * kBlockVoxels);
+        }
       }
-      ASSERT_EQ(c.colours.size(), gathered.colours.size());
+      sort_blocks_by_key(c);
+      EXPECT_EQ(c.keys, expected.keys) << n << " blocks";
+      ASSERT_EQ(c.voxels.size(), expected.voxels.size());
+      for (size_t i = 0; i < c.voxels.size(); ++i) {
+        ASSERT_EQ(c.voxels[i].tsdf, expected.voxels[i].tsdf) << "voxel " << i;
+        ASSERT_EQ(c.voxels[i].weight, expected.voxels[i].weight) << "voxel " << i;
+      }
+      ASSERT_EQ(c.colours.size(), expected.colours.size());
       for (size_t i = 0; i < c.colours.size(); ++i) {
-        ASSERT_EQ(c.colours[i].r, gathered.colours[i].r) << "colour " << i;
+        ASSERT_EQ(c.colours[i].r, expected.colours[i].r) << "colour " << i;
       }
     }
   }

@@ -14,29 +14,6 @@ uint32_t block_capacity_for_budget(uint64_t budget_bytes, bool colour) {
   return static_cast<uint32_t>(std::max<uint64_t>(1, std::min(blocks, kMaxBlocks)));
 }
 
-void gather_blocks_in_key_order(const uint64_t* keys, const Voxel* voxels,
-                                const ColourVoxel* colours, size_t block_count, int grid_res,
-                                float grid_size_m, BlockMapContents& out) {
-  std::vector<size_t> order(block_count);
-  std::iota(order.begin(), order.end(), size_t{0});
-  std::sort(order.begin(), order.end(), [&](size_t l, size_t r) { return keys[l] < keys[r]; });
-  out.grid_res = grid_res;
-  out.grid_size_m = grid_size_m;
-  out.keys.clear();
-  out.voxels.clear();
-  out.colours.clear();
-  out.keys.reserve(block_count);
-  out.voxels.reserve(block_count * kBlockVoxels);
-  if (colours) out.colours.reserve(block_count * kBlockVoxels);
-  for (const size_t b : order) {
-    out.keys.push_back(keys[b]);
-    const size_t first = b * kBlockVoxels;
-    out.voxels.insert(out.voxels.end(), voxels + first, voxels + first + kBlockVoxels);
-    if (colours)
-      out.colours.insert(out.colours.end(), colours + first, colours + first + kBlockVoxels);
-  }
-}
-
 void sort_blocks_by_key(BlockMapContents& c) {
   const size_t n = c.keys.size();
   KFX_CHECK(c.voxels.size() == n * kBlockVoxels &&
@@ -170,8 +147,17 @@ void HostBlockMap::insert_new_block(uint64_t key) {
 }
 
 void HostBlockMap::contents_into(BlockMapContents& c) const {
-  gather_blocks_in_key_order(block_keys_.data(), voxels_.get(), colours_.get(),
-                             static_cast<size_t>(block_count_), grid_res_, grid_size_m_, c);
+  const size_t n = static_cast<size_t>(block_count_);
+  c.grid_res = grid_res_;
+  c.grid_size_m = grid_size_m_;
+  c.keys.assign(block_keys_.begin(), block_keys_.begin() + static_cast<std::ptrdiff_t>(n));
+  c.voxels.assign(voxels_.get(), voxels_.get() + n * kBlockVoxels);
+  if (colours_) {
+    c.colours.assign(colours_.get(), colours_.get() + n * kBlockVoxels);
+  } else {
+    c.colours.clear();
+  }
+  sort_blocks_by_key(c);
 }
 
 void HostBlockMap::load(const BlockMapContents& c) {

@@ -42,13 +42,6 @@ struct BlockMapContents {
   std::vector<ColourVoxel> colours;
 };
 
-/// Fills `out` with `block_count` blocks stored in any order (`keys[b]` and the kBlockVoxels
-/// voxels and colours from b × kBlockVoxels; `colours` null: none) in increasing key order, the
-/// form of BlockMapContents; `out`'s arrays' memory is reused.
-void gather_blocks_in_key_order(const uint64_t* keys, const Voxel* voxels,
-                                const ColourVoxel* colours, size_t block_count, int grid_res,
-                                float grid_size_m, BlockMapContents& out);
-
 /// Puts the blocks of `c` (keys, voxels and colours in any one order) into increasing key order
 /// in place, moving each block once: no second copy of the map is needed.
 void sort_blocks_by_key(BlockMapContents& c);
