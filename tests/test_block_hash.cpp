@@ -175,6 +175,55 @@ TEST(HostBlockMap, ContentsPutBlocksInKeyOrderEachWithItsOwnVoxelsAndColours) {
   }
 }
 
+TEST(HostBlockMap, AnIndexOverContentsReadsWhatTheLoadedMapReads) {
+  // Contents with distinct voxels and colours per block; a map loaded from them (its own
+  // copy) and an index over them (the contents' arrays) must find every block at the same
+  // index with the same data.
+  BlockMapContents c;
+  c.grid_res = 256;
+  c.grid_size_m = 2.0f;
+  for (int b = 0; b < 150; ++b) c.keys.push_back(pack_block_key(b % 9 - 4, b / 9 - 8, b % 5));
+  std::sort(c.keys.begin(), c.keys.end());
+  for (size_t i = 0; i < c.keys.size() * kBlockVoxels; ++i) {
+    c.voxels.push_back(Voxel{static_cast<int16_t>(i % 30011), static_cast<int16_t>(i % 101)});
+    c.colours.push_back(ColourVoxel{static_cast<uint16_t>(i % 65521), 7, 8, 1});
+  }
+  HostBlockMap loaded(200, 256, 2.0f, true);
+  loaded.load(c);
+  HostBlockMap index(200, 256, 2.0f, true);
+  index.load_index(c);
+  const BlockMapView a = loaded.view();
+  const BlockMapView b = index.view_of_contents(c);
+  EXPECT_EQ(b.voxels, c.voxels.data());
+  EXPECT_EQ(b.colours, c.colours.data());
+  ASSERT_EQ(a.block_count, b.block_count);
+  for (const uint64_t key : c.keys) {
+    const int32_t slot = a.hash.find(key);
+    ASSERT_GE(slot, 0);
+    ASSERT_EQ(b.hash.find(key), slot);
+    EXPECT_EQ(a.block_touched[slot], b.block_touched[slot]);
+    EXPECT_EQ(a.coarse_touched[a.block_coarse[slot]], b.coarse_touched[b.block_coarse[slot]]);
+    for (int v = 0; v < kBlockVoxels; v += 41) {
+      const size_t i = static_cast<size_t>(slot) * kBlockVoxels + v;
+      EXPECT_EQ(a.voxels[i].tsdf, b.voxels[i].tsdf);
+      EXPECT_EQ(a.voxels[i].weight, b.voxels[i].weight);
+      EXPECT_EQ(a.colours[i].r, b.colours[i].r);
+    }
+  }
+  // An index serves only the contents it was loaded from.
+  BlockMapContents other = c;
+  other.keys.pop_back();
+  other.voxels.resize(other.keys.size() * kBlockVoxels);
+  other.colours.clear();
+  EXPECT_THROW(index.view_of_contents(other), Error);
+  // load_index checks what load checks: a repeated key, too many blocks.
+  BlockMapContents twice = other;
+  twice.keys.back() = twice.keys.front();
+  EXPECT_THROW(index.load_index(twice), Error);
+  HostBlockMap small(100, 256, 2.0f);
+  EXPECT_THROW(small.load_index(c), Error);
+}
+
 TEST(HostBlockMap, SortInPlaceGivesEachKeyItsOwnBlock) {
   std::mt19937_64 rng(9);
   for (const size_t n : {size_t{0}, size_t{1}, size_t{2}, size_t{257}}) {

@@ -72,10 +72,11 @@ MeshView extract_block_map_mesh(const BlockMapView& map, std::vector<MeshVertex>
 
 MeshView extract_block_map_mesh(const BlockMapContents& contents, std::vector<MeshVertex>& vertices,
                                 std::vector<MeshTriangle>& triangles) {
-  HostBlockMap host(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
-                    contents.grid_res, contents.grid_size_m, !contents.colours.empty());
-  host.load(contents);
-  return extract_block_map_mesh(host.view(), vertices, triangles);
+  // The index only: the mesh reads the contents' own voxels (no second copy of the map).
+  HostBlockMap index(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
+                     contents.grid_res, contents.grid_size_m, !contents.colours.empty());
+  index.load_index(contents);
+  return extract_block_map_mesh(index.view_of_contents(contents), vertices, triangles);
 }
 
 }  // namespace kfx

@@ -161,6 +161,17 @@ void HostBlockMap::contents_into(BlockMapContents& c) const {
 }
 
 void HostBlockMap::load(const BlockMapContents& c) {
+  load_index(c);
+  std::copy(c.voxels.begin(), c.voxels.end(), voxels_.get());
+  if (!colours_) return;
+  if (c.colours.empty()) {
+    std::fill_n(colours_.get(), c.voxels.size(), ColourVoxel{0, 0, 0, 0});
+  } else {
+    std::copy(c.colours.begin(), c.colours.end(), colours_.get());
+  }
+}
+
+void HostBlockMap::load_index(const BlockMapContents& c) {
   KFX_CHECK(c.grid_res == grid_res_ && c.grid_size_m == grid_size_m_,
             "a map of voxel size " << c.grid_size_m / c.grid_res
                                    << " m cannot be loaded into one of " << grid_size_m_ / grid_res_
@@ -169,10 +180,18 @@ void HostBlockMap::load(const BlockMapContents& c) {
             "a map of " << c.keys.size() << " blocks with " << c.voxels.size() << " voxels");
   KFX_CHECK(c.colours.empty() || c.colours.size() == c.voxels.size(),
             "a map of " << c.keys.size() << " blocks with " << c.colours.size() << " colours");
+  KFX_CHECK(c.keys.size() <= block_capacity(), "a map of " << c.keys.size()
+                                                           << " blocks does not fit one of "
+                                                           << block_capacity() << " blocks");
   clear();
-  for (size_t i = 0; i < c.keys.size(); ++i) {
-    add_block(c.keys[i], &c.voxels[i * kBlockVoxels],
-              c.colours.empty() ? nullptr : &c.colours[i * kBlockVoxels]);
+  for (const uint64_t key : c.keys) {
+    const Vec3i b = unpack_block_key(key);
+    KFX_CHECK(view().hash.find(key) < 0,
+              "block (" << b.x << ", " << b.y << ", " << b.z << ") is in the map twice");
+    const int index = block_count_;
+    insert_new_block(key);
+    block_touched_[index] = 1;  // unknown contents: never skipped
+    coarse_touched_[block_coarse_[index]] = 1;
   }
 }
 
@@ -192,6 +211,17 @@ BlockMapView HostBlockMap::view() {
   v.grid_res = grid_res_;
   v.grid_size_m = grid_size_m_;
   v.colours = colours_.get();
+  return v;
+}
+
+BlockMapView HostBlockMap::view_of_contents(const BlockMapContents& c) {
+  KFX_CHECK(c.keys.size() == static_cast<size_t>(block_count_) &&
+                (c.keys.empty() || c.keys.front() == block_keys_.front()),
+            "view_of_contents: the index was not loaded from these contents");
+  BlockMapView v = view();
+  // The view type serves writers too; this one is only read.
+  v.voxels = const_cast<Voxel*>(c.voxels.data());
+  v.colours = colours_ && !c.colours.empty() ? const_cast<ColourVoxel*>(c.colours.data()) : nullptr;
   return v;
 }
 

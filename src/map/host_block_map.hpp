@@ -75,10 +75,18 @@ class HostBlockMap {
   /// is marked touched. Throws kfx::Error on a duplicate key or too many blocks. Colours the
   /// contents lack read as none yet; colours the map has no field for are dropped.
   void load(const BlockMapContents& contents);
+  /// load()'s index only: the hashes, keys and touched flags of `contents`' blocks (block i at
+  /// index i), with the same checks, and no copy of their voxels or colours, whose storage stays
+  /// untouched (for a reader of `contents` itself: view_of_contents, the CUDA upload).
+  void load_index(const BlockMapContents& contents);
   /// True when the map carries a colour field.
   bool has_colour() const { return colours_ != nullptr; }
 
   BlockMapView view();
+  /// A view of this map's index (load_index(contents) done last) over `contents`' own voxels and
+  /// colours: a block map read without a second copy of its voxels. For reading only, while
+  /// `contents` lives.
+  BlockMapView view_of_contents(const BlockMapContents& contents);
   /// Blocks allocated.
   int block_count() const { return block_count_; }
   uint32_t block_capacity() const { return static_cast<uint32_t>(block_keys_.size()); }

@@ -24,8 +24,9 @@ class ColourField {
   ColourField(const ColourVolumeView& view);  // NOLINT: a view is a field
   /// The dense cube's colour voxels (res³, x fastest) over a cube of size_m metres.
   ColourField(std::vector<ColourVoxel> voxels, int res, float size_m);
-  /// A block map's colours (contents.colours; empty when the map has none).
-  explicit ColourField(const BlockMapContents& contents);
+  /// A block map's colours (contents.colours; empty when the map has none). The field keeps
+  /// `contents` and samples its arrays in place.
+  explicit ColourField(BlockMapContents contents);
 
   /// True when there is no colour to sample.
   bool empty() const { return !dense_.data && !blocks_; }
@@ -35,7 +36,13 @@ class ColourField {
  private:
   std::vector<ColourVoxel> dense_voxels_;  ///< owned dense voxels, when constructed from them
   ColourVolumeView dense_;
-  std::shared_ptr<HostBlockMap> blocks_;  ///< a map holding the block map's colours
+  /// A block map's contents and their index (HostBlockMap::view_of_contents), when built from one.
+  struct Blocks {
+    BlockMapContents contents;
+    HostBlockMap index;
+    BlockMapView view;
+  };
+  std::shared_ptr<Blocks> blocks_;
 };
 
 /// The colour field of `pipeline`'s model, read from its backend; empty when colour is off.

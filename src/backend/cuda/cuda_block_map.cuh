@@ -349,9 +349,11 @@ class DeviceBlockMap {
   /// touched), copied whole to the device. Returns the block count. Waits for `stream`.
   int upload(const BlockMapContents& contents, cudaStream_t stream) {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
+    // The index is built on the host; the voxels go up from `contents` itself (block i at
+    // index i), so the host holds no second copy of the map.
     HostBlockMap host(capacity_, grid_res_, grid_size_m_, colours_.size() > 0);
-    host.load(contents);
-    const BlockMapView h = host.view();
+    host.load_index(contents);
+    const BlockMapView h = host.view_of_contents(contents);
     const size_t n = static_cast<size_t>(host.block_count());
     copy_up(hash_keys_.data(), h.hash.keys, hash_keys_.size());
     copy_up(hash_values_.data(), h.hash.values, hash_values_.size());
@@ -362,7 +364,11 @@ class DeviceBlockMap {
     copy_up(block_coarse_.data(), h.block_coarse, n);
     copy_up(coarse_touched_.data(), h.coarse_touched, static_cast<size_t>(host.coarse_count()));
     copy_up(voxels_.data(), h.voxels, n * kBlockVoxels);
-    if (h.colours) copy_up(colours_.data(), h.colours, n * kBlockVoxels);
+    if (h.colours) {
+      copy_up(colours_.data(), h.colours, n * kBlockVoxels);
+    } else if (colours_.size() > 0 && n > 0) {  // colours the contents lack read as none yet
+      KFX_CUDA_CHECK(cudaMemset(colours_.data(), 0, n * kBlockVoxels * sizeof(ColourVoxel)));
+    }
     const BlockMapCounts counts{host.block_count(), host.coarse_count(), 0, 0, 0};
     copy_up(counts_.data(), &counts, 1);
     return host.block_count();
