@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -61,6 +62,7 @@ TEST(Knobs, ExactValueIsBitIdenticalAndApproximateValueChangesTheTrajectory) {
       {"raycast_block_px", "1,1", "2,2"},
       {"raycast_constant_step_m", "0", "0.05"},
       {"raycast_interp", "trilinear", "two_value"},
+      {"raycast_normals", "gradient", "neighbours"},
       {"pyramid_iterations", "10,5,4", "2"},
   };
   for (const auto& c : cases) {
@@ -337,6 +339,103 @@ TEST(Knobs, RaycastBlocksCopyTheBlockRay) {
   a.constant_step_m = 0.05f;
   raycast_pixel(20, 15, a);
   EXPECT_NEAR(v(20, 15).z, 2.0f, 0.05f);
+}
+
+TEST(Knobs, NeighbourNormalsFollowTheHitsAndMarkMisses) {
+  // The raycast of a plane at 2 m facing the camera, with one ray's hit removed: a pixel has a
+  // normal exactly where it and its four neighbours hit.
+  SmallVolume vol;
+  HostImage<float> depth(40, 30, 2.0f);
+  TrackingState s{};
+  s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
+  IntegrateArgs ia = integrate_args(vol, depth, s);
+  test::integrate_every_column(ia, false);
+  set_reference_view(s, ia.k);
+  HostImage<Vec3f> v(40, 30), n_gradient(40, 30), n(40, 30, Vec3f{7.0f, 7.0f, 7.0f});
+  RaycastArgs a;
+  a.volume = vol.view();
+  a.state = &s;
+  a.step_m = 0.1f;
+  a.large_step_m = 0.225f;
+  a.vertex = v.view();
+  a.normal = n_gradient.view();
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) raycast_pixel(x, y, a);
+  }
+  a.normals = RaycastNormals::kNeighbours;
+  a.normal = n.view();
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) raycast_pixel(x, y, a);
+  }
+  for (int y = 0; y < 30; ++y) {  // the ray pass leaves every normal to the second pass
+    for (int x = 0; x < 40; ++x) ASSERT_EQ(n(x, y).x, 7.0f);
+  }
+  v(10, 10) = Vec3f{0.0f, 0.0f, 0.0f};  // one ray missed
+  const RaycastNeighbourNormalArgs na{v.view(), n.view(), ia.k.handedness()};
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) raycast_neighbour_normal_pixel(x, y, na);
+  }
+  int compared = 0;
+  double facing_neighbours = 0.0, facing_gradient = 0.0;  // summed cosines to (0, 0, −1)
+  const auto missed = [&](int x, int y) {
+    const Vec3f p = v(std::clamp(x, 0, 39), std::clamp(y, 0, 29));
+    return p.x == 0.0f && p.y == 0.0f && p.z == 0.0f;
+  };
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const bool near_miss = missed(x, y) || missed(x - 1, y) || missed(x + 1, y) ||
+                             missed(x, y - 1) || missed(x, y + 1);
+      EXPECT_EQ(n(x, y).x == kInvalidNormal, near_miss) << x << "," << y;
+      if (near_miss || n_gradient(x, y).x == kInvalidNormal) continue;
+      facing_neighbours += -n(x, y).z;
+      facing_gradient += -n_gradient(x, y).z;
+      ++compared;
+    }
+  }
+  EXPECT_TRUE(n(9, 10).x == kInvalidNormal && n(10, 11).x == kInvalidNormal);
+  EXPECT_GT(compared, 1000);
+  // On this 10 cm grid both kinds of normal wobble (the mean cosine to the plane's normal is
+  // about 0.95 for either); the neighbours' must face the camera as the gradient's do.
+  EXPECT_GT(facing_neighbours / compared, 0.9);
+  EXPECT_GT(facing_neighbours / compared, facing_gradient / compared - 0.02);
+  // A tilted plane z = 2 + 0.5 x seen through a camera at the origin: the normal is the plane's,
+  // facing the camera (negative z), and one-sided pixels at the border still have one.
+  const Intrinsics k{100.0f, 100.0f, 20.0f, 15.0f};
+  HostImage<Vec3f> tilted(40, 30), tn(40, 30);
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      const float rx = (x - k.cx) / k.fx, ry = (y - k.cy) / k.fy;
+      const float z = 2.0f / (1.0f - 0.5f * rx);
+      tilted(x, y) = Vec3f{rx * z, ry * z, z};
+    }
+  }
+  const RaycastNeighbourNormalArgs ta{tilted.view(), tn.view(), k.handedness()};
+  const Vec3f expected = normalize(Vec3f{0.5f, 0.0f, -1.0f});
+  for (int y = 0; y < 30; y += 7) {
+    for (int x = 0; x < 40; x += 13) {
+      raycast_neighbour_normal_pixel(x, y, ta);
+      EXPECT_NEAR(tn(x, y).x, expected.x, 1e-4f);
+      EXPECT_NEAR(tn(x, y).y, expected.y, 1e-4f);
+      EXPECT_NEAR(tn(x, y).z, expected.z, 1e-4f);
+    }
+  }
+}
+
+TEST(Knobs, NeighbourNormalsRefuseCopiedRaysAndAGradientSpan) {
+  PipelineConfig c;
+  set_config_value(c, "raycast_normals", "neighbours");
+  EXPECT_NO_THROW(c.validate());
+  EXPECT_THROW(set_config_value(c, "raycast_normals", "image"), Error);
+  set_config_value(c, "raycast_block_px", "2,1");
+  EXPECT_THROW(c.validate(), Error);
+  set_config_value(c, "raycast_block_px", "1,1");
+  set_config_value(c, "raycast_normal_span_noise", "2.5");
+  EXPECT_THROW(c.validate(), Error);
+  set_config_value(c, "raycast_normal_span_noise", "0");
+  set_config_value(c, "raycast_normal_span_m", "0.01");
+  EXPECT_THROW(c.validate(), Error);
+  set_config_value(c, "raycast_normals", "gradient");
+  EXPECT_NO_THROW(c.validate());
 }
 
 TEST(Knobs, TwoValueInterpolationReadsTwoVoxelsAlongZ) {

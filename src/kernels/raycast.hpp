@@ -295,6 +295,12 @@ enum class RaycastInterp : int {
   kTwoValue = 1,   ///< 2 voxels: nearest in x and y, linear in z
 };
 
+/// Where the raycast's normals come from (setting `raycast_normals`).
+enum class RaycastNormals : int {
+  kGradient = 0,    ///< the tsdf's central-difference gradient at the hit (exact)
+  kNeighbours = 1,  ///< the hits of the four neighbouring rays (raycast_neighbour_normal_pixel)
+};
+
 /// Settings of the raycast, derived from the configuration.
 struct RaycastParams {
   Intrinsics k;  ///< compute-size intrinsics (the reference view)
@@ -305,6 +311,9 @@ struct RaycastParams {
   /// Approximations (exact values first):
   float constant_step_m = 0.0f;  ///< > 0: march with this step only (no switch to fine steps)
   RaycastInterp interp = RaycastInterp::kTrilinear;
+  /// kNeighbours: raycast_pixel leaves the normal map alone and a second pass
+  /// (raycast_neighbour_normal_pixel) writes every pixel's normal from the hits.
+  RaycastNormals normals = RaycastNormals::kGradient;
   int block_x_px = 1;  ///< one ray per block_x × block_y pixels, copied into the block
   int block_y_px = 1;
   /// Speed only (setting raycast_tile_bounds): with a block map, each ray marches only through
@@ -528,6 +537,10 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
       a.constant_step_m > 0.0f
           ? raycast_ray<1>(a, origin, direction, hit, touched_from_m, touched_to_m)
           : raycast_ray<kRaycastBatch>(a, origin, direction, hit, touched_from_m, touched_to_m);
+  if (a.normals == RaycastNormals::kNeighbours) {  // the second pass writes the normal
+    a.vertex(x, y) = t_hit > 0.0f ? hit : Vec3f{0.0f, 0.0f, 0.0f};
+    return;
+  }
   if (t_hit > 0.0f) {
     a.vertex(x, y) = hit;
     // t is the hit's camera depth: the ray's direction has z = 1 in the camera frame.
@@ -540,6 +553,31 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
     a.vertex(x, y) = Vec3f{0.0f, 0.0f, 0.0f};
     a.normal(x, y) = Vec3f{kInvalidNormal, 0.0f, 0.0f};
   }
+}
+
+/// Arguments of raycast_neighbour_normal_pixel.
+struct RaycastNeighbourNormalArgs {
+  ImageView<const Vec3f> vertex;  ///< the raycast's hits; a miss is the zero vector
+  ImageView<Vec3f> normal;        ///< unit normals facing the camera; x = kInvalidNormal if none
+  float handedness = 1.0f;        ///< Intrinsics::handedness() of the raycast's view
+};
+
+/// Approximation (raycast_normals=neighbours): the normal of pixel (x, y)'s hit from the hits of
+/// its four neighbouring rays, as the input's normals come from its vertices
+/// (vertex_to_normal_value: cross(down − up, right − left), rotation keeps its side), instead of
+/// six tsdf samples at the hit. Invalid where the pixel or a neighbour (clamped to the image)
+/// missed, or the four hits give no direction. Pixel spacing, not the voxel, sets its scale.
+KFX_HD inline void raycast_neighbour_normal_pixel(int x, int y,
+                                                  const RaycastNeighbourNormalArgs& a) {
+  const auto missed = [](Vec3f p) { return p.x == 0.0f && p.y == 0.0f && p.z == 0.0f; };
+  const int w = a.vertex.width, h = a.vertex.height;
+  const Vec3f left = a.vertex(maxi(x - 1, 0), y), right = a.vertex(mini(x + 1, w - 1), y);
+  const Vec3f up = a.vertex(x, maxi(y - 1, 0)), down = a.vertex(x, mini(y + 1, h - 1));
+  const Vec3f g = cross(down - up, right - left);
+  const float len = length(g);
+  const bool valid = !missed(a.vertex(x, y)) && !missed(left) && !missed(right) && !missed(up) &&
+                     !missed(down) && len > 0.0f;
+  a.normal(x, y) = valid ? normalize(g) * a.handedness : Vec3f{kInvalidNormal, 0.0f, 0.0f};
 }
 
 }  // namespace kfx

@@ -436,6 +436,13 @@ std::vector<ConfigField> build_fields() {
          Choices<RaycastInterp>{{"trilinear", RaycastInterp::kTrilinear},
                                 {"two_value", RaycastInterp::kTwoValue}},
          &C::Approximations::raycast_interp);
+  choice("raycast_normals",
+         "raycast: the hit's normal from the tsdf's gradient (6 samples, exact) | neighbours (from "
+         "the four neighbouring rays' hits, as the input's normals from its vertices; needs "
+         "raycast_block_px=1,1 and no raycast_normal_span)",
+         Choices<RaycastNormals>{{"gradient", RaycastNormals::kGradient},
+                                 {"neighbours", RaycastNormals::kNeighbours}},
+         &C::Approximations::raycast_normals);
   // Quality (accuracy beyond KFusion's), each exact by default.
   auto quality_choice = [&](std::string key, std::string help, auto choices, auto get) {
     ConfigField f;
@@ -661,6 +668,16 @@ void PipelineConfig::validate() const {
     KFX_CHECK(b >= 1 && b <= 16, "raycast_block_px entries must be in 1..16, got " << b);
   }
   KFX_CHECK(approx.raycast_constant_step_m >= 0, "raycast_constant_step_m must be >= 0");
+  if (approx.raycast_normals == RaycastNormals::kNeighbours) {
+    // Copied pixels would be their own neighbours; a span sets the gradient's, which is not used.
+    KFX_CHECK(approx.raycast_block_px[0] == 1 && approx.raycast_block_px[1] == 1,
+              "raycast_normals=neighbours needs raycast_block_px=1,1 (copied rays have no "
+              "neighbours of their own), got "
+                  << format_list(approx.raycast_block_px));
+    KFX_CHECK(quality.raycast_normal_span_m == 0 && quality.raycast_normal_span_noise == 0,
+              "raycast_normals=neighbours takes no gradient span: set raycast_normal_span_m and "
+              "raycast_normal_span_noise to 0");
+  }
   KFX_CHECK(quality.max_depth_m >= 0,
             "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
   KFX_CHECK(quality.icp_robust_scale_m > 0,
@@ -787,6 +804,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.raycast.large_step_m = config.raycast.large_step_mu * config.volume.mu_m;
   p.raycast.constant_step_m = approx.raycast_constant_step_m;
   p.raycast.interp = approx.raycast_interp;
+  p.raycast.normals = approx.raycast_normals;
   p.raycast.block_x_px = approx.raycast_block_px[0];
   p.raycast.block_y_px = approx.raycast_block_px[1];
   p.raycast.tile_bounds = config.raycast.tile_bounds;
@@ -801,6 +819,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.render.volume_ray.block_x_px = p.render.volume_ray.block_y_px = 1;
   p.render.volume_ray.constant_step_m = 0.0f;
   p.render.volume_ray.interp = RaycastInterp::kTrilinear;
+  p.render.volume_ray.normals = RaycastNormals::kGradient;
   p.render.volume_ray.normal_span_m = p.render.volume_ray.normal_span_noise = 0.0f;
   return p;
 }

@@ -104,7 +104,8 @@ struct PipelineConfig {
     int raycast_rate = 1;                       ///< raycast every N-th frame (ICP reuses the last)
     std::array<int, 2> raycast_block_px{1, 1};  ///< one ray per bx × by block, copied into it
     float raycast_constant_step_m = 0.0f;       ///< > 0: constant march step (no fine steps)
-    RaycastInterp raycast_interp = RaycastInterp::kTrilinear;  ///< trilinear | two_value
+    RaycastInterp raycast_interp = RaycastInterp::kTrilinear;    ///< trilinear | two_value
+    RaycastNormals raycast_normals = RaycastNormals::kGradient;  ///< gradient | neighbours
   } approx;
 
   /// Accuracy techniques beyond KFusion's (for a `quality` preset), each defaulting to exact:

@@ -269,6 +269,16 @@ class CpuBackend final : public Backend {
     const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
+    neighbour_normals(p);
+  }
+
+  /// raycast_normals=neighbours: every normal from the hits (raycast_neighbour_normal_pixel).
+  void neighbour_normals(const RaycastParams& p) {
+    if (p.normals != RaycastNormals::kNeighbours) return;
+    const RaycastNeighbourNormalArgs n{buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
+                                       p.k.handedness()};
+    for_each_pixel(n.normal.width, n.normal.height,
+                   [&](int x, int y) { raycast_neighbour_normal_pixel(x, y, n); });
   }
 
   void render(const RenderParams& p) override {
@@ -482,6 +492,7 @@ class CpuBackend final : public Backend {
     const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
+    neighbour_normals(p);
   }
 
   /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp):

@@ -446,6 +446,13 @@ class CudaBackend final : public Backend {
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
     launch(pixel_kernel<RaycastBlockBodyT<Map>, RaycastArgsT<Map>>, grid_for(w, h, block), block, a,
            w, h);
+    if (p.normals != RaycastNormals::kNeighbours) return;
+    const RaycastNeighbourNormalArgs n{buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
+                                       p.k.handedness()};
+    const dim3 pixels(32, 8);
+    launch(pixel_kernel<RaycastNeighbourNormalBody, RaycastNeighbourNormalArgs>,
+           grid_for(n.normal.width, n.normal.height, pixels), pixels, n, n.normal.width,
+           n.normal.height);
   }
 
   /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp),

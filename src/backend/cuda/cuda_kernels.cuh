@@ -79,6 +79,11 @@ struct RaycastBlockBodyT {
   }
 };
 using RaycastBlockBody = RaycastBlockBodyT<VolumeView>;
+struct RaycastNeighbourNormalBody {
+  __device__ void operator()(int x, int y, const RaycastNeighbourNormalArgs& a) const {
+    raycast_neighbour_normal_pixel(x, y, a);
+  }
+};
 struct RenderDepthBody {
   __device__ void operator()(int x, int y, const RenderDepthArgs& a) const {
     render_depth_pixel(x, y, a);
