@@ -60,7 +60,11 @@ struct IntegrateParams {
   IntegrationWeight weight_mode = IntegrationWeight::kConstant;
   float weight_ref_m = 1.0f;
   /// Approximations (exact values first):
-  int z_stride = 1;  ///< update 1 voxel in z_stride, rotating with the frame
+  int z_stride = 1;  ///< update 1 voxel in z_stride, rotating with the integrated frames
+  /// Frames from one integrated frame to the next (the lcm of the tracking and integration
+  /// rates): the perforation turns once per integrated frame, so a rate that shares a factor
+  /// with z_stride cannot leave some voxels never updated.
+  int frames_per_integration = 1;
   IntegrationPattern pattern = IntegrationPattern::kSlices;
   RayFactor ray_factor = RayFactor::kExact;
   bool zero_depth_test = true;  ///< skip pixels without depth
@@ -334,13 +338,14 @@ KFX_HD inline void integrate_column_bounds(int x, int y, const IntegrateArgsT<Ma
   integrate_line_bounds(z_line(x, y, a), a, z_begin, z_end);
 }
 
-/// Perforation (z_stride > 1): this frame updates the voxels with z ≡ f (mod s) (whole slices,
-/// the thesis's pattern) or x + y + z ≡ f (mod s) (a 3-D checkerboard that spreads the stale
-/// voxels evenly instead of in sheets across the viewing direction). Returns the residue that
-/// the line's own coordinate must have: `other` is the sum of the line's two fixed coordinates.
+/// Perforation (z_stride > 1): integrated frame i = f / frames_per_integration updates the
+/// voxels with z ≡ i (mod s) (whole slices, the thesis's pattern) or x + y + z ≡ i (mod s) (a
+/// 3-D checkerboard that spreads the stale voxels evenly instead of in sheets across the viewing
+/// direction). Returns the residue that the line's own coordinate must have: `other` is the sum
+/// of the line's two fixed coordinates.
 template <class Map>
 KFX_HD inline int perforation_residue(const IntegrateArgsT<Map>& a, int other) {
-  const int f = a.state->frame_index % a.z_stride;
+  const int f = (a.state->frame_index / a.frames_per_integration) % a.z_stride;
   if (a.pattern == IntegrationPattern::kSlices) return f;
   return ((f - other) % a.z_stride + a.z_stride) % a.z_stride;
 }

@@ -4,6 +4,7 @@
 
 #include <cmath>
 #include <cstdlib>
+#include <numeric>
 #include <sstream>
 #include <utility>
 
@@ -794,6 +795,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.integrate.weight_mode = config.quality.integration_weight;
   p.integrate.weight_ref_m = config.quality.integration_weight_ref_m;
   p.integrate.z_stride = approx.integration_z_stride;
+  p.integrate.frames_per_integration = std::lcm(config.tracking.rate, config.integration.rate);
   p.integrate.pattern = approx.integration_pattern;
   p.integrate.ray_factor = approx.ray_factor;
   p.integrate.zero_depth_test = approx.integrate_zero_depth_test;
