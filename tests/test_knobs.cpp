@@ -397,7 +397,9 @@ TEST(Knobs, NeighbourNormalsFollowTheHitsAndMarkMisses) {
   s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
   IntegrateArgs ia = integrate_args(vol, depth, s);
   test::integrate_every_column(ia, false);
-  set_reference_view(s, ia.k);
+  // Rays 1.25 cm apart on the plane (the integration's camera spreads them 5 cm, beyond
+  // kNeighbourNormalMaxGapM).
+  set_reference_view(s, Intrinsics{160, 160, 20, 15});
   HostImage<Vec3f> v(40, 30), n_gradient(40, 30), n(40, 30, Vec3f{7.0f, 7.0f, 7.0f});
   RaycastArgs a;
   a.volume = vol.view();
@@ -446,7 +448,8 @@ TEST(Knobs, NeighbourNormalsFollowTheHitsAndMarkMisses) {
   EXPECT_GT(facing_neighbours / compared, 0.9);
   EXPECT_GT(facing_neighbours / compared, facing_gradient / compared - 0.02);
   // A tilted plane z = 2 + 0.5 x seen through a camera at the origin: the normal is the plane's,
-  // facing the camera (negative z), and one-sided pixels at the border still have one.
+  // facing the camera (negative z), and one-sided pixels at the border still have one (the
+  // plane's own points lie a few millimetres apart).
   const Intrinsics k{100.0f, 100.0f, 20.0f, 15.0f};
   HostImage<Vec3f> tilted(40, 30), tn(40, 30);
   for (int y = 0; y < 30; ++y) {
@@ -456,10 +459,19 @@ TEST(Knobs, NeighbourNormalsFollowTheHitsAndMarkMisses) {
       tilted(x, y) = Vec3f{rx * z, ry * z, z};
     }
   }
+  // Columns from 30 on move 0.2 m farther along their rays (off the plane): across that depth
+  // edge, pixels 29 and 30 get no normal, their other neighbours do.
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 30; x < 40; ++x) tilted(x, y) = tilted(x, y) * (1.0f + 0.2f / tilted(x, y).z);
+  }
   const RaycastNeighbourNormalArgs ta{tilted.view(), tn.view(), k.handedness()};
+  for (const int x : {28, 29, 30, 31}) {
+    raycast_neighbour_normal_pixel(x, 10, ta);
+    EXPECT_EQ(tn(x, 10).x == kInvalidNormal, x == 29 || x == 30) << x;
+  }
   const Vec3f expected = normalize(Vec3f{0.5f, 0.0f, -1.0f});
   for (int y = 0; y < 30; y += 7) {
-    for (int x = 0; x < 40; x += 13) {
+    for (const int x : {0, 13, 26}) {  // on the plane, off the edge; 0 one-sided
       raycast_neighbour_normal_pixel(x, y, ta);
       EXPECT_NEAR(tn(x, y).x, expected.x, 1e-4f);
       EXPECT_NEAR(tn(x, y).y, expected.y, 1e-4f);

@@ -555,6 +555,12 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   }
 }
 
+/// raycast_normals=neighbours: a neighbouring hit farther than this from the pixel's own lies
+/// across a depth edge, and the pixel gets no normal. Without it, `fast` with the neighbours'
+/// normals lost tum_fr1_rpy (28 cm ATE); 3 cm held it (2.43 cm), 1 cm lost more frames
+/// (bench/RESULTS.md, Session 20).
+constexpr float kNeighbourNormalMaxGapM = 0.03f;
+
 /// Arguments of raycast_neighbour_normal_pixel.
 struct RaycastNeighbourNormalArgs {
   ImageView<const Vec3f> vertex;  ///< the raycast's hits; a miss is the zero vector
@@ -566,17 +572,21 @@ struct RaycastNeighbourNormalArgs {
 /// its four neighbouring rays, as the input's normals come from its vertices
 /// (vertex_to_normal_value: cross(down − up, right − left), rotation keeps its side), instead of
 /// six tsdf samples at the hit. Invalid where the pixel or a neighbour (clamped to the image)
-/// missed, or the four hits give no direction. Pixel spacing, not the voxel, sets its scale.
+/// missed, where a neighbour lies across a depth edge (kNeighbourNormalMaxGapM), or where the
+/// four hits give no direction. Pixel spacing, not the voxel, sets its scale.
 KFX_HD inline void raycast_neighbour_normal_pixel(int x, int y,
                                                   const RaycastNeighbourNormalArgs& a) {
   const auto missed = [](Vec3f p) { return p.x == 0.0f && p.y == 0.0f && p.z == 0.0f; };
   const int w = a.vertex.width, h = a.vertex.height;
+  const Vec3f centre = a.vertex(x, y);
   const Vec3f left = a.vertex(maxi(x - 1, 0), y), right = a.vertex(mini(x + 1, w - 1), y);
   const Vec3f up = a.vertex(x, maxi(y - 1, 0)), down = a.vertex(x, mini(y + 1, h - 1));
+  const auto usable = [&](Vec3f p) {
+    return !missed(p) && length(p - centre) <= kNeighbourNormalMaxGapM;
+  };
   const Vec3f g = cross(down - up, right - left);
-  const float len = length(g);
-  const bool valid = !missed(a.vertex(x, y)) && !missed(left) && !missed(right) && !missed(up) &&
-                     !missed(down) && len > 0.0f;
+  const bool valid = !missed(centre) && usable(left) && usable(right) && usable(up) &&
+                     usable(down) && length(g) > 0.0f;
   a.normal(x, y) = valid ? normalize(g) * a.handedness : Vec3f{kInvalidNormal, 0.0f, 0.0f};
 }
 
