@@ -397,8 +397,7 @@ TEST(Knobs, NeighbourNormalsFollowTheHitsAndMarkMisses) {
   s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
   IntegrateArgs ia = integrate_args(vol, depth, s);
   test::integrate_every_column(ia, false);
-  // Rays 1.25 cm apart on the plane (the integration's camera spreads them 5 cm, beyond
-  // kNeighbourNormalMaxGapM).
+  // Rays 1.25 cm apart on the plane.
   set_reference_view(s, Intrinsics{160, 160, 20, 15});
   HostImage<Vec3f> v(40, 30), n_gradient(40, 30), n(40, 30, Vec3f{7.0f, 7.0f, 7.0f});
   RaycastArgs a;

@@ -555,11 +555,12 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   }
 }
 
-/// raycast_normals=neighbours: a neighbouring hit farther than this from the pixel's own lies
-/// across a depth edge, and the pixel gets no normal. Without it, `fast` with the neighbours'
-/// normals lost tum_fr1_rpy (28 cm ATE); 3 cm held it (2.43 cm), 1 cm lost more frames
-/// (bench/RESULTS.md, Session 20).
-constexpr float kNeighbourNormalMaxGapM = 0.03f;
+/// raycast_normals=neighbours: along either image axis, a pixel whose hit lies more than this
+/// many times farther from one neighbour's hit than from the other's (plus
+/// kNeighbourNormalEdgeSlackM) sits on a depth edge and gets no normal. A ratio, not a distance:
+/// a fixed 3 cm also dropped far oblique walls at 320x240 (bench/RESULTS.md, Session 20).
+constexpr float kNeighbourNormalEdgeRatio = 3.0f;
+constexpr float kNeighbourNormalEdgeSlackM = 0.005f;  ///< hit noise the ratio forgives
 
 /// Arguments of raycast_neighbour_normal_pixel.
 struct RaycastNeighbourNormalArgs {
@@ -572,7 +573,7 @@ struct RaycastNeighbourNormalArgs {
 /// its four neighbouring rays, as the input's normals come from its vertices
 /// (vertex_to_normal_value: cross(down − up, right − left), rotation keeps its side), instead of
 /// six tsdf samples at the hit. Invalid where the pixel or a neighbour (clamped to the image)
-/// missed, where a neighbour lies across a depth edge (kNeighbourNormalMaxGapM), or where the
+/// missed, where the pixel sits on a depth edge (kNeighbourNormalEdgeRatio), or where the
 /// four hits give no direction. Pixel spacing, not the voxel, sets its scale.
 KFX_HD inline void raycast_neighbour_normal_pixel(int x, int y,
                                                   const RaycastNeighbourNormalArgs& a) {
@@ -581,12 +582,15 @@ KFX_HD inline void raycast_neighbour_normal_pixel(int x, int y,
   const Vec3f centre = a.vertex(x, y);
   const Vec3f left = a.vertex(maxi(x - 1, 0), y), right = a.vertex(mini(x + 1, w - 1), y);
   const Vec3f up = a.vertex(x, maxi(y - 1, 0)), down = a.vertex(x, mini(y + 1, h - 1));
-  const auto usable = [&](Vec3f p) {
-    return !missed(p) && length(p - centre) <= kNeighbourNormalMaxGapM;
+  const auto smooth = [&](Vec3f a_side, Vec3f b_side) {
+    const float da = length(a_side - centre), db = length(b_side - centre);
+    // At the image's border one side is the pixel itself: nothing to compare.
+    if (da == 0.0f || db == 0.0f) return true;
+    return max_f(da, db) <= kNeighbourNormalEdgeRatio * min_f(da, db) + kNeighbourNormalEdgeSlackM;
   };
   const Vec3f g = cross(down - up, right - left);
-  const bool valid = !missed(centre) && usable(left) && usable(right) && usable(up) &&
-                     usable(down) && length(g) > 0.0f;
+  const bool valid = !missed(centre) && !missed(left) && !missed(right) && !missed(up) &&
+                     !missed(down) && smooth(left, right) && smooth(up, down) && length(g) > 0.0f;
   a.normal(x, y) = valid ? normalize(g) * a.handedness : Vec3f{kInvalidNormal, 0.0f, 0.0f};
 }
 
