@@ -347,25 +347,44 @@ TEST(Knobs, ThesisRayFactorIsTheThesisFormNotASeries) {
   EXPECT_GT(std::fabs(tsdf_at(RayFactor::kThesis, 11) - tsdf_at(RayFactor::kExact, 11)), 0.05f);
 }
 
-TEST(Knobs, RaycastBlocksCopyTheBlockRay) {
-  SmallVolume vol;
-  HostImage<float> depth(40, 30, 2.0f);
-  TrackingState s{};
+/// Integrates a plane 2 m in front of a camera at (1.6, 1.6, 0) into `vol`, the pose into `s`;
+/// returns the camera's intrinsics.
+Intrinsics integrate_plane_at_2m(SmallVolume& vol, TrackingState& s) {
+  const HostImage<float> depth(40, 30, 2.0f);
   s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
-  IntegrateArgs ia = integrate_args(vol, depth, s);
+  const IntegrateArgs ia = integrate_args(vol, depth, s);
   test::integrate_every_column(ia, false);
-  set_reference_view(s, ia.k);
-  HostImage<Vec3f> v(40, 30), n(40, 30), v1(40, 30), n1(40, 30);
+  return ia.k;
+}
+
+/// Raycast arguments over `vol` (0.1 m voxels) from the reference view in `s`, writing `vertex`
+/// and `normal`.
+RaycastArgs small_volume_raycast(SmallVolume& vol, const TrackingState& s, HostImage<Vec3f>& vertex,
+                                 HostImage<Vec3f>& normal) {
   RaycastArgs a;
   a.volume = vol.view();
   a.state = &s;
   a.step_m = 0.1f;
   a.large_step_m = 0.225f;
-  a.vertex = v1.view();
-  a.normal = n1.view();
+  a.vertex = vertex.view();
+  a.normal = normal.view();
+  return a;
+}
+
+/// raycast_pixel at every pixel of the 40 × 30 image.
+void raycast_every_pixel(const RaycastArgs& a) {
   for (int y = 0; y < 30; ++y) {
     for (int x = 0; x < 40; ++x) raycast_pixel(x, y, a);
   }
+}
+
+TEST(Knobs, RaycastBlocksCopyTheBlockRay) {
+  SmallVolume vol;
+  TrackingState s{};
+  set_reference_view(s, integrate_plane_at_2m(vol, s));
+  HostImage<Vec3f> v(40, 30), n(40, 30), v1(40, 30), n1(40, 30);
+  RaycastArgs a = small_volume_raycast(vol, s, v1, n1);
+  raycast_every_pixel(a);
   a.vertex = v.view();
   a.normal = n.view();
   a.block_x_px = a.block_y_px = 2;
@@ -392,34 +411,21 @@ TEST(Knobs, NeighbourNormalsFollowTheHitsAndMarkMisses) {
   // The raycast of a plane at 2 m facing the camera, with one ray's hit removed: a pixel has a
   // normal exactly where it and its four neighbours hit.
   SmallVolume vol;
-  HostImage<float> depth(40, 30, 2.0f);
   TrackingState s{};
-  s.T_world_cam = Mat4f::translation(Vec3f{1.6f, 1.6f, 0.0f});
-  IntegrateArgs ia = integrate_args(vol, depth, s);
-  test::integrate_every_column(ia, false);
+  const Intrinsics k_integration = integrate_plane_at_2m(vol, s);
   // Rays 1.25 cm apart on the plane.
   set_reference_view(s, Intrinsics{160, 160, 20, 15});
   HostImage<Vec3f> v(40, 30), n_gradient(40, 30), n(40, 30, Vec3f{7.0f, 7.0f, 7.0f});
-  RaycastArgs a;
-  a.volume = vol.view();
-  a.state = &s;
-  a.step_m = 0.1f;
-  a.large_step_m = 0.225f;
-  a.vertex = v.view();
-  a.normal = n_gradient.view();
-  for (int y = 0; y < 30; ++y) {
-    for (int x = 0; x < 40; ++x) raycast_pixel(x, y, a);
-  }
+  RaycastArgs a = small_volume_raycast(vol, s, v, n_gradient);
+  raycast_every_pixel(a);
   a.normals = RaycastNormals::kNeighbours;
   a.normal = n.view();
-  for (int y = 0; y < 30; ++y) {
-    for (int x = 0; x < 40; ++x) raycast_pixel(x, y, a);
-  }
+  raycast_every_pixel(a);
   for (int y = 0; y < 30; ++y) {  // the ray pass leaves every normal to the second pass
     for (int x = 0; x < 40; ++x) ASSERT_EQ(n(x, y).x, 7.0f);
   }
   v(10, 10) = Vec3f{0.0f, 0.0f, 0.0f};  // one ray missed
-  const RaycastNeighbourNormalArgs na{v.view(), n.view(), ia.k.handedness()};
+  const RaycastNeighbourNormalArgs na{v.view(), n.view(), k_integration.handedness()};
   for (int y = 0; y < 30; ++y) {
     for (int x = 0; x < 40; ++x) raycast_neighbour_normal_pixel(x, y, na);
   }
