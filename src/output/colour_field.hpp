@@ -38,6 +38,9 @@ class ColourField {
   ColourVolumeView dense_;
   /// A block map's contents and their index (HostBlockMap::view_of_contents), when built from one.
   struct Blocks {
+    Blocks() = default;
+    Blocks(const Blocks&) = delete;  // `view` points into this object's own arrays
+    Blocks& operator=(const Blocks&) = delete;
     BlockMapContents contents;
     HostBlockMap index;
     BlockMapView view;
