@@ -261,14 +261,9 @@ class CpuBackend final : public Backend {
     set_reference_view(state_, p.k);
     if (blocks()) {
       raycast_map(p, blocks_.view());
-      return;
+    } else {
+      raycast_map(p, buffers_.volume_view());
     }
-    const RaycastArgs a{p, buffers_.volume_view(), buffers_.ref_vertex.view(),
-                        buffers_.ref_normal.view(), &state_};
-    const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
-    const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
-#pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
     neighbour_normals(p);
   }
 
@@ -492,7 +487,6 @@ class CpuBackend final : public Backend {
     const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
 #pragma omp parallel for schedule(dynamic, 2)
     for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
-    neighbour_normals(p);
   }
 
   /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp):
