@@ -113,20 +113,24 @@ BlockAllocation HostBlockMap::allocate(std::vector<uint64_t>& candidates) {
 void HostBlockMap::add_block(uint64_t key, const Voxel* voxels, const ColourVoxel* colours) {
   KFX_CHECK(block_count_ < static_cast<int>(block_capacity()),
             "the map holds " << block_capacity() << " blocks; one more does not fit");
-  const Vec3i c = unpack_block_key(key);
-  KFX_CHECK(view().hash.find(key) < 0,
-            "block (" << c.x << ", " << c.y << ", " << c.z << ") is in the map twice");
-  const size_t first = static_cast<size_t>(block_count_) * kBlockVoxels;
+  const size_t first = static_cast<size_t>(insert_loaded_block(key)) * kBlockVoxels;
   std::copy(voxels, voxels + kBlockVoxels, voxels_.get() + first);
   if (colours_ && colours) {
     std::copy(colours, colours + kBlockVoxels, colours_.get() + first);
   } else if (colours_) {
     std::fill_n(colours_.get() + first, kBlockVoxels, ColourVoxel{0, 0, 0, 0});
   }
+}
+
+int HostBlockMap::insert_loaded_block(uint64_t key) {
+  const Vec3i c = unpack_block_key(key);
+  KFX_CHECK(view().hash.find(key) < 0,
+            "block (" << c.x << ", " << c.y << ", " << c.z << ") is in the map twice");
   const int b = block_count_;
   insert_new_block(key);
   block_touched_[b] = 1;  // unknown contents: never skipped
   coarse_touched_[block_coarse_[b]] = 1;
+  return b;
 }
 
 void HostBlockMap::insert_new_block(uint64_t key) {
@@ -184,15 +188,7 @@ void HostBlockMap::load_index(const BlockMapContents& c) {
                                                            << " blocks does not fit one of "
                                                            << block_capacity() << " blocks");
   clear();
-  for (const uint64_t key : c.keys) {
-    const Vec3i b = unpack_block_key(key);
-    KFX_CHECK(view().hash.find(key) < 0,
-              "block (" << b.x << ", " << b.y << ", " << b.z << ") is in the map twice");
-    const int index = block_count_;
-    insert_new_block(key);
-    block_touched_[index] = 1;  // unknown contents: never skipped
-    coarse_touched_[block_coarse_[index]] = 1;
-  }
+  for (const uint64_t key : c.keys) insert_loaded_block(key);
 }
 
 BlockMapView HostBlockMap::view() {

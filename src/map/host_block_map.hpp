@@ -103,6 +103,10 @@ class HostBlockMap {
   /// Stores a key absent from the map as block block_count_ (in its coarse cell, which is added
   /// when new) and counts it; the caller checked the capacity.
   void insert_new_block(uint64_t key);
+  /// A block of known contents (loaded, not allocated): throws kfx::Error when `key` is in the
+  /// map already, else stores it (insert_new_block), marks it and its coarse cell touched and
+  /// returns its index. The caller checked the capacity and places the voxels.
+  int insert_loaded_block(uint64_t key);
   std::vector<uint64_t> hash_keys_;
   std::vector<int32_t> hash_values_;
   /// capacity × kBlockVoxels voxels, left uninitialised until a block is allocated (so a large
