@@ -7,6 +7,7 @@
 
 #include "core/colour_volume.hpp"
 #include "core/volume.hpp"
+#include "map/block_table.hpp"
 #include "map/host_block_map.hpp"
 
 namespace kfx {
@@ -31,11 +32,13 @@ uint64_t volume_bytes(const BackendSetup& setup) {
   if (setup.map_kind == MapKind::kBlocks) {
     // The blocks without their colours (colour_bytes counts them), and the GPU's per-frame
     // allocation buffers: a visible-block list entry per block, and per compute pixel 4 new-key
-    // list entries with their key set (about 64 bytes).
+    // list entries with their key set (about 64 bytes); and its direct-mapped tables of blocks
+    // and of coarse cells.
     const uint64_t compute_px =
         static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
     return static_cast<uint64_t>(setup.block_capacity) * (kBytesPerBlock + sizeof(int32_t)) +
-           std::max<uint64_t>(65536, 4 * compute_px) * 64;
+           std::max<uint64_t>(65536, 4 * compute_px) * 64 +
+           2 * static_cast<uint64_t>(kBlockTableEntries) * sizeof(BlockTableEntry);
   }
   const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
   return res * res * res * sizeof(Voxel);

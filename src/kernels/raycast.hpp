@@ -208,8 +208,7 @@ KFX_HD inline UntouchedSample untouched_sample(const BlockMapView& map, Vec3f p_
       for (int y = lo[1] >> kCoarseVoxelShift; coarse_untouched && y <= hi[1] >> kCoarseVoxelShift;
            ++y) {
         for (int x = lo[0] >> kCoarseVoxelShift; x <= hi[0] >> kCoarseVoxelShift; ++x) {
-          const int32_t c =
-              block_coords_packable(x, y, z) ? map.coarse_hash.find(pack_block_key(x, y, z)) : -1;
+          const int32_t c = map.find_coarse(x, y, z);
           if (c >= 0 && map.coarse_touched[c]) {
             coarse_untouched = false;
             remember_coarse(memo, x, y, z);

@@ -17,6 +17,7 @@
 #include "core/math.hpp"
 #include "core/volume.hpp"
 #include "map/block_hash.hpp"
+#include "map/block_table.hpp"
 
 namespace kfx {
 
@@ -45,7 +46,10 @@ KFX_HD inline Voxel empty_voxel() { return Voxel{static_cast<int16_t>(kTsdfScale
 
 /// A non-owning view of a block map (host or device memory).
 struct BlockMapView {
-  BlockHashView hash;              ///< packed block key → block index
+  BlockHashView hash;  ///< packed block key → block index
+  /// The direct-mapped table in front of the hash (map/block_table.hpp); the GPU's map keeps
+  /// one, the host's none (null entries: every lookup asks the hash).
+  BlockTableView table;
   Voxel* voxels = nullptr;         ///< block i's voxels at [i·kBlockVoxels, (i+1)·kBlockVoxels)
   uint64_t* block_keys = nullptr;  ///< packed key of block i
   /// One byte per block: 0 while every voxel of the block still stores a tsdf of at least
@@ -54,6 +58,7 @@ struct BlockMapView {
   /// The coarse level: coarse cell key (the block key of (bx, by, bz) >> kCoarseShift) → coarse
   /// index, and one flag per coarse cell: 1 once any of its blocks is touched.
   BlockHashView coarse_hash;
+  BlockTableView coarse_table;  ///< in front of coarse_hash, as `table` is in front of `hash`
   uint8_t* coarse_touched = nullptr;
   /// Coarse index of block i (so integration sets the coarse flag without a lookup).
   int32_t* block_coarse = nullptr;
@@ -71,8 +76,21 @@ struct BlockMapView {
   KFX_HD Vec3f centre_m(int x, int y, int z) const { return voxel_centre_m(x, y, z, voxel_m()); }
   /// Index of block (bx, by, bz), or −1 when it is not allocated (or cannot be).
   KFX_HD int32_t find_block(int bx, int by, int bz) const {
+    if (table.entries) {
+      const int32_t b = table.find(bx, by, bz);
+      if (b != kBlockTableAskHash) return b;
+    }
     if (!block_coords_packable(bx, by, bz)) return -1;
     return hash.find(pack_block_key(bx, by, bz));
+  }
+  /// Index of coarse cell (cx, cy, cz) (block coordinates >> kCoarseShift), or −1.
+  KFX_HD int32_t find_coarse(int cx, int cy, int cz) const {
+    if (coarse_table.entries) {
+      const int32_t c = coarse_table.find(cx, cy, cz);
+      if (c != kBlockTableAskHash) return c;
+    }
+    if (!block_coords_packable(cx, cy, cz)) return -1;
+    return coarse_hash.find(pack_block_key(cx, cy, cz));
   }
   /// Index of the block holding voxel (x, y, z), or −1.
   KFX_HD int32_t block_of(int x, int y, int z) const {

@@ -107,6 +107,7 @@ __device__ inline void add_new_block(const DeviceBlockMapArgs& m, uint64_t key, 
   m.map.block_keys[b] = key;
   m.map.block_touched[b] = 0;
   const Vec3i c = unpack_block_key(key);
+  m.map.table.insert(c.x, c.y, c.z, b);
   const uint64_t coarse =
       pack_block_key(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift);
   uint32_t slot = 0;
@@ -115,6 +116,24 @@ __device__ inline void add_new_block(const DeviceBlockMapArgs& m, uint64_t key, 
     const int cell = atomicAdd(&m.counts->coarse, 1);
     m.map.coarse_touched[cell] = 0;
     m.map.coarse_hash.values[slot] = cell;  // read by later launches only
+    m.map.coarse_table.insert(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift, cell);
+  }
+}
+
+/// Enters blocks 0 .. block_count − 1 and every coarse cell of the coarse hash into the
+/// (emptied) direct-mapped tables, after an upload.
+__global__ void fill_block_tables_kernel(BlockMapView map, int block_count) {
+  const int stride = gridDim.x * blockDim.x;
+  const int thread = blockIdx.x * blockDim.x + threadIdx.x;
+  for (int b = thread; b < block_count; b += stride) {
+    const Vec3i c = unpack_block_key(map.block_keys[b]);
+    map.table.insert(c.x, c.y, c.z, b);
+  }
+  for (uint32_t s = thread; s <= map.coarse_hash.slot_mask; s += stride) {
+    const uint64_t key = map.coarse_hash.keys[s];
+    if (key == kEmptyBlockKey) continue;
+    const Vec3i c = unpack_block_key(key);
+    map.coarse_table.insert(c.x, c.y, c.z, map.coarse_hash.values[s]);
   }
 }
 
@@ -257,6 +276,8 @@ class DeviceBlockMap {
         coarse_keys_(block_hash_slot_count(block_capacity)),
         coarse_values_(coarse_keys_.size()),
         coarse_touched_(block_capacity),
+        table_(static_cast<size_t>(kBlockTableEntries)),
+        coarse_table_(static_cast<size_t>(kBlockTableEntries)),
         counts_(1),
         frame_keys_(block_hash_slot_count(static_cast<uint32_t>(new_key_capacity))),
         frame_values_(frame_keys_.size()),
@@ -275,6 +296,9 @@ class DeviceBlockMap {
     }
     for (const auto* values : {&hash_values_, &coarse_values_, &frame_values_}) {
       KFX_CUDA_CHECK(cudaMemsetAsync(values->data(), 0xff, values->bytes(), stream));  // −1
+    }
+    for (const auto* table : {&table_, &coarse_table_}) {
+      KFX_CUDA_CHECK(cudaMemsetAsync(table->data(), 0xff, table->bytes(), stream));  // all empty
     }
     KFX_CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, counts_.bytes(), stream));
   }
@@ -303,6 +327,8 @@ class DeviceBlockMap {
                                   static_cast<uint32_t>(coarse_keys_.size() - 1)};
     v.coarse_touched = coarse_touched_.data();
     v.block_coarse = block_coarse_.data();
+    v.table = BlockTableView{table_.data()};
+    v.coarse_table = BlockTableView{coarse_table_.data()};
     v.block_capacity = static_cast<int>(capacity_);
     v.block_count = 0;  // on the device only: counts->blocks
     v.grid_res = grid_res_;
@@ -371,6 +397,12 @@ class DeviceBlockMap {
     }
     const BlockMapCounts counts{host.block_count(), host.coarse_count(), 0, 0, 0};
     copy_up(counts_.data(), &counts, 1);
+    for (const auto* table : {&table_, &coarse_table_}) {
+      KFX_CUDA_CHECK(cudaMemsetAsync(table->data(), 0xff, table->bytes(), stream));  // all empty
+    }
+    fill_block_tables_kernel<<<4096, kMapThreads, 0, stream>>>(view(), host.block_count());
+    KFX_CUDA_CHECK(cudaGetLastError());
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
     return host.block_count();
   }
 
@@ -393,6 +425,8 @@ class DeviceBlockMap {
   DeviceBuffer<uint64_t> coarse_keys_;
   DeviceBuffer<int32_t> coarse_values_;
   DeviceBuffer<uint8_t> coarse_touched_;
+  DeviceBuffer<BlockTableEntry> table_;         ///< map/block_table.hpp
+  DeviceBuffer<BlockTableEntry> coarse_table_;  ///< the same for the coarse cells
   DeviceBuffer<BlockMapCounts> counts_;
   DeviceBuffer<uint64_t> frame_keys_;
   DeviceBuffer<int32_t> frame_values_;
