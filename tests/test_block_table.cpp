@@ -23,9 +23,9 @@ using Coords = std::tuple<int, int, int>;
 struct Table {
   Table() : entries(static_cast<size_t>(kBlockTableEntries)) { clear(); }
   void clear() {
-    std::fill(entries.begin(), entries.end(),
-              BlockTableEntry{kBlockTableEmpty, kBlockTableEmpty, kBlockTableEmpty,
-                              kBlockTableEmpty});
+    std::fill(
+        entries.begin(), entries.end(),
+        BlockTableEntry{kBlockTableEmpty, kBlockTableEmpty, kBlockTableEmpty, kBlockTableEmpty});
   }
   BlockTableView view() { return BlockTableView{entries.data()}; }
   std::vector<BlockTableEntry> entries;
@@ -57,7 +57,8 @@ TEST(BlockTable, AnswersAsTheBlocksAreOrDefersWhereEntriesAreShared) {
   }
   Table table;
   const BlockTableView view = table.view();
-  for (const auto& [c, index] : blocks) view.insert(std::get<0>(c), std::get<1>(c), std::get<2>(c), index);
+  for (const auto& [c, index] : blocks)
+    view.insert(std::get<0>(c), std::get<1>(c), std::get<2>(c), index);
 
   int deferred = 0, answered = 0;
   std::uniform_int_distribution<int> probe(-30, 30);

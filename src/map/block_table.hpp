@@ -23,8 +23,7 @@ namespace kfx {
 /// voxels before two blocks share an entry.
 constexpr int kBlockTableSideShift = 7;
 constexpr int kBlockTableSide = 1 << kBlockTableSideShift;
-constexpr int64_t kBlockTableEntries =
-    int64_t{kBlockTableSide} * kBlockTableSide * kBlockTableSide;
+constexpr int64_t kBlockTableEntries = int64_t{kBlockTableSide} * kBlockTableSide * kBlockTableSide;
 /// Index of an entry no block maps to (every byte 0xff: a memset empties the table).
 constexpr int32_t kBlockTableEmpty = -1;
 /// Index of an entry two or more blocks map to.
