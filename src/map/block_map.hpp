@@ -44,6 +44,18 @@ KFX_HD inline int voxel_in_block(int x, int y, int z) {
 /// The empty voxel: tsdf +1, weight 0 (what an unallocated voxel reads as).
 KFX_HD inline Voxel empty_voxel() { return Voxel{static_cast<int16_t>(kTsdfScale), 0}; }
 
+/// Value of cell (x, y, z) (a block, or a coarse cell) in `hash`, asked of `table` first where
+/// there is one; −1 when absent or not packable.
+KFX_HD inline int32_t find_in_table_or_hash(const BlockTableView& table, const BlockHashView& hash,
+                                            int x, int y, int z) {
+  if (table.entries) {
+    const int32_t found = table.find(x, y, z);
+    if (found != kBlockTableAskHash) return found;
+  }
+  if (!block_coords_packable(x, y, z)) return -1;
+  return hash.find(pack_block_key(x, y, z));
+}
+
 /// A non-owning view of a block map (host or device memory).
 struct BlockMapView {
   BlockHashView hash;  ///< packed block key → block index
@@ -76,21 +88,11 @@ struct BlockMapView {
   KFX_HD Vec3f centre_m(int x, int y, int z) const { return voxel_centre_m(x, y, z, voxel_m()); }
   /// Index of block (bx, by, bz), or −1 when it is not allocated (or cannot be).
   KFX_HD int32_t find_block(int bx, int by, int bz) const {
-    if (table.entries) {
-      const int32_t b = table.find(bx, by, bz);
-      if (b != kBlockTableAskHash) return b;
-    }
-    if (!block_coords_packable(bx, by, bz)) return -1;
-    return hash.find(pack_block_key(bx, by, bz));
+    return find_in_table_or_hash(table, hash, bx, by, bz);
   }
   /// Index of coarse cell (cx, cy, cz) (block coordinates >> kCoarseShift), or −1.
   KFX_HD int32_t find_coarse(int cx, int cy, int cz) const {
-    if (coarse_table.entries) {
-      const int32_t c = coarse_table.find(cx, cy, cz);
-      if (c != kBlockTableAskHash) return c;
-    }
-    if (!block_coords_packable(cx, cy, cz)) return -1;
-    return coarse_hash.find(pack_block_key(cx, cy, cz));
+    return find_in_table_or_hash(coarse_table, coarse_hash, cx, cy, cz);
   }
   /// Index of the block holding voxel (x, y, z), or −1.
   KFX_HD int32_t block_of(int x, int y, int z) const {
