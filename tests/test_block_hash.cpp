@@ -115,8 +115,8 @@ TEST(BlockHash, NeighbouringBlocksProbeNoLongerThanRandomKeys) {
   // A map's keys are neighbours: a solid slab of blocks, a box's shell and a small block of
   // blocks, each in a table sized as the map sizes it. Linear probing over random keys reads
   // 1.5 slots per lookup of a present key at a load of 1/2; a hash that kept the coordinates'
-  // regularity piles neighbours into runs (the high half of the packed key times 2^64/φ gave
-  // 2.4 and 3.2 on the slab and the small set).
+  // regularity piles neighbours into runs (the high half of the packed key times 2^64/φ did, on
+  // the slab and the small set: bench/RESULTS.md, Session 21).
   std::vector<std::vector<uint64_t>> sets(3);
   for (int z = -8; z < 8; ++z) {
     for (int y = -40; y < 24; ++y) {
