@@ -297,10 +297,15 @@ class DeviceBlockMap {
     for (const auto* values : {&hash_values_, &coarse_values_, &frame_values_}) {
       KFX_CUDA_CHECK(cudaMemsetAsync(values->data(), 0xff, values->bytes(), stream));  // −1
     }
+    empty_tables(stream);
+    KFX_CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, counts_.bytes(), stream));
+  }
+
+  /// Every entry of both direct-mapped tables empty (in stream order).
+  void empty_tables(cudaStream_t stream) {
     for (const auto* table : {&table_, &coarse_table_}) {
       KFX_CUDA_CHECK(cudaMemsetAsync(table->data(), 0xff, table->bytes(), stream));  // all empty
     }
-    KFX_CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, counts_.bytes(), stream));
   }
 
   /// The map as the kernels see it.
@@ -397,9 +402,7 @@ class DeviceBlockMap {
     }
     const BlockMapCounts counts{host.block_count(), host.coarse_count(), 0, 0, 0};
     copy_up(counts_.data(), &counts, 1);
-    for (const auto* table : {&table_, &coarse_table_}) {
-      KFX_CUDA_CHECK(cudaMemsetAsync(table->data(), 0xff, table->bytes(), stream));  // all empty
-    }
+    empty_tables(stream);
     fill_block_tables_kernel<<<4096, kMapThreads, 0, stream>>>(view(), host.block_count());
     KFX_CUDA_CHECK(cudaGetLastError());
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
