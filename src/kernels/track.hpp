@@ -51,8 +51,11 @@ struct IcpParams {
   float normal_threshold = 0.8f;  ///< dot(R·n, ref_n) below this → −5
   float icp_threshold = 1e-5f;    ///< a level has converged when |update| is below this
   int stride_px = 1;              ///< track one pixel per stride × stride block (perforation)
-  IcpRobust robust = IcpRobust::kNone;                 ///< robust weight of the residual
-  float robust_scale_m = 0.01f;                        ///< its scale c, metres
+  IcpRobust robust = IcpRobust::kNone;  ///< robust weight of the residual
+  float robust_scale_m = 0.01f;         ///< its scale c, metres
+  /// > 0: the scale grows with the depth's noise, c = max(robust_scale_m, this · σ(z)), so a
+  /// residual the sensor's own noise explains is not down-weighted at far depths (0 = fixed c).
+  float robust_scale_noise = 0.0f;
   IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
   /// Floor f of the noise model, metres (0 = none): σ² becomes f² + σ², so near points stop
   /// outweighing far ones once σ(z) < f (the map and the association have errors of their own).
@@ -127,10 +130,13 @@ KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
 KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const IcpParams& p) {
   float w = 1.0f;
   const float r = fabsf(row.error_m);
+  float c = p.robust_scale_m;
+  if (p.robust_scale_noise > 0.0f)
+    c = fmaxf(c, p.robust_scale_noise * kinect_axial_sigma_m(depth_m));
   if (p.robust == IcpRobust::kHuber) {
-    if (r > p.robust_scale_m) w = p.robust_scale_m / r;
+    if (r > c) w = c / r;
   } else if (p.robust == IcpRobust::kTukey) {
-    const float u = r / p.robust_scale_m;
+    const float u = r / c;
     w = u < 1.0f ? (1.0f - u * u) * (1.0f - u * u) : 0.0f;
   }
   if (p.noise_weight == IcpNoiseWeight::kNguyen) {

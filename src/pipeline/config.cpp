@@ -483,6 +483,11 @@ std::vector<ConfigField> build_fields() {
   num("icp_robust_scale_m", "quality", "", "",
       "track: scale c of icp_robust, metres of point-to-plane residual (> 0)",
       [](C& c) -> float& { return c.quality.icp_robust_scale_m; });
+  num("icp_robust_scale_noise", "quality", "", "",
+      "track: with it > 0, icp_robust's scale c is the larger of icp_robust_scale_m and this "
+      "many times the Kinect's depth noise at the point's depth, 0.0012 + 0.0019 (z - 0.4)^2 m: "
+      "residuals the sensor's noise explains keep full weight at far depths (0 = off; >= 0)",
+      [](C& c) -> float& { return c.quality.icp_robust_scale_noise; });
   quality_choice(
       "icp_noise_weight",
       "track: weight each inlier by its depth noise: off | nguyen (1/sigma(z)^2, Kinect "
@@ -683,6 +688,8 @@ void PipelineConfig::validate() const {
             "max_depth_m must be >= 0 (0 = no limit), got " << quality.max_depth_m);
   KFX_CHECK(quality.icp_robust_scale_m > 0,
             "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
+  KFX_CHECK(quality.icp_robust_scale_noise >= 0 && std::isfinite(quality.icp_robust_scale_noise),
+            "icp_robust_scale_noise must be >= 0, got " << quality.icp_robust_scale_noise);
   KFX_CHECK(
       std::isfinite(quality.raycast_normal_span_m) && quality.raycast_normal_span_m >= 0,
       "raycast_normal_span_m must be >= 0 (0 = one voxel), got " << quality.raycast_normal_span_m);
@@ -778,6 +785,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.icp.stride_px = approx.icp_stride_px;
   p.icp.robust = config.quality.icp_robust;
   p.icp.robust_scale_m = config.quality.icp_robust_scale_m;
+  p.icp.robust_scale_noise = config.quality.icp_robust_scale_noise;
   p.icp.noise_weight = config.quality.icp_noise_weight;
   p.icp.noise_floor_m = config.quality.icp_noise_floor_m;
   p.icp.fit_weighted_error_sq = config.quality.accept_rms_weighted;
