@@ -75,9 +75,9 @@ PipelineConfig make_preset(const std::string& name) {
     // normals over 2.5 sigma of that noise, without which 5 mm voxels lose track after a blank
     // stretch. The most accurate point that held on every shared sequence, their later-start
     // cuts, its neighbouring settings and twelve synthetic hard rooms (six with seeds chosen
-    // after it), on the GPU (bench/RESULTS.md, "Session 16"; docs/presets.md). The accept test
-    // judges the fit-weighted residual: the plain RMS of far, noisy depth rejected frames of
-    // tum_fr1_rpy that the fit tracked (bench/RESULTS.md, "Session 17").
+    // after it), on the GPU (docs/presets.md; bench/RESULTS.md). The accept test judges the
+    // fit-weighted residual: the plain RMS of far, noisy depth rejected frames of tum_fr1_rpy
+    // that the fit tracked.
     c = make_preset("quality");
     for (const char* a :
          {"volume=blocks", "voxel_size_m=0.005", "compute_size_ratio=1", "icp_noise_weight=nguyen",
