@@ -6,9 +6,9 @@
 /// iterations, the tracking constraint's six eigenvalues (kernels/tracking_constraint.hpp),
 /// smallest first, and the weakest direction (camera axes), and the warnings `kfx run` would
 /// give (FrameDiagnostics). --map-origin-start puts the first camera at the map's origin
-/// instead; --dump DIR writes every 25th frame's depth and colour side by side as PNG. Used
-/// for bench/RESULTS.md, "Session 13". --backend cuda runs it on the GPU (default cpu). A
-/// diagnostic, not a test: it asserts nothing.
+/// instead; --dump DIR writes every 25th frame's depth and colour side by side as PNG.
+/// --backend cuda runs it on the GPU (default cpu). A diagnostic, not a test: it asserts
+/// nothing; bench/RESULTS.md records what it found on the synthetic house.
 
 #include <Eigen/Core>
 #include <cmath>

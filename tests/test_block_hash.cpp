@@ -116,7 +116,7 @@ TEST(BlockHash, NeighbouringBlocksProbeNoLongerThanRandomKeys) {
   // blocks, each in a table sized as the map sizes it. Linear probing over random keys reads
   // 1.5 slots per lookup of a present key at a load of 1/2; a hash that kept the coordinates'
   // regularity piles neighbours into runs (the high half of the packed key times 2^64/φ did, on
-  // the slab and the small set: bench/RESULTS.md, Session 21).
+  // the slab and the small set).
   std::vector<std::vector<uint64_t>> sets(3);
   for (int z = -8; z < 8; ++z) {
     for (int y = -40; y < 24; ++y) {

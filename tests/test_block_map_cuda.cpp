@@ -174,7 +174,7 @@ TEST(BlockMapCuda, AFrameBeyondThePerFrameKeyBufferIsAClearError) {
 /// relative to frame 0). The shared sequences run 60 frames, the span of the CPU's own
 /// blocks-against-dense tests (test_block_map.cpp): over 200 frames of tum_fr1_xyz the block map
 /// differs from the 4 m cube by about 0.2 mm (median) on either backend, because the cube's faces
-/// cut what the camera sees (bench/RESULTS.md, sessions 12 and 15).
+/// cut what the camera sees (docs/map.md, "Same answers as the cube?").
 void expect_cuda_blocks_agree(const std::string& input, const PipelineConfig& dense, int frames) {
   const PipelineConfig blocks = with_blocks(dense);
   const BlockRun cpu = run(input, blocks, BackendKind::kCpu, frames);

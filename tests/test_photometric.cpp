@@ -175,7 +175,7 @@ TEST(Photometric, TracksAWallSlidingInItsPlaneWhereIcpAloneCannot) {
   const double icp_m = wall.tracked_travel_m("0", frames);
   const double photometric_m = wall.tracked_travel_m("0.01", frames);
   // ICP alone: the plane pins depth and tilt, nothing along it; what it reports there comes from
-  // the model's edges, not from the motion (bench/RESULTS.md, session 12).
+  // the model's edges, not from the motion.
   EXPECT_GT(std::fabs(icp_m - truth_m), 0.5 * truth_m) << "ICP alone tracked " << icp_m << " m";
   // With the term: within 10 %.
   EXPECT_NEAR(photometric_m, truth_m, 0.1 * truth_m);

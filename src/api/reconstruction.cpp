@@ -77,9 +77,7 @@ struct Reconstruction::Impl {
         std::make_unique<Pipeline>(config, intrinsics, camera.width_px, camera.height_px,
                                    parse_backend_kind(settings.backend()), settings.cuda_device(),
                                    settings.reconstructions_on_device());
-    const int ratio = config.input.compute_size_ratio;
-    params = make_stage_params(config, pipeline->compute_intrinsics(), camera.width_px / ratio,
-                               camera.height_px / ratio);
+    params = pipeline->stage_params();
     diagnostics = std::make_unique<FrameDiagnostics>(config, intrinsics);
   }
 

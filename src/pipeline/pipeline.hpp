@@ -103,6 +103,8 @@ class Pipeline {
   /// Blocks farther than this from the camera may be swapped out, metres
   /// (map_swap_distance_m, or swap_reach_m() + 2).
   float swap_distance_m() const { return swap_distance_m_; }
+  /// Every stage's kernel settings, derived once from the configuration at construction.
+  const StageParams& stage_params() const { return params_; }
 
   /// The block map's contents: the active map's blocks with those swapped out to host memory
   /// (volume=blocks only). Waits for the frames in flight to finish on the backend.

@@ -1,0 +1,15 @@
+#pragma once
+/// Settings section `integration`: which frames are fused into the map. Rows and checks:
+/// integration_settings.cpp.
+
+namespace kfx {
+
+/// Section `integration` of PipelineConfig.
+struct IntegrationSettings {
+  int rate = 2;  ///< integrate tracked frames f with f % rate == 0 (and frames 0–3)
+  /// Evaluation: frames f ≥ bootstrap with f % holdout == 0 are tracked but never integrated,
+  /// so the model can be compared with frames it has not seen (0 = none held out).
+  int holdout = 0;
+};
+
+}  // namespace kfx

@@ -1,0 +1,66 @@
+/// Settings section `tracking`: its rows and checks.
+
+#include "pipeline/settings/sections.hpp"
+#include "pipeline/settings/setting_rows.hpp"
+
+namespace kfx::settings {
+namespace {
+
+void check_tracking(const PipelineConfig& config) {
+  const TrackingSettings& tracking = config.tracking;
+  KFX_CHECK(tracking.rate >= 1, "tracking_rate must be >= 1, got " << tracking.rate);
+  const auto& levels = tracking.iterations_per_level;
+  KFX_CHECK(!levels.empty() && levels.size() <= 4,
+            "pyramid_iterations must list 1 to 4 levels, got " << levels.size());
+  for (int it : levels) {
+    KFX_CHECK(it >= 0 && it <= 1000, "pyramid_iterations entries must be in 0..1000, got " << it);
+  }
+  KFX_CHECK(tracking.icp_threshold >= 0, "icp_threshold must be >= 0");
+  KFX_CHECK(tracking.dist_threshold_m > 0, "dist_threshold_m must be > 0");
+  KFX_CHECK(tracking.normal_threshold >= -1 && tracking.normal_threshold <= 1,
+            "normal_threshold must be in [-1, 1]");
+  KFX_CHECK(tracking.max_rms_error_m > 0, "max_rms_error_m must be > 0");
+  KFX_CHECK(tracking.min_inlier_fraction >= 0 && tracking.min_inlier_fraction <= 1,
+            "min_inlier_fraction must be in [0, 1]");
+  KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
+}
+
+}  // namespace
+
+SettingsSection tracking_section() {
+  const std::string s = "tracking";
+  using C = PipelineConfig;
+  SettingsSection section;
+  section.check = check_tracking;
+  auto& rows = section.fields;
+  rows.push_back(integer_row("tracking_rate", s, "track every N-th frame (>= 1)",
+                             [](C& c) -> int& { return c.tracking.rate; }, {"t", "tracking-rate"}));
+  rows.push_back(custom_row(
+      "pyramid_iterations", s,
+      "ICP iteration caps per level, finest first; the count is the number of levels (1..4)",
+      [](C& c, const std::string& text) {
+        std::vector<int> levels;
+        for (const auto& part : split_commas(text)) {
+          levels.push_back(parse_integer("pyramid_iterations", part));
+        }
+        c.tracking.iterations_per_level = levels;
+      },
+      [](const C& c) { return format_list(c.tracking.iterations_per_level); },
+      {"y", "pyramid-levels"}));
+  rows.push_back(number_row("icp_threshold", s, "stop a level when |update| < this",
+                            [](C& c) -> float& { return c.tracking.icp_threshold; },
+                            {"l", "icp-threshold"}));
+  rows.push_back(number_row("dist_threshold_m", s, "ICP association distance gate, metres",
+                            [](C& c) -> float& { return c.tracking.dist_threshold_m; }));
+  rows.push_back(number_row("normal_threshold", s, "ICP association normal gate (cosine)",
+                            [](C& c) -> float& { return c.tracking.normal_threshold; }));
+  rows.push_back(number_row("max_rms_error_m", s, "accept test: largest residual RMS, metres",
+                            [](C& c) -> float& { return c.tracking.max_rms_error_m; }));
+  rows.push_back(number_row("min_inlier_fraction", s, "accept test: smallest inliers / pixels",
+                            [](C& c) -> float& { return c.tracking.min_inlier_fraction; }));
+  rows.push_back(number_row("half_sample_range_m", s, "pyramid half-sample range, metres",
+                            [](C& c) -> float& { return c.tracking.half_sample_range_m; }));
+  return section;
+}
+
+}  // namespace kfx::settings

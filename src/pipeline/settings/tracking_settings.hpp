@@ -1,0 +1,21 @@
+#pragma once
+/// Settings section `tracking`: the pyramid ICP and its accept test, KFusion's. Rows and
+/// checks: tracking_settings.cpp.
+
+#include <vector>
+
+namespace kfx {
+
+/// Section `tracking` of PipelineConfig.
+struct TrackingSettings {
+  int rate = 1;                                     ///< track frames f with f % rate == 0
+  std::vector<int> iterations_per_level{10, 5, 4};  ///< ICP caps, finest level first
+  float icp_threshold = 1e-5f;                      ///< stop a level when |x| is below this
+  float dist_threshold_m = 0.1f;                    ///< association distance gate
+  float normal_threshold = 0.8f;                    ///< association normal-dot gate
+  float max_rms_error_m = 0.02f;                    ///< accept test: residual RMS limit
+  float min_inlier_fraction = 0.15f;                ///< accept test: inliers / pixels
+  float half_sample_range_m = 0.3f;                 ///< pyramid: robust half-sample range
+};
+
+}  // namespace kfx
