@@ -10,16 +10,22 @@
   document.title = "kfx report: " + S.input;
   el("title").textContent = "kfx run: " + S.input;
   el("subtitle").textContent = "kfx " + S.kfx_version + " · " + S.backend + " (" + S.device + ")";
+  if (S.interrupted) {  // stopped by Ctrl-C: everything below covers the frames done only
+    el("subtitle").insertAdjacentHTML("beforeend", ' · <span class="interrupted">interrupted (Ctrl-C) after ' +
+      S.frames + (S.frames_in_input ? " of " + S.frames_in_input : "") + " frames</span>");
+  }
   var rows = [
     ["Input", S.input_description || S.input],
     ["Preset", S.preset],
     ["Settings changed from the preset", S.settings_changed.length ? S.settings_changed.join(", ") : "none"],
     ["Settings from the input", S.settings_from_input.length ? S.settings_from_input.join(", ") : "none"],
-    ["Frames", S.frames],
+    ["Frames", S.frames + (S.interrupted ? " (interrupted by Ctrl-C" + (S.frames_in_input ? " of " + S.frames_in_input : "") +
+                                   " frames; the outputs cover the frames done)" : "")],
     ["Tracked", S.tracked + " (" + fixed(100 * S.tracked / Math.max(1, S.frames), 1) + " %)"],
     ["Integrated", S.integrated],
     ["Tracking lost", S.lost + " frame(s)" + (KFX.lost_frames.length ? " (marked red below)" : "")],
-    ["Frames/s (1 / mean computation time)", fixed(S.frames_per_second, 2)]
+    // The terminal's rounding (stats.json keeps every digit).
+    ["Frames/s (1 / mean computation time)", S.frames_per_second_text !== undefined ? S.frames_per_second_text : fixed(S.frames_per_second, 1)]
   ];
   if (S.ate_rmse_m !== undefined) {
     rows.push(["ATE RMSE (aligned, TUM-style" + (S.ate_flip_y ? ", estimate y flipped" : "") + ")",
@@ -27,6 +33,12 @@
     if (S.rpe_translation_rmse_m !== undefined) {
       rows.push(["RPE RMSE (" + S.rpe_delta_frames + " frame)", fixed(100 * S.rpe_translation_rmse_m, 2) + " cm, " +
                  fixed(S.rpe_rotation_rmse_deg, 3) + "°"]);
+    }
+    if (S.diverged_frames !== undefined) {
+      rows.push(["Diverged (aligned error over " + fixed(100 * S.divergence_bound_m, 0) + " cm)",
+                 S.diverged_frames ? S.diverged_frames + " frame(s), the first " + S.first_diverged_frame +
+                   (S.departure_frame !== null && S.departure_frame !== undefined ? ", departure at frame " + S.departure_frame : "")
+                 : "none"]);
     }
   } else {
     rows.push(["ATE", S.ate_error ? "not computed: " + S.ate_error : "no ground truth"]);
@@ -45,6 +57,12 @@
                      S.map_first_frame_short_of_blocks
                    : "no frame short of blocks");
     rows.push(["Map (volume=blocks)", map]);
+  }
+  // The colour field: what is in use and what the backend set aside (stats.json "colour").
+  if (S.colour && S.colour.fused && S.colour.memory_bytes !== undefined) {
+    var colourMib = function (b) { return fixed(b / 1048576, 1) + " MiB"; };
+    rows.push(["Colour field (with its frame buffers)", colourMib(S.colour.memory_bytes) + " in use" +
+               (S.colour.memory_bytes_reserved !== undefined ? ", " + colourMib(S.colour.memory_bytes_reserved) + " reserved" : "")]);
   }
     // Energy per frame (stats.json "energy"): each domain's figures, or why it was not measured.
   ["gpu", "cpu"].forEach(function (domain) {
@@ -70,12 +88,25 @@
   });
   el("settings").innerHTML = settings.join("");
 
+  // ---- Warnings: every stretch of frames with a warning cause (stats.json's warning_stretches) ----
+  var stretches = KFX.warning_stretches || [];
+  if (!stretches.length) {
+    el("warnings").innerHTML = '<div class="note">No warnings: no frame was lost, poorly constrained, diverged or ' +
+      "out of the volume, and no depth looked implausible.</div>";
+  } else {
+    el("warnings").innerHTML = '<table class="warnings"><tr><th>cause</th><th>frames</th><th>frames with it</th></tr>' +
+      stretches.map(function (w) {
+        var range = w.first_frame === w.last_frame ? String(w.first_frame) : w.first_frame + "–" + w.last_frame;
+        return "<tr><td>" + text(w.description || w.cause) + "</td><td>" + text(range) + "</td><td>" + text(w.frames) + "</td></tr>";
+      }).join("") + "</table>";
+  }
+
   // ---- Lost frames: tracking ran and failed (stats.json's lost_frames) ----
   var L = KFX.log;
   var lost = KFX.lost_frames;
 
   // ---- SVG line plots ----
-  var W = 520, H = 330, M = { l: 58, r: 14, t: 30, b: 44 };
+  var W = 520, H = 330, M0 = { l: 58, r: 14, t: 30, b: 44 };
   function niceTicks(lo, hi, count) {  // steps of 1, 2 or 5 × 10^k, about `count` of them
     var raw = (hi - lo) / count, magnitude = Math.pow(10, Math.floor(Math.log10(raw)));
     var step = [1, 2, 5, 10].map(function (m) { return m * magnitude; }).filter(function (s) { return s >= raw; })[0];
@@ -93,6 +124,15 @@
     if (opts.zeroY) y0 = Math.min(0, y0);
     if (x1 - x0 < 1e-9) { x0 -= 0.5; x1 += 0.5; }
     if (y1 - y0 < 1e-9) { y0 -= 0.5; y1 += 0.5; }
+    // The legend sits in rows above the plot area, never over the lines.
+    var legend = [], lx = M0.l, ly = 0;
+    opts.series.forEach(function (s) {
+      var width = 7 * s.name.length + 16;
+      if (lx + width > W - M0.r && lx > M0.l) { lx = M0.l; ++ly; }
+      legend.push({ name: s.name, color: s.color, x: lx, row: ly });
+      lx += width;
+    });
+    var M = { l: M0.l, r: M0.r, t: M0.t + 14 * (ly + 1), b: M0.b };
     var pw = W - M.l - M.r, ph = H - M.t - M.b;
     if (opts.equal) {  // same metres per pixel on both axes
       var scale = Math.max((x1 - x0) / pw, (y1 - y0) / ph) * 1.08;
@@ -126,7 +166,8 @@
       } else {
         svg.push('<polyline class="series" fill="none" stroke-width="1.5" stroke="' + s.color + '" points="' + pts.join(" ") + '"/>');
       }
-      svg.push('<text x="' + (M.l + 8) + '" y="' + (M.t + 14 + 14 * k) + '" font-size="11" fill="' + s.color + '">' + text(s.name) + '</text>');
+      var g = legend[k];
+      svg.push('<text class="legend" x="' + g.x + '" y="' + (M0.t + 8 + 14 * g.row) + '" font-size="11" fill="' + s.color + '">' + text(s.name) + '</text>');
     });
     svg.push('</svg>');
     container.insertAdjacentHTML("beforeend", svg.join(""));
@@ -137,8 +178,18 @@
   var T = KFX.trajectory;
   el("trajectory-note").textContent = T.note + (lost.length ? "; red: frames whose tracking failed (" + lost.length + ")" : "");
   var volume = T.frame === "volume";
-  var views = volume ? [["top view", 0, 2, false], ["side view", 0, 1, true]]
-                     : [["top view", 0, 1, false], ["side view", 0, 2, false]];
+  // The plan view: the two axes along which the camera travelled farthest (a floor plan for a
+  // walk through rooms, whatever frame the poses are in); the side view: the farther of them
+  // against the third. In the volume frame y points down, so a plot with y upright flips it.
+  var pathForExtent = T.gt && T.gt.length ? T.gt : T.est;
+  var extent = [0, 1, 2].map(function (a) {
+    var v = column(pathForExtent, a);
+    return v.length ? Math.max.apply(null, v) - Math.min.apply(null, v) : 0;
+  });
+  var byExtent = [0, 1, 2].sort(function (a, b) { return extent[b] - extent[a] || a - b; });
+  var plan = [Math.min(byExtent[0], byExtent[1]), Math.max(byExtent[0], byExtent[1])];
+  var views = [["plan view", plan[0], plan[1], volume && plan[1] === 1],
+               ["side view", byExtent[0], byExtent[2], volume && byExtent[2] === 1]];
   var names = ["x", "y", "z"];
   var lostIndex = {};
   lost.forEach(function (f) { lostIndex[f] = true; });
@@ -181,7 +232,11 @@
       }).join("") + "</tr>");
     });
     html.push("</table>");
-    el("renders").innerHTML = html.join("");
+    var shownNote = KFX.render_frames_in_run > KFX.renders.length
+      ? '<div class="note">Showing the renders of ' + KFX.renders.length + " of the " + KFX.render_frames_in_run +
+        " frames rendered, evenly spread over the run (all are in renders/).</div>"
+      : '<div class="note">The renders of all ' + KFX.renders.length + " frame(s) rendered.</div>";
+    el("renders").innerHTML = shownNote + html.join("");
   }
 
   // ---- 3D view: mesh.ply (thinned if large) and the camera path, both in the volume frame ----
