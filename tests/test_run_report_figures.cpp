@@ -38,8 +38,8 @@ std::vector<std::array<int, 3>> stretches_of(const json& stats, const std::strin
   std::vector<std::array<int, 3>> out;
   for (const auto& s : stats["warning_stretches"]) {
     if (s["cause"] == cause) {
-      out.push_back({s["first_frame"].get<int>(), s["last_frame"].get<int>(),
-                     s["frames"].get<int>()});
+      out.push_back(
+          {s["first_frame"].get<int>(), s["last_frame"].get<int>(), s["frames"].get<int>()});
     }
   }
   return out;
