@@ -4,6 +4,7 @@
 /// request, renders, the point cloud and the volume (writers in src/output/).
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <ctime>
@@ -17,10 +18,13 @@
 #include "commands.hpp"
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
+#include "interrupt.hpp"
 #include "io/trajectory.hpp"
 #include "kfx/reconstruction.hpp"
 #include "map/host_block_map.hpp"
+#include "memory_figures.hpp"
 #include "output/cloud_ply.hpp"
+#include "output/frame_rate_text.hpp"
 #include "output/host_memory.hpp"
 #include "output/mesh_colour.hpp"
 #include "output/mesh_output.hpp"
@@ -34,6 +38,7 @@
 #include "pipeline/pipeline.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
+#include "warning_stretches.hpp"
 
 namespace kfx::cli {
 namespace {
@@ -92,6 +97,8 @@ class CreatedFolderCleanup {
 
 void run(const RunOptions& options, const RunOutputs& outputs) {
   const std::string& out_dir = outputs.dir;
+  // Ctrl-C from here on keeps the frames done (a second one stops at once).
+  const InterruptRequests interrupt_requests;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
   // Everything that can fail for want of room or permission fails here, before the run.
@@ -143,6 +150,11 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // Each submitted frame's read time, until its result comes back.
   std::deque<double> acquisition_s_in_flight;
   int lost_since = -1;  ///< first frame of the current tracking loss, −1 while tracking
+  // Every warning cause per frame, as stretches of frames (stats.json, the report).
+  WarningStretches stretches(FrameDiagnostics::kFramesToEndStretch);
+  const FrameDiagnostics& diagnostics = ReconstructionAccess::diagnostics(reconstruction);
+  std::array<int, static_cast<int>(FrameCause::kCount)> cause_frames_before{};
+  std::vector<int> trajectory_frames;  ///< the input's number of each pose in `trajectory`
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameResult& result) {
     const double acquisition_s = acquisition_s_in_flight.front();
@@ -156,7 +168,17 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     for (const auto& line : result.warnings) std::cerr << "kfx run: warning: " << line << "\n";
     log.add(report, acquisition_s);
     trajectory.push_back(io::to_stamped_pose(result.stamp_s, report.T_world_cam));
+    trajectory_frames.push_back(report.index);
     summary.add(report);
+    // A cause holds at this frame when the diagnostics counted one more frame with it.
+    for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
+      const int frames_now = diagnostics.count(static_cast<FrameCause>(c)).frames;
+      stretches.observe(frame_cause_name(static_cast<FrameCause>(c)), report.index,
+                        frames_now > cause_frames_before[c]);
+      cause_frames_before[c] = frames_now;
+    }
+    stretches.observe("lost_tracking", report.index, report.tracking_ran && !report.tracked);
+    stretches.observe("map_full", report.index, report.map_blocks_dropped > 0);
     if (report.rendered) {
       output::write_renders(out_dir, report.index, pipeline.backend().read_renders());
     }
@@ -192,9 +214,21 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       last_progress = Clock::now();
       // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
       std::cerr << "kfx run: frame " << report.index << " done (" << summary.frames;
-      if (total_frames > 0) std::cerr << "/" << total_frames;
-      std::cerr << " frames), tracked " << summary.tracked << ", " << summary.frames_per_second()
-                << " frames/s computation";
+      const double wall_s = seconds_since(run_start);
+      const double wall_fps = wall_s > 0 ? summary.frames / wall_s : 0.0;
+      if (total_frames > 0) {
+        std::cerr << "/" << total_frames << " frames, "
+                  << output::percent_text(100.0 * summary.frames / total_frames) << " %";
+        if (wall_fps > 0 && summary.frames < total_frames) {
+          std::cerr << ", " << output::duration_text((total_frames - summary.frames) / wall_fps)
+                    << " left";
+        }
+      } else {
+        std::cerr << " frames";
+      }
+      std::cerr << "), tracked " << summary.tracked << ", "
+                << output::frame_rate_text(summary.frames_per_second()) << " frames/s computation, "
+                << output::frame_rate_text(wall_fps) << " frames/s wall clock";
       if (report.map_blocks > 0) {
         std::cerr << ", map " << report.map_blocks << " blocks ("
                   << static_cast<double>(report.map_bytes) / (1 << 20) << " MiB)";
@@ -207,6 +241,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     }
   };
   while (options.max_frames == 0 || pipeline.frame_count() < options.max_frames) {
+    if (InterruptRequests::requested()) break;
     const auto read_start = Clock::now();
     const io::ReadResult result = reader.next(frame);
     const double acquisition_s = seconds_since(read_start);
@@ -230,7 +265,17 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       finish(reconstruction.collect());
     }
   }
+  // Stopped by Ctrl-C before the input's end: the frame in flight finishes, then every output
+  // is written for the frames done, marked as interrupted.
+  const bool interrupted = InterruptRequests::requested();
+  if (interrupted) {
+    std::cerr << "kfx run: interrupted (Ctrl-C): finishing the frame in hand and writing the "
+                 "outputs of the frames done; Ctrl-C again stops at once, writing nothing\n";
+  }
   while (reconstruction.frames_in_flight() > 0) finish(reconstruction.collect());
+  if (interrupted && pipeline.frame_count() == 0) {
+    throw Interrupted("interrupted before any frame was done: nothing written");
+  }
   energy->stop(summary.frames);
   if (!options.quiet) {
     for (const auto& line : energy->summary_lines())
@@ -245,7 +290,9 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   stats["input_description"] = reader.description();
   stats["skipped_bad_frames"] = skipped;
   stats["skipped_frames"] = skipped_frames;
-  const FrameDiagnostics& diagnostics = ReconstructionAccess::diagnostics(reconstruction);
+  stats["interrupted"] = interrupted;
+  stats["frames_in_input"] =
+      total_frames > 0 ? nlohmann::json(total_frames) : nlohmann::json(nullptr);
   for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
     const FrameCauseCount& count = diagnostics.count(static_cast<FrameCause>(c));
     stats["frame_warnings"][frame_cause_name(static_cast<FrameCause>(c))] = {
@@ -253,8 +300,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
         {"first_frame",
          count.first_frame >= 0 ? nlohmann::json(count.first_frame) : nlohmann::json(nullptr)}};
   }
-  stats["colour"] = {{"fused", pipeline.config().colour.fuse},
-                     {"memory_bytes", pipeline.colour_bytes()}};
+  stats["colour"] = colour_memory_json(pipeline, summary.map_blocks);
+  stats["memory_definitions"] = memory_definitions_json();
   stats["backend"] = pipeline.backend().name();
   stats["device"] = pipeline.backend().device_name();
   stats["preset"] = options.preset;
@@ -280,12 +327,33 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       const auto result = eval::evaluate_trajectories(trajectory, prepared.ground_truth,
                                                       eval_options, "trajectory.txt", gt_label);
       output::add_flat_evaluation(stats, result);
+      // Divergence per frame: the aligned error of each pose over the bound.
+      for (size_t i = 0; i < result.association.pairs.size(); ++i) {
+        const size_t est = result.association.pairs[i].est_index;
+        stretches.observe("diverged", trajectory_frames.at(est),
+                          result.ate.errors_m[i] > result.divergence.bound_m);
+      }
       if (!options.quiet) std::cerr << eval::format_report(result);
       summary.ate_rmse_m = result.ate.stats_m.rmse;
     } catch (const Error& e) {
       stats["ate_error"] = e.what();
       std::cerr << "kfx run: warning: no ATE: " << e.what() << "\n";
     }
+  }
+
+  // Skipped bad frames: one stretch per run of consecutive input numbers.
+  for (size_t i = 0; i < skipped_frames.size();) {
+    size_t j = i + 1;
+    while (j < skipped_frames.size() && skipped_frames[j] == skipped_frames[j - 1] + 1) ++j;
+    stretches.add(
+        {"skipped_bad_frame", skipped_frames[i], skipped_frames[j - 1], static_cast<int>(j - i)});
+    i = j;
+  }
+  stats["warning_stretches"] = stretches.to_json();
+  // The whole run's warnings once more, every stretch counted (the live warnings stop after a
+  // few per cause): the terminal says what stats.json and the report say.
+  for (const auto& line : warning_summary_lines(stretches.stretches())) {
+    std::cerr << "kfx run: warnings over the run: " << line << "\n";
   }
 
   // Outputs become visible only now, stats.json last: it marks a complete run.
@@ -343,6 +411,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   if (outputs.renders) written += " renders/";
   std::cout << summary.one_line() << "\n"
             << "outputs in " << out_dir << ": " << written << "\n";
+  if (interrupted || InterruptRequests::requested()) {
+    throw Interrupted("interrupted (Ctrl-C) after " + std::to_string(summary.frames) +
+                      " frame(s): the outputs in " + out_dir + " cover the frames done");
+  }
 }
 
 }  // namespace

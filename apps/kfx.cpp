@@ -8,6 +8,7 @@
 #include "backend/backend.hpp"
 #include "commands.hpp"
 #include "core/platform.hpp"
+#include "interrupt.hpp"
 
 int main(int argc, char** argv) {
   // Before anything touches CUDA: --concurrent pipelines each get a hardware queue.
@@ -42,6 +43,9 @@ int main(int argc, char** argv) {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const kfx::cli::Interrupted& e) {
+    std::cerr << "kfx: " << e.what() << "\n";
+    return kfx::cli::kInterruptedExitStatus;
   } catch (const kfx::Error& e) {
     std::cerr << "kfx: error: " << e.what() << "\n";
     return 1;

@@ -4,6 +4,8 @@
 #include <cstdio>
 #include <numeric>
 
+#include "output/frame_rate_text.hpp"
+
 namespace kfx::cli {
 
 double median_of(std::vector<double> values) {
@@ -96,9 +98,11 @@ nlohmann::json RunSummary::to_json() const {
 
 std::string RunSummary::one_line() const {
   char buffer[256];
-  std::snprintf(buffer, sizeof(buffer), "%d frames, %d tracked, %d integrated, %.1f frames/s",
-                frames, tracked, integrated, frames_per_second());
-  std::string line = buffer;
+  std::snprintf(buffer, sizeof(buffer), "%d frames, %d tracked, %d integrated", frames, tracked,
+                integrated);
+  // Rounded as report.html rounds it.
+  std::string line =
+      std::string(buffer) + ", " + output::frame_rate_text(frames_per_second()) + " frames/s";
   if (lost > 0) line += ", " + std::to_string(lost) + " lost";
   if (ate_rmse_m >= 0) {
     std::snprintf(buffer, sizeof(buffer), ", ATE RMSE %.2f cm", ate_rmse_m * 100.0);

@@ -9,12 +9,14 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
 #include "cli_runner.hpp"
 #include "core/platform.hpp"
 #include "output/mesh_view.hpp"
+#include "output/report_page.hpp"
 #include "test_dir.hpp"
 
 namespace kfx {
@@ -145,6 +147,41 @@ TEST_F(ReportTest, RunWritesTheReportAndGroundTruthUnlessAskedNot) {
             0);
   EXPECT_FALSE(fs::exists(quiet / "report.html"));
   EXPECT_TRUE(fs::exists(quiet / "stats.json"));
+}
+
+TEST(ReportPage, IsTheThreeFilesSplicedTogether) {
+  // src/output/report_page/ holds the page; the build embeds it with the style and script in.
+  const fs::path folder = fs::path(KFX_SOURCE_DIR) / "src" / "output" / "report_page";
+  const std::string html = read_text(folder / "report.html");
+  const std::string css = read_text(folder / "report.css");
+  const std::string js = read_text(folder / "report.js");
+  ASSERT_FALSE(html.empty() || css.empty() || js.empty());
+  const size_t css_at = html.find("/*KFX_CSS*/"), js_at = html.find("/*KFX_JS*/");
+  ASSERT_TRUE(css_at != std::string::npos && js_at != std::string::npos && css_at < js_at);
+  const std::string expected = html.substr(0, css_at) + css +
+                               html.substr(css_at + 11, js_at - css_at - 11) + js +
+                               html.substr(js_at + 10);
+  EXPECT_EQ(std::string(output::report_page_template()), expected);
+}
+
+TEST_F(ReportTest, AnOlderRunsLostFramesAreItsWarningStretches) {
+  // A run written before stats.json had warning_stretches: the report makes them from
+  // lost_frames, one per run of consecutive frames.
+  const fs::path out = dir_ / "run";
+  const auto r = test::run_kfx(
+      "run synthetic:frames=4,width=160,height=120 --backend cpu -q -v 64 --no-mesh --no-report "
+      "--out " +
+      out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  auto stats = nlohmann::json::parse(read_text(out / "stats.json"));
+  stats.erase("warning_stretches");
+  stats["lost_frames"] = {3, 4, 5, 9};
+  std::ofstream(out / "stats.json") << stats.dump();
+  const auto report = test::run_kfx("report " + out.string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const std::string page = read_text(out / "report.html");
+  EXPECT_NE(page.find("\"first_frame\":3,\"frames\":3,\"last_frame\":5"), std::string::npos);
+  EXPECT_NE(page.find("\"first_frame\":9,\"frames\":1,\"last_frame\":9"), std::string::npos);
 }
 
 TEST_F(ReportTest, ReportOfAFolderThatIsNoRunIsAClearError) {

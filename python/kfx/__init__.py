@@ -16,6 +16,7 @@ search, the ATE breakdown, the soak benchmark) and ``kfx.plots`` (figures; matpl
 
 from __future__ import annotations
 
+import copy
 import warnings
 from dataclasses import dataclass
 from typing import Any, Iterator, Optional
@@ -75,6 +76,7 @@ class Sequence(_Sequence):
 
     Iterating yields ``kfx.Frame`` objects (``.depth`` in millimetres, ``.stamp``). A bad frame
     raises ``kfx.Error`` naming it, or with ``skip_bad_frames=True`` is skipped with a warning.
+    Each ``for`` loop starts again from the first frame (the input is opened again).
     """
 
     def __init__(self, input: str, depth_scale: float = 0.0, ground_truth: str = "",
@@ -82,13 +84,20 @@ class Sequence(_Sequence):
         super().__init__(input, depth_scale, ground_truth)
         self.skip_bad_frames = skip_bad_frames
         self.skipped = 0
+        self._opened_with = (depth_scale, ground_truth)
+        self._started = False  # a frame was read since the input was opened
 
     def __iter__(self) -> Iterator[Frame]:
+        if self._started:
+            self._reopen(*self._opened_with)
+            self.skipped = 0
+            self._started = False
         return self
 
     def __next__(self) -> Frame:
         while True:
             status, frame = self.read()
+            self._started = True
             if status == ReadStatus.OK:
                 return frame
             if status == ReadStatus.END:
@@ -105,7 +114,15 @@ def open(input: str, depth_scale: float = 0.0, ground_truth: str = "",
     return Sequence(input, depth_scale, ground_truth, skip_bad_frames)
 
 
-@dataclass
+def _bounds_text(points: Any) -> str:
+    """The axis-aligned bounds of (N, 3) points, for a repr."""
+    if len(points) == 0:
+        return "empty"
+    low, high = points.min(axis=0), points.max(axis=0)
+    return "bounds " + " ".join(f"{a} {lo:.2f}..{hi:.2f} m" for a, lo, hi in zip("xyz", low, high))
+
+
+@dataclass(repr=False)
 class Mesh:
     """A triangle mesh in the map frame (metres)."""
 
@@ -114,14 +131,24 @@ class Mesh:
     triangles: Any  #: (M, 3) int32, counter-clockwise seen from free space
     colours: Any = None  #: (N, 3) uint8, or None when the map holds no colour
 
+    def __repr__(self) -> str:  # a summary: the arrays can hold millions of rows
+        return (f"Mesh({len(self.vertices)} vertices, {len(self.triangles)} triangles, "
+                f"{'colours' if self.colours is not None else 'no colours'}, "
+                f"{_bounds_text(self.vertices)})")
 
-@dataclass
+
+@dataclass(repr=False)
 class PointCloud:
     """Points with normals in the map frame (metres), as the last raycast saw the surface."""
 
     points: Any  #: (N, 3) float32
     normals: Any  #: (N, 3) float32
     colours: Any = None  #: (N, 3) uint8 or None
+
+    def __repr__(self) -> str:
+        return (f"PointCloud({len(self.points)} points, "
+                f"{'colours' if self.colours is not None else 'no colours'}, "
+                f"{_bounds_text(self.points)})")
 
 
 class Reconstruction(_Reconstruction):
@@ -130,7 +157,8 @@ class Reconstruction(_Reconstruction):
 
     ``Reconstruction(sequence, preset="exact", backend="auto", **settings)`` sets it up for a
     Sequence's frames (its camera and recommended settings, as ``kfx run``);
-    ``Reconstruction(camera=kfx.Camera(...), **settings)`` for frames you bring as numpy arrays.
+    ``Reconstruction(camera=kfx.Camera(...), **settings)`` for frames you bring as numpy arrays;
+    with both, the camera's intrinsics (and lens) replace the sequence's.
     One reconstruction is used from one thread at a time; several may run side by side.
     """
 
@@ -141,8 +169,21 @@ class Reconstruction(_Reconstruction):
             settings = make_settings(preset, backend, cuda_device, **kwargs)
         elif kwargs:
             raise Error("give settings either as a kfx.Settings or as keyword arguments")
-        if (sequence is None) == (camera is None):
-            raise Error("give exactly one of a sequence or a camera")
+        if sequence is None and camera is None:
+            raise Error("give a sequence, a camera (camera=kfx.Camera(...)), or both (the camera "
+                        "then replaces the sequence's intrinsics)")
+        if sequence is not None and camera is not None:
+            if (camera.width, camera.height) != (sequence.width, sequence.height):
+                raise Error(f"camera= is {camera.width}x{camera.height} px but the frames of "
+                            f"{sequence.input} are {sequence.width}x{sequence.height}")
+            # As the settings camera= and camera_distortion= would (the user's Settings stay
+            # as they were).
+            settings = copy.copy(settings)
+            settings.set("camera", _setting_text("camera", (camera.fx, camera.fy, camera.cx,
+                                                            camera.cy)))
+            if any(camera.distortion):
+                settings.set("camera_distortion",
+                             _setting_text("camera_distortion", list(camera.distortion)))
         if sequence is not None:
             super().__init__(settings, sequence)
         else:

@@ -154,11 +154,47 @@ auto render_array(kfx::Reconstruction& r, const std::optional<AnyArray>& pose, R
   return image_array(std::move(image));
 }
 
+/// The library's errors say what to do in `kfx run`'s words (its flags); Python users get the
+/// keyword arguments and settings keys that do the same. Each pair: the command line's phrase,
+/// Python's.
+std::string python_advice(std::string message) {
+  static const std::pair<const char*, const char*> kPhrases[] = {
+      {"give -k fx,fy,cx,cy", "give camera=kfx.Camera(...) or the setting camera=(fx, fy, cx, cy)"},
+      {"with -k fx,fy,cx,cy", "with camera=kfx.Camera(...) or the setting camera=(fx, fy, cx, cy)"},
+      {"(-k / camera)", "(camera)"},
+      {"use --backend cpu", "use backend=\"cpu\""},
+      {"or --backend cpu", "or backend=\"cpu\""},
+      {"use --no-mesh or a smaller -v", "use a smaller volume_resolution"},
+      {"(-v / volume_resolution)", "(volume_resolution)"},
+      {"is --depth-scale right?", "is depth_scale right?"},
+      {"--skip-bad-frames", "skip_bad_frames=True"},
+  };
+  for (const auto& [cli, python] : kPhrases) {
+    for (size_t at = message.find(cli); at != std::string::npos;
+         at = message.find(cli, at + std::strlen(python))) {
+      message.replace(at, std::strlen(cli), python);
+    }
+  }
+  return message;
+}
+
 }  // namespace
 
 NB_MODULE(_kfx, m) {
   m.doc() = "kfx: KinectFusion (dense RGB-D SLAM) for CPUs and NVIDIA GPUs (compiled part).";
-  nb::exception<kfx::Error>(m, "Error", PyExc_RuntimeError);
+  static nb::exception<kfx::Error> error_type(m, "Error", PyExc_RuntimeError);
+  // Tried before the plain translation nb::exception registered (the latest comes first).
+  nb::register_exception_translator(
+      [](const std::exception_ptr& p, void* type) {
+        try {
+          std::rethrow_exception(p);
+        } catch (const kfx::Error& e) {
+          PyErr_SetString(static_cast<PyObject*>(type), python_advice(e.what()).c_str());
+        }
+      },
+      error_type.ptr());
+  m.def("_python_advice", &python_advice,
+        "A library message with the command line's advice in Python's words (for tests).");
 
   m.def("version", &kfx::version, "kfx's version.");
   m.def(
@@ -192,6 +228,7 @@ NB_MODULE(_kfx, m) {
       .def("get", &kfx::Settings::get, "key"_a, "The value `key` has, as text.")
       .def("validate", &kfx::Settings::validate, "Checks the whole combination.")
       .def("dump", &kfx::Settings::dump, "`key = value` lines for every setting.")
+      .def("__copy__", [](const kfx::Settings& s) { return kfx::Settings(s); })
       .def_prop_rw(
           "backend", [](const kfx::Settings& s) { return s.backend(); },
           [](kfx::Settings& s, const std::string& b) { s.backend(b); }, "'cpu', 'cuda' or 'auto'.")
@@ -277,14 +314,23 @@ NB_MODULE(_kfx, m) {
           },
           "Reads the next frame: (ReadStatus.OK, Frame), (ReadStatus.END, None) or "
           "(ReadStatus.BAD_FRAME, None) with `message` saying why.")
+      .def(
+          "_reopen",
+          [](kfx::Sequence& s, double depth_scale, const std::string& ground_truth) {
+            s = kfx::Sequence(s.input(), depth_scale, ground_truth);
+          },
+          "depth_scale"_a, "ground_truth"_a,
+          "Opens the input again (as constructed), so that reading starts from its first frame.")
       .def_prop_ro("message", &kfx::Sequence::message, "The problem of the last bad frame.")
       .def_prop_ro("input", &kfx::Sequence::input)
       .def_prop_ro("width", &kfx::Sequence::width_px)
       .def_prop_ro("height", &kfx::Sequence::height_px)
       .def_prop_ro("frame_count", &kfx::Sequence::frame_count, "Frames, or -1 when unknown.")
       .def_prop_ro("camera", &kfx::Sequence::camera, "The format's camera, or None.")
-      .def_prop_ro("camera_source", &kfx::Sequence::camera_source)
-      .def_prop_ro("description", &kfx::Sequence::description)
+      .def_prop_ro("camera_source",
+                   [](const kfx::Sequence& s) { return python_advice(s.camera_source()); })
+      .def_prop_ro("description",
+                   [](const kfx::Sequence& s) { return python_advice(s.description()); })
       .def_prop_ro("recommended_settings", &kfx::Sequence::recommended_settings)
       .def(
           "ground_truth",
@@ -322,9 +368,15 @@ NB_MODULE(_kfx, m) {
               "slide along the weakest direction unnoticed).")
       .def_ro("weakest_direction", &kfx::FrameResult::weakest_direction,
               "The weakest direction, (tx, ty, tz, wx, wy, wz) in the camera's axes.")
-      .def_ro("warnings", &kfx::FrameResult::warnings,
-              "Warnings that begin at this frame (camera or depth outside the volume, depth "
-              "implausible for the depth scale, tracking poorly constrained); usually empty.")
+      .def_prop_ro(
+          "warnings",
+          [](const kfx::FrameResult& r) {
+            std::vector<std::string> lines;
+            for (const auto& line : r.warnings) lines.push_back(python_advice(line));
+            return lines;
+          },
+          "Warnings that begin at this frame (camera or depth outside the volume, depth "
+          "implausible for the depth scale, tracking poorly constrained); usually empty.")
       .def_prop_ro(
           "pose", [](const kfx::FrameResult& r) { return pose_array(r.T_world_cam); },
           "The camera's pose after the frame, 4x4 float32 (camera to map frame, metres).")

@@ -15,6 +15,7 @@
 #include "eval/report.hpp"
 #include "io/atomic_file.hpp"
 #include "io/trajectory.hpp"
+#include "output/frame_rate_text.hpp"
 #include "output/mesh_view.hpp"
 #include "output/report_page.hpp"
 #include "pipeline/config.hpp"
@@ -240,6 +241,26 @@ json renders_data(const std::string& run_dir, ReportResult& result) {
     out.push_back(item);
   }
   result.render_frames = shown;
+  result.render_frames_in_run = n;
+  return out;
+}
+
+/// Every warning as stretches of frames: stats.json's `warning_stretches`; for a run written
+/// before it existed, the lost frames as runs of consecutive frames (all that run recorded per
+/// frame).
+json warning_stretches(const json& stats, const json& lost) {
+  if (stats.contains("warning_stretches")) return stats["warning_stretches"];
+  json out = json::array();
+  for (size_t i = 0; i < lost.size();) {
+    size_t j = i + 1;
+    while (j < lost.size() && lost[j].get<int>() == lost[j - 1].get<int>() + 1) ++j;
+    out.push_back({{"cause", "lost_tracking"},
+                   {"description", "tracking lost (pose kept, frame not integrated)"},
+                   {"first_frame", lost[i]},
+                   {"last_frame", lost[j - 1]},
+                   {"frames", j - i}});
+    i = j;
+  }
   return out;
 }
 
@@ -275,6 +296,17 @@ json summary_data(const json& stats, const ReportResult& result) {
   s["tracked"] = stats.value("tracked", 0);
   s["integrated"] = stats.value("integrated", 0);
   s["frames_per_second"] = stats.value("frames_per_second", 0.0);
+  // As the terminal rounds it.
+  s["frames_per_second_text"] = frame_rate_text(stats.value("frames_per_second", 0.0));
+  s["interrupted"] = stats.value("interrupted", false);
+  s["frames_in_input"] = stats.value("frames_in_input", json(nullptr));
+  s["colour"] = stats.value("colour", json::object());
+  s["memory_definitions"] = stats.value("memory_definitions", json::object());
+  // Divergence (schema 2's flat names), for the summary beside the stretches.
+  for (const char* key :
+       {"diverged_frames", "divergence_bound_m", "first_diverged_frame", "departure_frame"}) {
+    if (stats.contains(key)) s[key] = stats[key];
+  }
   s["kfx_version"] = stats.value("kfx_version", "");
   s["energy"] = stats.value("energy", json::object());  // per domain: figures or the reason
   s["lost"] = stats.value("lost", 0);
@@ -330,7 +362,9 @@ ReportResult write_report(const std::string& run_dir) {
   }
   data["log"] = log;
   data["lost_frames"] = lost_frames(stats, log);
+  data["warning_stretches"] = warning_stretches(stats, data["lost_frames"]);
   data["renders"] = renders_data(run_dir, result);
+  data["render_frames_in_run"] = result.render_frames_in_run;
   data["mesh"] = mesh_data(run_dir, result);
   data["summary"] = summary_data(stats, result);
 

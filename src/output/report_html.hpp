@@ -14,7 +14,8 @@ struct ReportResult {
   bool has_mesh = false;     ///< mesh.ply was found and shown
   bool has_3d_view = false;  ///< three.js was found (the 3D view needs it)
   bool has_ground_truth = false;
-  int render_frames = 0;  ///< frames whose renders are shown
+  int render_frames = 0;         ///< frames whose renders are shown
+  int render_frames_in_run = 0;  ///< frames with renders in the folder
 };
 
 /// Where three.js is looked for: $KFX_THREE_JS_DIR, then Debian's /usr/share/javascript/three.

@@ -1,5 +1,6 @@
 #pragma once
-/// The report page's HTML, style and script, with two markers write_report fills:
+/// The report page's HTML, style and script (src/output/report_page/report.{html,css,js},
+/// embedded at build time by cmake/embed_report_page.cmake), with two markers write_report fills:
 /// /*KFX_THREE*/ (three.js and its OrbitControls, inlined) and /*KFX_DATA*/ (`const KFX = {...}`,
 /// the run's data). The script sets body[data-status] to "ok" when every part was drawn, or
 /// "error" with the messages in #errors when any script error happened (the browser test reads

@@ -115,9 +115,27 @@ def check_summary_against_stats(check, name, dom, stats):
     check(number_after(rows.get("Tracking lost", "")) == stats["lost"],
           f"{name}: Tracking lost {rows.get('Tracking lost')!r}, stats {stats['lost']}")
     fps = rows.get("Frames/s (1 / mean computation time)", "")
-    check(abs(number_after(fps) - stats["frames_per_second"]) <= 0.0051,
+    # One decimal, as the terminal's summary line rounds it.
+    check(fps == f"{stats['frames_per_second']:.1f}",
           f"{name}: Frames/s {fps!r}, stats {stats['frames_per_second']}")
     plots = re.findall(r'<svg class="plot".*?</svg>', dom, re.S)
+    # Every plot's legend sits above its plot area, never over its lines.
+    for p in plots:
+        area = re.search(r'<rect x="[^"]+" y="([0-9.]+)"', p)
+        if area is None:  # the script's own text, which the DOM holds too
+            continue
+        area_top = float(area.group(1))
+        for y in re.findall(r'<text class="legend" x="[^"]+" y="([0-9.]+)"', p):
+            check(float(y) < area_top, f"{name}: a legend at y {y} inside the plot area (top {area_top})")
+    # The warnings section lists every stretch of stats.json's warning_stretches, in order.
+    section = re.search(r'<div id="warnings">(.*?)</div>', dom, re.S)
+    listed = re.findall(r"<tr><td>(.*?)</td><td>(.*?)</td><td>(.*?)</td></tr>", section.group(1) if section else "")
+    expected = [(w["description"], str(w["first_frame"]) if w["first_frame"] == w["last_frame"]
+                 else f"{w['first_frame']}–{w['last_frame']}", str(w["frames"]))
+                for w in stats["warning_stretches"]]
+    check(listed == expected, f"{name}: warnings listed {listed}, stats.json {expected}")
+    if not expected:
+        check(section is not None and "No warnings" in section.group(1), f"{name}: no 'No warnings' note")
     stage_plots = [p for p in plots if "Stage times" in p]
     check(len(stage_plots) == 1, f"{name}: {len(stage_plots)} stage-time plots")
     if stage_plots:
@@ -249,6 +267,18 @@ def main():
         check(all("<polyline" in p for p in plots), "a plot without a line")
         check(len(re.findall(r'<img alt="(?:depth|track|volume) \d+"', dom)) == 12,
               "expected 12 renders (frames 0, 5, 10, 15)")
+        check("The renders of all 4 frame(s) rendered" in dom, "the page does not say it shows every render")
+        # The plan view: the two axes along which the ground truth travelled farthest.
+        stats = read_stats(run)
+        est_stamps = [float(l.split()[0]) for l in open(os.path.join(run, "trajectory.txt"))
+                      if l.strip() and not l.startswith("#")]
+        gt = [[float(v) for v in l.split()[:4]] for l in open(os.path.join(run, "groundtruth.txt"))
+              if l.strip() and not l.startswith("#")]
+        gt = [p[1:] for p in gt if est_stamps[0] - 0.02 <= p[0] <= est_stamps[-1] + 0.02]
+        extent = [max(p[a] for p in gt) - min(p[a] for p in gt) for a in range(3)]
+        far = sorted(range(3), key=lambda a: (-extent[a], a))
+        plan = "xyz"[min(far[:2])] + ", " + "xyz"[max(far[:2])]
+        check(f"Trajectory, plan view ({plan})" in dom, f"no plan view ({plan}) for extents {extent}")
 
         # The summary says what stats.json says (a run with ground truth and renders).
         check_summary_against_stats(check, "synthetic run", dom, read_stats(run))
@@ -257,8 +287,8 @@ def main():
         # mesh.ply: the page says the mesh is missing, still works, and marks the lost frames.
         run2 = os.path.join(tmp, "lost")
         subprocess.run([kfx, "run", "synthetic:frames=12,width=160,height=120", "--backend", "cpu",
-                        "-q", "--set", "min_inlier_fraction=0.99", "--no-report", "--no-mesh", "--out", run2],
-                       check=True)
+                        "-q", "--set", "min_inlier_fraction=0.99", "--no-report", "--no-mesh",
+                        "--renders", "-z", "1", "--out", run2], check=True)
         subprocess.run([kfx, "report", run2], check=True, capture_output=True)
         dom, log = load_page(chromium, os.path.join(run2, "report.html"), tmp)
         body = body_attributes(dom)
@@ -272,6 +302,9 @@ def main():
         lost_lines = [len(re.findall(r'class="lost"', p)) for p in plots]
         check(lost_lines.count(8) >= 2, f"lost-frame lines per plot: {lost_lines}, expected 8 in two")
         check("tracking failed" in dom, "the trajectory plots do not mark the failed frames")
+        # Renders of 12 frames, 8 shown: the page says so.
+        check("Showing the renders of 8 of the 12 frames rendered" in dom,
+              "the page does not say it shows 8 of the 12 frames' renders")
         check_summary_against_stats(check, "lost run", dom, read_stats(run2))
 
         # Three more runs whose summaries must equal their stats.json: intrinsics mirrored in

@@ -84,7 +84,7 @@ def test_unknown_setting():
         kfx.Reconstruction(kfx.open(INPUT), preset="exactly")
     with pytest.raises(kfx.Error, match="backend"):
         kfx.Reconstruction(kfx.open(INPUT), backend="tpu")
-    with pytest.raises(kfx.Error, match="exactly one of a sequence or a camera"):
+    with pytest.raises(kfx.Error, match="give a sequence, a camera"):
         kfx.Reconstruction(backend="cpu")
 
 
