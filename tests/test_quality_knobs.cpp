@@ -105,6 +105,12 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
       identical(nguyen, trajectory_with({"icp_noise_weight=nguyen", "icp_noise_floor_m=0"})));
   EXPECT_FALSE(
       identical(nguyen, trajectory_with({"icp_noise_weight=nguyen", "icp_noise_floor_m=0.003"})));
+  // The noise-following Huber scale: at 0 Huber's own, bit for bit; on, another trajectory.
+  const auto huber = trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002"});
+  EXPECT_TRUE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
+                                                "icp_robust_scale_noise=0"})));
+  EXPECT_FALSE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
+                                                 "icp_robust_scale_noise=2"})));
 }
 
 TEST(QualityKnobs, SettingsAreValidated) {
@@ -246,6 +252,27 @@ TEST(QualityKnobs, NoiseFloorFollowsItsFormula) {
   // Without Nguyen the floor does nothing.
   p.noise_weight = IcpNoiseWeight::kOff;
   EXPECT_NEAR(icp_fit_weight(inlier(0.04f), 3.0f, p), 0.25f, 1e-6f);
+}
+
+TEST(QualityKnobs, RobustScaleFollowsTheDepthNoiseWhereItIsLarger) {
+  IcpParams p;
+  p.robust = IcpRobust::kHuber;
+  p.robust_scale_m = 0.0035f;
+  p.robust_scale_noise = 2.0f;
+  // Near the camera 2 sigma(0.5 m) = 2.4 mm is below the fixed scale: c stays 3.5 mm.
+  EXPECT_NEAR(icp_fit_weight(inlier(0.007f), 0.5f, p), 0.5f, 1e-6f);
+  // At 3 m, 2 sigma = 2 (0.0012 + 0.0019 * 2.6^2) = 28.1 mm: a 14 mm residual keeps full weight
+  // and a 56.2 mm one half of it.
+  const float c3 = 2.0f * kinect_axial_sigma_m(3.0f);
+  EXPECT_NEAR(c3, 2.0f * (0.0012f + 0.0019f * 2.6f * 2.6f), 1e-6f);
+  EXPECT_EQ(icp_fit_weight(inlier(0.014f), 3.0f, p), 1.0f);
+  EXPECT_NEAR(icp_fit_weight(inlier(2.0f * c3), 3.0f, p), 0.5f, 1e-6f);
+  // Tukey's scale follows the same c.
+  p.robust = IcpRobust::kTukey;
+  EXPECT_NEAR(icp_fit_weight(inlier(0.5f * c3), 3.0f, p), 0.5625f, 1e-6f);
+  PipelineConfig c;
+  set_config_value(c, "icp_robust_scale_noise", "-1");
+  EXPECT_THROW(c.validate(), Error);
 }
 
 TEST(QualityKnobs, AgreementTestRejectsBelowItsFractionAndIsOffAtZero) {
