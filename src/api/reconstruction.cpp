@@ -152,13 +152,6 @@ struct Reconstruction::Impl {
   /// as colour_view().
   void submit(const FrameView& frame, bool colour_given) {
     const std::string label = "frame " + std::to_string(frame_number(frame));
-    // As the readers refuse a listing whose stamps go back: the trajectory is ordered by them.
-    KFX_CHECK(std::isfinite(frame.stamp_s),
-              label << ": time stamp " << frame.stamp_s << " s is not a finite number");
-    KFX_CHECK(!last_stamp_s || frame.stamp_s >= *last_stamp_s,
-              label << ": time stamp " << frame.stamp_s << " s is earlier than the previous "
-                    << "frame's (" << *last_stamp_s
-                    << " s); stamps must not decrease (reset() starts over)");
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
                     << ", the reconstruction was made for " << camera.width_px << "x"
@@ -166,6 +159,13 @@ struct Reconstruction::Impl {
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
     const ImageView<const Rgb8> rgb =
         colour_view(frame.colour, label, colour_given);  // checked before any change
+    // As the readers refuse a listing whose stamps go back: the trajectory is ordered by them.
+    KFX_CHECK(std::isfinite(frame.stamp_s),
+              label << ": time stamp " << frame.stamp_s << " s is not a finite number");
+    KFX_CHECK(!last_stamp_s || frame.stamp_s >= *last_stamp_s,
+              label << ": time stamp " << frame.stamp_s << " s is earlier than the previous "
+                    << "frame's (" << *last_stamp_s
+                    << " s); stamps must not decrease (reset() starts over)");
     samples_in_flight.push_back(diagnostics->sample(mm));
     pipeline->submit(mm, rgb);
     last_stamp_s = frame.stamp_s;
