@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -99,6 +100,28 @@ TEST(InertSettings, TheReconstructionSaysThemWithItsFirstFrame) {
   // The settings that act: nothing.
   EXPECT_TRUE(
       first_warnings(Settings().set("volume_resolution", "64").set("mu_m", "0.05")).empty());
+}
+
+}  // namespace
+}  // namespace kfx
+
+namespace kfx {
+namespace {
+
+TEST(InertSettings, AnInputsRecommendationThatWouldDoNothingIsLeftOut) {
+  Sequence house("synthetic:scene=house,frames=2,width=160,height=120");
+  // The house recommends volume=blocks with 1 cm voxels; both apply by default.
+  const ResolvedSetup blocks = resolve_setup(Settings().backend("cpu"), house);
+  EXPECT_EQ(blocks.settings.get("voxel_size_m"), "0.01");
+  // With volume=dense the recommended voxel size would do nothing: it is not applied, so
+  // config.txt does not record it and nothing warns about a setting the user never set.
+  const ResolvedSetup dense =
+      resolve_setup(Settings().backend("cpu").set("volume", "dense"), house);
+  EXPECT_EQ(dense.settings.get("voxel_size_m"), "0");
+  for (const auto& key : dense.settings_from_input) EXPECT_NE(key, "voxel_size_m");
+  EXPECT_NE(std::find(dense.settings_from_input.begin(), dense.settings_from_input.end(),
+                      "init_pose_factor"),
+            dense.settings_from_input.end());
 }
 
 }  // namespace

@@ -1,10 +1,12 @@
 /// resolve_setup(): the settings and camera of a run over a sequence, as `kfx run` uses them.
 
+#include <algorithm>
 #include <sstream>
 
 #include "api/internal.hpp"
 #include "core/platform.hpp"
 #include "kfx/reconstruction.hpp"
+#include "pipeline/inert_settings.hpp"
 
 namespace kfx {
 
@@ -12,22 +14,40 @@ ResolvedSetup resolve_setup(const Settings& user, const Sequence& sequence) {
   ResolvedSetup run;
   // The preset, then the input's recommendations unless the user set those keys, then the
   // user's settings in their order.
-  run.settings = Settings(user.preset());
-  run.settings.backend(user.backend())
-      .cuda_device(user.cuda_device())
-      .reconstructions_on_device(user.reconstructions_on_device());
-  for (const auto& [key, value] : sequence.recommended_settings()) {
-    if (user.is_set(key)) continue;
-    run.settings.set(key, value);
-    run.settings_from_input.push_back(key);
+  // A recommendation that the final combination never reads (the house's voxel_size_m when the
+  // user chose volume=dense) is left out: it would change nothing, yet config.txt would record
+  // it and the inert-settings check (pipeline/inert_settings.hpp) could not tell it from the
+  // user's. `left_out` names those keys.
+  const auto apply = [&](const std::vector<std::string>& left_out) {
+    run.settings = Settings(user.preset());
+    run.settings.backend(user.backend())
+        .cuda_device(user.cuda_device())
+        .reconstructions_on_device(user.reconstructions_on_device());
+    run.settings_from_input.clear();
+    for (const auto& [key, value] : sequence.recommended_settings()) {
+      if (user.is_set(key)) continue;
+      if (std::find(left_out.begin(), left_out.end(), key) != left_out.end()) continue;
+      run.settings.set(key, value);
+      run.settings_from_input.push_back(key);
+    }
+    // Colour is fused whenever the input has it, in every preset and map kind, unless the user
+    // says otherwise.
+    if (sequence.has_colour() && !user.is_set("colour")) {
+      run.settings.set("colour", "on");
+      run.settings_from_input.push_back("colour");
+    }
+    for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
+  };
+  apply({});
+  {
+    // Recommendations never hold cuda_* settings: judge them as on the GPU (every one acts).
+    std::vector<std::string> left_out;
+    for (const InertSetting& s :
+         inert_settings(api::make_config(run.settings), run.settings_from_input, "cuda")) {
+      left_out.push_back(s.key);
+    }
+    if (!left_out.empty()) apply(left_out);
   }
-  // Colour is fused whenever the input has it, in every preset and map kind, unless the user
-  // says otherwise.
-  if (sequence.has_colour() && !user.is_set("colour")) {
-    run.settings.set("colour", "on");
-    run.settings_from_input.push_back("colour");
-  }
-  for (const auto& [key, value] : user.overrides()) run.settings.set(key, value);
   const io::Reader& reader = SequenceAccess::reader(sequence);
   // The depth scale the input is read at, where the format chose it: the settings then say it
   // (config.txt), and the depth warnings name it and the scale that would fit.
