@@ -93,9 +93,11 @@ TEST_P(ApiRender, DepthFromAnEarlierPoseIsWhatTheCameraSawThere) {
   }
   // The model covers what the camera saw there (the room fills the view).
   EXPECT_GT(rendered, observed * 9 / 10);
-  // 2 cm: the model is a 128³ grid over the room (voxels of a few cm), the pose is tracked,
-  // not the ground truth, and pixels on depth edges may hit the other side of the edge.
-  const Agreement a = agreement(depth.values, seen, 0.02f);
+  // 3 cm, about one voxel (128³ over the synthetic room's 4.2 m); the pose is tracked, not the
+  // ground truth, and pixels on depth edges may hit the other side of the edge. Measured on the
+  // CPU: 94 % of the pixels within 3 cm from frame 5's pose; from frame 7's or frame 2's pose
+  // (the camera a few centimetres away) 82 % and 79 %, so the bound tells the pose apart.
+  const Agreement a = agreement(depth.values, seen, 0.03f);
   EXPECT_GT(a.both, seen.size() * 8 / 10);
   EXPECT_GT(a.close_share, 0.9) << "of " << a.both << " pixels";
 }
