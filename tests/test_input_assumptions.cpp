@@ -123,8 +123,13 @@ TEST(InputAssumptions, RenderedInputsHaveNoLensToUndistort) {
     listing << n << " " << rel << " " << n << " rgb/" << n << ".png\n";
   }
   listing.close();
+  // A .raw converted from the synthetic scene keeps the fact in its sidecar (ideal_lens).
+  const std::string raw = (dir / "room.raw").string();
+  const auto convert =
+      test::run_kfx("convert synthetic:frames=2,width=160,height=120 " + raw + " --ratio 1");
+  ASSERT_EQ(convert.exit_code, 0) << convert.output;
   for (const std::string input :
-       {std::string("synthetic:frames=2,width=160,height=120"), icl.string()}) {
+       {std::string("synthetic:frames=2,width=160,height=120"), icl.string(), raw}) {
     Sequence sequence(input);
     const ResolvedSetup setup = resolve_setup(Settings("quality").backend("cpu"), sequence);
     EXPECT_EQ(setup.camera_note.find("lens distortion is unknown"), std::string::npos)
