@@ -1,5 +1,6 @@
-/// `kfx mesh VOLUME OUT.ply`: marching cubes over a volume saved by `kfx run --save-volume`,
-/// on either backend; the same mesh the run itself writes as mesh.ply.
+/// `kfx mesh VOLUME OUT.ply|.obj|.glb`: marching cubes over a volume saved by `kfx run
+/// --save-volume`, on either backend; the same mesh the run itself writes as mesh.ply, in the
+/// format OUT's extension names.
 
 #include <algorithm>
 #include <chrono>
@@ -12,6 +13,7 @@
 #include "commands.hpp"
 #include "output/block_map_file.hpp"
 #include "output/mesh_colour.hpp"
+#include "output/mesh_file.hpp"
 #include "output/mesh_output.hpp"
 #include "output/volume_file.hpp"
 
@@ -45,6 +47,7 @@ void transform_mesh(Mesh& mesh, const Mat4f& T) {
 }
 
 void mesh_command(const MeshOptions& o) {
+  output::mesh_format_of(o.out_path);  // before any work: the extension chooses the format
   KFX_CHECK(o.overwrite || !std::filesystem::exists(o.out_path),
             "'" << o.out_path << "' exists; use --overwrite to replace it, or another name");
   // The backend only meshes here: its image buffers are token-sized.
@@ -118,7 +121,10 @@ void add_mesh_command(CLI::App& app) {
   auto options = std::make_shared<MeshOptions>();
   command->add_option("VOLUME", options->volume_path, "volume file (.kfxtsdf or .kfxblocks)")
       ->required();
-  command->add_option("OUT", options->out_path, "output mesh (.ply)")->required();
+  command
+      ->add_option("OUT", options->out_path,
+                   "output mesh: .ply, .obj or .glb (the extension chooses the format)")
+      ->required();
   command->add_option("--backend", options->backend, "cpu, cuda or auto")->capture_default_str();
   command
       ->add_option("--repeat", options->repeat,

@@ -109,6 +109,8 @@ PreparedRun prepare_run(const RunOptions& o) {
   run.input_intrinsics = Intrinsics{camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
   run.config.input.camera_px = {camera.fx_px, camera.fy_px, camera.cx_px, camera.cy_px};
   run.intrinsics_note = run.setup.camera_note;
+  // Always said, even with -q: the input's format guessed what a wrong guess silently spoils.
+  for (const auto& line : run.setup.warnings) std::cerr << "kfx: warning: " << line << "\n";
   run.evaluate_flip_y = run.setup.flips_y;
   run.settings_from_input = run.setup.settings_from_input;
   run.ground_truth = run.reader->ground_truth();

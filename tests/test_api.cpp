@@ -154,6 +154,45 @@ TEST(Api, BadFramesAreErrorsThatChangeNothing) {
   EXPECT_EQ(r.process(frames[1]).index, 1);
 }
 
+TEST(Api, BadStampsAndUnusedColourAreErrorsThatChangeNothing) {
+  Sequence sequence(kInput);
+  const auto frames = read_all(sequence);
+  ASSERT_FALSE(frames[0].colour.empty());
+  // Without colour and without the photometric term nothing reads a colour image.
+  Reconstruction r(Settings(cpu_settings()).set("colour", "off"), sequence);
+  // A frame a Sequence read carries the input's colour whatever the settings: not an error.
+  r.process(frames[0]);
+  auto expect_error = [&](const FrameView& v, const std::string& words) {
+    try {
+      r.process(v);
+      ADD_FAILURE() << "no error; expected one saying '" << words << "'";
+    } catch (const Error& e) {
+      EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+    }
+    EXPECT_EQ(r.frame_count(), 1);
+    EXPECT_EQ(r.trajectory().size(), 1u);
+  };
+  // A colour image given with the frame (the caller's, not a reader's) would be dropped.
+  FrameView v = frames[1].view();
+  expect_error(v, "frame 1: a colour image was given, but this reconstruction uses none");
+  expect_error(v, "colour=off");
+  // Stamps: not a number, infinite, earlier than the previous frame's.
+  v.colour = ColourView{};
+  v.stamp_s = std::numeric_limits<double>::quiet_NaN();
+  expect_error(v, "frame 1: time stamp nan s is not a finite number");
+  v.stamp_s = std::numeric_limits<double>::infinity();
+  expect_error(v, "frame 1: time stamp inf s is not a finite number");
+  v.stamp_s = frames[0].stamp_s - 0.5;
+  expect_error(v, "is earlier than the previous frame's");
+  // The same stamp again is accepted (callers that give no stamps leave them all 0), and
+  // reset() starts the stamps over.
+  v.stamp_s = frames[0].stamp_s;
+  EXPECT_EQ(r.process(v).index, 1);
+  r.reset();
+  v.stamp_s = frames[0].stamp_s - 1.0;
+  EXPECT_EQ(r.process(v).index, 0);
+}
+
 TEST(Api, ColourIsFusedWhereTheInputHasIt) {
   Sequence sequence(kInput);
   ASSERT_TRUE(sequence.has_colour());

@@ -158,7 +158,9 @@ TEST_F(CliTest, SettingsSayWhatWasUsedAndWhoChoseIt) {
          << k[3].get<double>();
   EXPECT_EQ(stats["config"]["input"]["camera"], camera.str());
   EXPECT_EQ(stats["config"]["input"]["camera_distortion"], "0,0,0,0,0");
-  EXPECT_EQ(stats["settings_from_input"], nlohmann::json::array({"camera"}));
+  // The depth scale the folder is read at (TUM's 5000 units/m) is the input's choice too.
+  EXPECT_EQ(stats["config"]["input"]["depth_scale"], "5000");
+  EXPECT_EQ(stats["settings_from_input"], nlohmann::json::array({"depth_scale", "camera"}));
   std::ifstream config(out / "config.txt");
   const std::string text((std::istreambuf_iterator<char>(config)),
                          std::istreambuf_iterator<char>());
@@ -168,8 +170,9 @@ TEST_F(CliTest, SettingsSayWhatWasUsedAndWhoChoseIt) {
   const std::string html((std::istreambuf_iterator<char>(page)), std::istreambuf_iterator<char>());
   EXPECT_NE(html.find("\"settings_changed\":[\"compute_size_ratio=1\",\"pyramid_iterations=2,2\"]"),
             std::string::npos);
-  EXPECT_NE(html.find("\"settings_from_input\":[\"camera=" + camera.str() + "\"]"),
-            std::string::npos);
+  EXPECT_NE(
+      html.find("\"settings_from_input\":[\"camera=" + camera.str() + "\",\"depth_scale=5000\"]"),
+      std::string::npos);
 }
 
 TEST_F(CliTest, WarnsWhenTheCameraOrTheDepthLeavesTheVolume) {
@@ -201,9 +204,10 @@ TEST_F(CliTest, WarnsWhenTheCameraOrTheDepthLeavesTheVolume) {
                                std::to_string(outside["first_frame"].get<int>()) +
                                ": the camera is outside the volume";
   EXPECT_NE(r.output.find(expected), std::string::npos) << r.output;
-  // A good run says none of this.
-  r = run_kfx("run " + folder.string() + " --out " + (dir_ / "good").string() + " " +
-              small_run_args());
+  // A good run says none of this (the scale given: a folder that names no TUM camera is
+  // otherwise warned to be read at TUM's scale by assumption).
+  r = run_kfx("run " + folder.string() + " --depth-scale 5000 --out " + (dir_ / "good").string() +
+              " " + small_run_args());
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_EQ(r.output.find("warning"), std::string::npos) << r.output;
 }

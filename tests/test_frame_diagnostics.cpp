@@ -101,6 +101,34 @@ TEST_F(FrameDiagnosticsTest, DepthImplausibleForTheScaleIsNamed) {
   EXPECT_TRUE(near.check(4, near.sample(wall(0.0f)), at(1.0f, 1.0f, 0.0f)).empty());
 }
 
+TEST_F(FrameDiagnosticsTest, MedianInsideTheBandStillJudgedByTheDepthNearerThanTheNearPlane) {
+  // Millimetre depth of a wall 1.9 m away read at TUM's 5000 units/m: 0.38 m, a median inside
+  // the 0.2-5 m band, but all of it nearer than the 0.4 m near plane.
+  config_.input.depth_scale_per_m = 5000;
+  FrameDiagnostics d(config_, k_);
+  const DepthSample misread = d.sample(wall(0.38f));
+  EXPECT_GT(misread.median_depth_m, FrameDiagnostics::kPlausibleMedianDepthMin_m);
+  EXPECT_FLOAT_EQ(misread.near_share, 1.0f);
+  EXPECT_FLOAT_EQ(misread.near_share_if_5x_farther, 0.0f);
+  const auto lines = d.check(5, misread, at(1.0f, 1.0f, 0.0f));
+  EXPECT_TRUE(says(lines, "frame 5: the depth is implausible")) << lines.size();
+  EXPECT_TRUE(says(lines, "100 % of it nearer than the 0.4 m near plane"));
+  EXPECT_TRUE(says(lines, "at the depth scale 5000 units/m; 1000 units/m would fit (median 1.9 m"));
+  // TUM depth read as millimetres: 5x too far, and 5000 units/m would fit.
+  config_.input.depth_scale_per_m = 1000;
+  FrameDiagnostics tum(config_, k_);
+  EXPECT_TRUE(says(tum.check(0, tum.sample(wall(7.5f)), at(1.0f, 1.0f, 0.0f)),
+                   "at the depth scale 1000 units/m; 5000 units/m would fit"));
+  // A near scene that a 5x scale would not make plausible either: implausible, no scale named.
+  FrameDiagnostics close(config_, k_);
+  const auto very_near = close.check(0, close.sample(wall(0.05f)), at(1.0f, 1.0f, 0.0f));
+  EXPECT_TRUE(says(very_near, "the depth is implausible"));
+  EXPECT_FALSE(says(very_near, "would fit"));
+  // A desk scene 0.7 m away is plausible at either scale: nothing is said.
+  FrameDiagnostics desk(config_, k_);
+  EXPECT_TRUE(desk.check(0, desk.sample(wall(0.7f)), at(1.0f, 1.0f, 0.0f)).empty());
+}
+
 }  // namespace
 }  // namespace kfx
 

@@ -36,7 +36,9 @@ struct FrameResult {
   /// Warnings that begin at this frame, one line each naming the frame (input_index) and the
   /// cause: the camera outside the map's volume, most depth outside it or beyond the far plane,
   /// depth implausible for the depth scale, tracking poorly constrained (once per stretch, a
-  /// few per cause and run). Usually empty.
+  /// few per cause and run). The first frame's also say, once, what the input's format
+  /// assumed (ResolvedSetup::warnings) and which settings the user set do nothing with this map
+  /// kind, backend or configuration (naming what they need). Usually empty.
   std::vector<std::string> warnings;
 };
 

@@ -28,11 +28,16 @@ struct ResolvedSetup {
   /// recommendations applied, `camera` when the input's intrinsics are used, `camera_distortion`
   /// when its lens is.
   std::vector<std::string> settings_from_input;
+  /// What the input's format assumed for want of a name or file saying it (a TUM-style folder
+  /// that names no TUM camera: generic intrinsics, TUM's depth scale), one line each. A
+  /// Reconstruction made for the sequence adds them to its first frame's warnings.
+  std::vector<std::string> warnings;
 };
 
 /// Resolves `settings` for `sequence` as `kfx run` does: the preset, then the sequence's
 /// recommended settings unless `settings` overrides those keys (and colour=on when the sequence
-/// has colour, unless `settings` sets colour), then the overrides; the camera
+/// has colour, unless `settings` sets colour), then the overrides, and the depth scale the
+/// sequence is read at where the format chose it (setting depth_scale); the camera
 /// from the setting `camera` when given, else the sequence's (with its lens when the camera is
 /// the format's own). Throws kfx::Error when the input has no intrinsics and none are given.
 ResolvedSetup resolve_setup(const Settings& settings, const Sequence& sequence);
@@ -50,19 +55,22 @@ class Reconstruction {
   Reconstruction(Reconstruction&&) noexcept;
   Reconstruction& operator=(Reconstruction&&) noexcept;
 
-  /// Processes the next frame and returns its result. Throws kfx::Error, and changes nothing,
-  /// when the frame is not the camera's size, is not a valid depth image (NaN, negative or
-  /// infinite metres, a non-positive scale), or, when the map fuses colour (setting colour, on
-  /// by default for a Sequence with colour), lacks a colour image of the camera's size. With
-  /// colour off a frame's colour is not used.
+  /// Processes the next frame and returns its result. Throws kfx::Error naming the frame, and
+  /// changes nothing, when the frame is not the camera's size, is not a valid depth image (NaN,
+  /// negative or infinite metres, a non-positive scale), its stamp is not finite or is earlier
+  /// than the previous frame's (equal stamps are allowed), when the map fuses colour (setting
+  /// colour, on by default for a Sequence with colour) and it lacks a colour image of the
+  /// camera's size, or when it has a colour image that nothing uses (colour=off and no
+  /// photometric term).
   FrameResult process(const FrameView& frame);
-  /// The same for a frame a Sequence read.
-  FrameResult process(const SequenceFrame& frame) { return process(frame.view()); }
+  /// The same for a frame a Sequence read, except that its colour (the input's) is not used,
+  /// and no error, when the reconstruction uses none.
+  FrameResult process(const SequenceFrame& frame);
 
   /// Submits the next frame without waiting for it (on the GPU it computes while the caller
   /// prepares the next); the frame's memory is read during the call only. Checked as process().
   void submit(const FrameView& frame);
-  void submit(const SequenceFrame& frame) { submit(frame.view()); }
+  void submit(const SequenceFrame& frame);
   /// Waits for the oldest submitted frame and returns its result; throws when none is pending.
   FrameResult collect();
   /// Frames submitted and not yet collected.
@@ -84,26 +92,31 @@ class Reconstruction {
   TriangleMesh mesh();
   /// The surface as the last raycast saw it, as points with normals.
   PointCloud point_cloud();
-  /// The map shaded (SLAMBench's renderVolume) from `T_world_cam`, at compute size.
+  /// The map shaded (SLAMBench's renderVolume) from `T_world_cam`, at compute size; either map
+  /// kind (volume=dense or blocks), either backend (the same pictures: rendered on the host from
+  /// a copy of the map with the backends' kernel bodies).
   RgbaImage render(const Pose& T_world_cam);
   /// The same from the current pose.
   RgbaImage render() { return render(pose()); }
   /// The depth (metres along the optical axis, 0 where nothing is seen) of the map seen from
-  /// `T_world_cam`, at compute size.
+  /// `T_world_cam`, at compute size; either map kind, either backend (as render()).
   FloatImage render_depth(const Pose& T_world_cam);
 
   /// Writes the trajectory in TUM format (stamp tx ty tz qx qy qz qw, the pose after each frame,
   /// camera to map frame), byte for byte as `kfx run`'s trajectory.txt; `input` names the
   /// source in its header ("": the sequence the reconstruction was made for, if any).
   void save_trajectory(const std::string& path, const std::string& input = "") const;
-  /// Writes the mesh as binary PLY (as `kfx run`'s mesh.ply); `input` as in save_trajectory().
+  /// Writes the mesh in the format `path`'s extension names: .ply (binary PLY, as `kfx run`'s
+  /// mesh.ply), .obj or .glb (output/mesh_file.hpp); throws kfx::Error, before any work, on
+  /// another extension. `input` as in save_trajectory().
   void save_mesh(const std::string& path, const std::string& input = "");
-  /// True when the map can be saved and loaded (the dense volume can).
+  /// True when the map can be saved and loaded (both kinds can: volume=dense and blocks).
   bool map_saveable() const;
   /// Writes the map (volume.kfxtsdf, or map.kfxblocks with volume=blocks; docs/outputs.md);
   /// throws kfx::Error where the map kind cannot be saved.
   void save_map(const std::string& path);
-  /// Replaces the map by one save_map() wrote (same resolution and size); the pose is kept.
+  /// Replaces the map by one save_map() wrote (the dense volume: same resolution and size; a
+  /// block map: same voxel size); the pose is kept.
   void load_map(const std::string& path);
 
   /// The settings in force (after validation), as `kfx settings` prints them.

@@ -1,8 +1,11 @@
 /// kfx::Reconstruction over kfx::Pipeline: the frame loop's bookkeeping (stamps, results,
 /// trajectory) once, for the CLI, C++ callers and Python alike.
 
+#include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <deque>
+#include <optional>
 
 #include "api/depth_input.hpp"
 #include "api/internal.hpp"
@@ -11,10 +14,12 @@
 #include "io/trajectory.hpp"
 #include "output/block_map_file.hpp"
 #include "output/mesh_colour.hpp"
+#include "output/mesh_file.hpp"
 #include "output/mesh_ply.hpp"
 #include "output/run_trajectory.hpp"
 #include "output/volume_file.hpp"
 #include "pipeline/frame_diagnostics.hpp"
+#include "pipeline/inert_settings.hpp"
 
 namespace kfx {
 
@@ -50,8 +55,15 @@ struct Reconstruction::Impl {
   std::string input;  ///< the sequence's name, when made for one (file headers name it)
   std::unique_ptr<FrameDiagnostics> diagnostics;  ///< warnings about the volume and the depth
   std::deque<DepthSample> samples_in_flight;      ///< judged when their frames are collected
+  std::optional<double> last_stamp_s;  ///< the last submitted frame's, none since the start/reset
+  /// Said once, with the first collected frame's warnings: what the input's format assumed
+  /// (ResolvedSetup::warnings) and the settings that do nothing here (inert_settings.hpp).
+  std::vector<std::string> input_warnings;
 
-  Impl(const Settings& settings, const Camera& given) : config(api::make_config(settings)) {
+  /// `from_input`: keys of `settings` that the input recommended rather than the user set.
+  Impl(const Settings& settings, const Camera& given,
+       const std::vector<std::string>& from_input = {})
+      : config(api::make_config(settings)) {
     camera = given;
     const auto& k = config.input.camera_px;
     if (k[0] != 0 || k[1] != 0) {  // the setting `camera` replaces the camera's intrinsics
@@ -79,13 +91,31 @@ struct Reconstruction::Impl {
                                    settings.reconstructions_on_device());
     params = pipeline->stage_params();
     diagnostics = std::make_unique<FrameDiagnostics>(config, intrinsics);
+    // Settings the user set that this map kind, backend or configuration never reads.
+    std::vector<std::string> user_keys;
+    for (const auto& [key, value] : settings.overrides()) {
+      if (std::find(from_input.begin(), from_input.end(), key) == from_input.end()) {
+        user_keys.push_back(key);
+      }
+    }
+    input_warnings = inert_setting_warnings(config, user_keys, pipeline->backend().name());
   }
 
   /// The frame's colour, rows packed, when the map fuses colour (setting colour) or tracking
-  /// uses it (photometric_weight > 0); none else (a colour image nothing reads is not used).
-  ImageView<const Rgb8> colour_view(const ColourView& colour, const std::string& label) {
+  /// uses it (photometric_weight > 0); none else. A colour image nothing would read is an
+  /// error when `colour_given` (the caller passed it for this frame: dropping it silently would
+  /// hide a reconstruction made without colour), and ignored for a frame a reader read (which
+  /// carries the input's colour whatever the settings).
+  ImageView<const Rgb8> colour_view(const ColourView& colour, const std::string& label,
+                                    bool colour_given) {
     const bool photometric = config.quality.photometric_weight > 0.0f;
-    if (!config.colour.fuse && !photometric) return {};
+    if (!config.colour.fuse && !photometric) {
+      KFX_CHECK(!colour_given || colour.data == nullptr,
+                label << ": a colour image was given, but this reconstruction uses none: it was "
+                         "made with colour=off and photometric_weight=0 (set colour=on to fuse "
+                         "colour into the map, or give no colour image)");
+      return {};
+    }
     KFX_CHECK(colour.data != nullptr,
               label << ": "
                     << (config.colour.fuse ? "the map fuses colour (setting colour=on)"
@@ -116,8 +146,9 @@ struct Reconstruction::Impl {
     return frame.input_index >= 0 ? frame.input_index : pipeline->frame_count();
   }
 
-  /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame.
-  void submit(const FrameView& frame) {
+  /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame. `colour_given`:
+  /// as colour_view().
+  void submit(const FrameView& frame, bool colour_given) {
     const std::string label = "frame " + std::to_string(frame_number(frame));
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
@@ -125,9 +156,17 @@ struct Reconstruction::Impl {
                     << camera.height_px);
     const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
     const ImageView<const Rgb8> rgb =
-        colour_view(frame.colour, label);  // checked before any change
+        colour_view(frame.colour, label, colour_given);  // checked before any change
+    // As the readers refuse a listing whose stamps go back: the trajectory is ordered by them.
+    KFX_CHECK(std::isfinite(frame.stamp_s),
+              label << ": time stamp " << frame.stamp_s << " s is not a finite number");
+    KFX_CHECK(!last_stamp_s || frame.stamp_s >= *last_stamp_s,
+              label << ": time stamp " << frame.stamp_s << " s is earlier than the previous "
+                    << "frame's (" << *last_stamp_s
+                    << " s); stamps must not decrease (reset() starts over)");
     samples_in_flight.push_back(diagnostics->sample(mm));
     pipeline->submit(mm, rgb);
+    last_stamp_s = frame.stamp_s;
     stamps_in_flight.push_back(frame.stamp_s);
     input_indices_in_flight.push_back(frame.input_index);
   }
@@ -150,9 +189,13 @@ struct Reconstruction::Impl {
     r.icp_iterations = last_report.icp_iterations;
     r.tracking_constraint = last_report.constraint.eigenvalues[0];
     for (int i = 0; i < 6; ++i) r.weakest_direction[i] = last_report.constraint.weakest[i];
-    r.warnings =
-        diagnostics->check(r.input_index, samples_in_flight.front(), last_report.T_world_cam,
-                           last_report.tracked ? &last_report.constraint : nullptr);
+    r.warnings = std::move(input_warnings);  // said once, with the first frame
+    input_warnings.clear();
+    for (std::string& line :
+         diagnostics->check(r.input_index, samples_in_flight.front(), last_report.T_world_cam,
+                            last_report.tracked ? &last_report.constraint : nullptr)) {
+      r.warnings.push_back(std::move(line));
+    }
     samples_in_flight.pop_front();
     trajectory.push_back(r);
     return r;
@@ -172,6 +215,21 @@ struct Reconstruction::Impl {
     if (config.colour.fuse) v.colours = pipeline->backend().read_colour_volume();
     return v;
   }
+
+  /// The map seen from `T_world_cam` at compute size, on the host from a copy of the map of
+  /// either kind (render_view), so both backends give the same pictures.
+  api::ViewImages view(const Mat4f& T_world_cam, bool want_depth) {
+    drain();
+    const int width_px = camera.width_px / config.input.compute_size_ratio;
+    const int height_px = camera.height_px / config.input.compute_size_ratio;
+    if (config.volume.kind == MapKind::kBlocks) {
+      return api::render_view(pipeline->read_map(), params.render, width_px, height_px, T_world_cam,
+                              want_depth);
+    }
+    output::SavedVolume v = volume();
+    return api::render_view(v.voxels, v.res, v.size_m, params.render, width_px, height_px,
+                            T_world_cam, want_depth);
+  }
 };
 
 Reconstruction::Reconstruction(const Settings& settings, const Camera& camera)
@@ -179,8 +237,10 @@ Reconstruction::Reconstruction(const Settings& settings, const Camera& camera)
 
 Reconstruction::Reconstruction(const Settings& settings, const Sequence& sequence) {
   const ResolvedSetup setup = resolve_setup(settings, sequence);
-  impl_ = std::make_unique<Impl>(setup.settings, setup.camera);
+  impl_ = std::make_unique<Impl>(setup.settings, setup.camera, setup.settings_from_input);
   impl_->input = sequence.input();
+  impl_->input_warnings.insert(impl_->input_warnings.begin(), setup.warnings.begin(),
+                               setup.warnings.end());
 }
 
 Reconstruction::~Reconstruction() = default;
@@ -189,11 +249,18 @@ Reconstruction& Reconstruction::operator=(Reconstruction&&) noexcept = default;
 
 FrameResult Reconstruction::process(const FrameView& frame) {
   impl_->drain();
-  impl_->submit(frame);
+  impl_->submit(frame, true);
   return impl_->collect();
 }
 
-void Reconstruction::submit(const FrameView& frame) { impl_->submit(frame); }
+FrameResult Reconstruction::process(const SequenceFrame& frame) {
+  impl_->drain();
+  impl_->submit(frame.view(), false);
+  return impl_->collect();
+}
+
+void Reconstruction::submit(const FrameView& frame) { impl_->submit(frame, true); }
+void Reconstruction::submit(const SequenceFrame& frame) { impl_->submit(frame.view(), false); }
 FrameResult Reconstruction::collect() { return impl_->collect(); }
 int Reconstruction::frames_in_flight() const { return impl_->pipeline->frames_in_flight(); }
 
@@ -201,6 +268,7 @@ void Reconstruction::reset() {
   impl_->drain();
   impl_->pipeline->reset();
   impl_->trajectory.clear();
+  impl_->last_stamp_s.reset();
   const Camera& c = impl_->camera;
   impl_->diagnostics = std::make_unique<FrameDiagnostics>(
       impl_->config, Intrinsics{c.fx_px, c.fy_px, c.cx_px, c.cy_px});
@@ -266,10 +334,7 @@ PointCloud Reconstruction::point_cloud() {
 }
 
 RgbaImage Reconstruction::render(const Pose& T_world_cam) {
-  output::SavedVolume v = impl_->volume();
-  const api::ViewImages view =
-      api::render_view(v.voxels, v.res, v.size_m, impl_->params.render, compute_width_px(),
-                       compute_height_px(), api::to_mat4f(T_world_cam), false);
+  const api::ViewImages view = impl_->view(api::to_mat4f(T_world_cam), false);
   RgbaImage image;
   image.width_px = view.shaded.width();
   image.height_px = view.shaded.height();
@@ -279,10 +344,7 @@ RgbaImage Reconstruction::render(const Pose& T_world_cam) {
 }
 
 FloatImage Reconstruction::render_depth(const Pose& T_world_cam) {
-  output::SavedVolume v = impl_->volume();
-  const api::ViewImages view =
-      api::render_view(v.voxels, v.res, v.size_m, impl_->params.render, compute_width_px(),
-                       compute_height_px(), api::to_mat4f(T_world_cam), true);
+  const api::ViewImages view = impl_->view(api::to_mat4f(T_world_cam), true);
   FloatImage image;
   image.width_px = view.depth_m.width();
   image.height_px = view.depth_m.height();
@@ -304,6 +366,7 @@ void Reconstruction::save_trajectory(const std::string& path, const std::string&
 }
 
 void Reconstruction::save_mesh(const std::string& path, const std::string& input) {
+  output::mesh_format_of(path);  // an extension no writer serves fails before the meshing
   impl_->drain();
   MeshView mesh = impl_->pipeline->extract_mesh();
   const output::ColourField colour = impl_->colour_field();
@@ -312,10 +375,10 @@ void Reconstruction::save_mesh(const std::string& path, const std::string& input
     colours = output::vertex_colours(mesh.vertices, mesh.vertex_count, colour);
     mesh.colours = colours.data();
   }
-  output::write_mesh_ply(path, mesh,
-                         "kfx " + std::string(KFX_VERSION) + " mesh of " +
-                             (input.empty() ? impl_->input : input) +
-                             ", volume frame (as trajectory.txt), metres");
+  output::write_mesh_file(path, mesh,
+                          "kfx " + std::string(KFX_VERSION) + " mesh of " +
+                              (input.empty() ? impl_->input : input) +
+                              ", volume frame (as trajectory.txt), metres");
 }
 
 bool Reconstruction::map_saveable() const { return true; }  // both kinds
@@ -370,7 +433,7 @@ const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
   return r.impl_->last_report;
 }
 void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
-  r.impl_->submit(api::frame_view(frame));
+  r.impl_->submit(api::frame_view(frame), false);
 }
 const FrameDiagnostics& ReconstructionAccess::diagnostics(const Reconstruction& r) {
   return *r.impl_->diagnostics;

@@ -85,6 +85,7 @@ ConvertSummary convert_to_raw(Reader& reader, const std::string& raw_path,
   if (const auto intrinsics = reader.default_intrinsics()) {
     sidecar.intrinsics = intrinsics->scaled_down(static_cast<float>(ratio));
     sidecar.distortion = reader.default_distortion();  // the same lens at any image size
+    sidecar.ideal_lens = reader.ideal_lens();
   }
   sidecar.ground_truth = reader.ground_truth();
   sidecar.has_colour = colour;

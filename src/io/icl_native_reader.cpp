@@ -205,6 +205,7 @@ class IclNativeReader : public Reader {
   int height_px() const override { return kHeightPx; }
   int frame_count() const override { return count_; }
   std::optional<Intrinsics> default_intrinsics() const override { return kIclNuimIntrinsics; }
+  bool ideal_lens() const override { return true; }  // rendered images: a pinhole camera
   std::string intrinsics_source() const override {
     return "ICL-NUIM's true camera (negative fy), the default for ICL-NUIM folders";
   }

@@ -24,6 +24,7 @@ std::unique_ptr<Reader> open_icl_png_folder(const std::string& folder,
   spec.entries = read_depth_listing(spec.listing_path, folder);
   spec.depth_scale_per_m = resolve_depth_scale(options.depth_scale_per_m, kPngDepthScalePerM);
   spec.intrinsics = kIclNuimIntrinsics;
+  spec.ideal_lens = true;  // rendered images: a pinhole camera
   spec.intrinsics_source = "ICL-NUIM's true camera (negative fy), the default for ICL-NUIM folders";
   const std::vector<std::string> found = find_freiburg_ground_truth(folder);
   // Several candidates: the first by name, as the description reports (use --gt to choose).

@@ -40,6 +40,10 @@ class GroundTruthOverride : public Reader {
     return inner_->default_intrinsics();
   }
   std::string intrinsics_source() const override { return inner_->intrinsics_source(); }
+  LensDistortion default_distortion() const override { return inner_->default_distortion(); }
+  bool ideal_lens() const override { return inner_->ideal_lens(); }
+  double depth_scale_per_m() const override { return inner_->depth_scale_per_m(); }
+  InputAssumptions assumptions() const override { return inner_->assumptions(); }
   bool has_colour() const override { return inner_->has_colour(); }
   std::vector<StampedPose> ground_truth() const override { return ground_truth_; }
   std::string description() const override {

@@ -36,6 +36,8 @@ struct PngSequenceSpec {
   std::optional<Intrinsics> intrinsics;
   std::string intrinsics_source;  ///< where `intrinsics` come from and why (for the user)
   LensDistortion distortion;      ///< the lens distortion of that camera (none when unknown)
+  bool ideal_lens = false;        ///< that camera has no lens distortion (Reader::ideal_lens)
+  InputAssumptions assumptions;   ///< what the format assumed (Reader::assumptions)
   std::vector<StampedPose> ground_truth;
   std::string ground_truth_path;  ///< "" when there is none
   std::string colour_listing;     ///< where the entries' colour paths come from ("" = none)
@@ -69,6 +71,9 @@ class PngSequenceReader : public Reader {
   std::optional<Intrinsics> default_intrinsics() const override { return spec_.intrinsics; }
   std::string intrinsics_source() const override { return spec_.intrinsics_source; }
   LensDistortion default_distortion() const override { return spec_.distortion; }
+  bool ideal_lens() const override { return spec_.ideal_lens; }
+  double depth_scale_per_m() const override { return spec_.depth_scale_per_m; }
+  InputAssumptions assumptions() const override { return spec_.assumptions; }
   std::vector<StampedPose> ground_truth() const override { return spec_.ground_truth; }
   std::vector<double> stamps_s() const override;
   std::string description() const override;

@@ -35,6 +35,14 @@ struct ReaderOptions {
   std::string ground_truth_path;
 };
 
+/// What a format could not tell from the input and assumed (a TUM-style folder whose name names
+/// no TUM camera): wrong guesses spoil a run without a word, so they are said as warnings.
+struct InputAssumptions {
+  bool intrinsics = false;   ///< default_intrinsics() are generic, not this camera's
+  bool depth_scale = false;  ///< the depth scale is the format's default, not one given
+  std::string why;           ///< what the input lacks, e.g. "the folder 'x' names no TUM camera"
+};
+
 /// A source of depth frames.
 class Reader {
  public:
@@ -55,6 +63,15 @@ class Reader {
   /// The lens distortion of the camera default_intrinsics() describe (TUM fr1 and fr2: their
   /// published calibration); none when the format's images have none or it is unknown.
   virtual LensDistortion default_distortion() const { return {}; }
+  /// True when the camera default_intrinsics() describe is known to have no lens distortion
+  /// (rendered images: the synthetic scene, ICL-NUIM; TUM fr3, whose images TUM undistorted),
+  /// so none is to be undone; false when the lens is unknown or default_distortion() gives it.
+  virtual bool ideal_lens() const { return false; }
+  /// Raw depth units per metre the frames are read at (PNG sequences: 5000 by default); 0 where
+  /// the format fixes the unit (metres, millimetres) and no scale applies.
+  virtual double depth_scale_per_m() const { return 0.0; }
+  /// What the format assumed for want of a name or a file saying it (nothing by default).
+  virtual InputAssumptions assumptions() const { return {}; }
   /// True when every frame carries a colour image (Frame::rgb); false for depth-only inputs and
   /// for listings whose colour images are all absent (description() then says so).
   virtual bool has_colour() const { return false; }

@@ -187,6 +187,7 @@ class RawReader : public Reader {
   LensDistortion default_distortion() const override {
     return sidecar_ ? sidecar_->distortion : LensDistortion{};
   }
+  bool ideal_lens() const override { return sidecar_ && sidecar_->ideal_lens; }
   std::vector<StampedPose> ground_truth() const override {
     return sidecar_ ? sidecar_->ground_truth : std::vector<StampedPose>{};
   }
@@ -277,6 +278,11 @@ std::optional<RawSidecar> read_raw_sidecar(const std::string& raw_path) {
       *k[i] = static_cast<float>(number_at(d, i, path, "'distortion'"));
     }
   }
+  if (root.contains("ideal_lens")) {
+    KFX_CHECK(root["ideal_lens"].is_boolean(),
+              "malformed sidecar '" << path << "': 'ideal_lens' must be true or false");
+    sidecar.ideal_lens = root["ideal_lens"].get<bool>();
+  }
   if (root.contains("ground_truth")) {
     const json& poses = root["ground_truth"];
     KFX_CHECK(poses.is_array(),
@@ -343,6 +349,7 @@ void write_raw_sidecar(const std::string& raw_path, const RawSidecar& sidecar) {
                              float_for_json(d.p2), float_for_json(d.k3)};
     out << " \"distortion\": " << distortion.dump() << ",\n";
   }
+  if (sidecar.ideal_lens) out << " \"ideal_lens\": true,\n";
   if (!sidecar.recommended_settings.empty()) {
     out << " \"recommended_settings\": " << json(sidecar.recommended_settings).dump() << ",\n";
   }

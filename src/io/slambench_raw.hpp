@@ -28,6 +28,8 @@ struct RawSidecar {
   std::vector<double> stamps_s;          ///< one per frame (empty: frame index + 1)
   std::optional<Intrinsics> intrinsics;  ///< at the raw's resolution
   LensDistortion distortion;  ///< the lens of that camera (normalised coordinates: any size)
+  /// The source camera has no lens distortion (Reader::ideal_lens: synthetic, ICL-NUIM).
+  bool ideal_lens = false;
   std::vector<StampedPose> ground_truth;  ///< camera to world
   std::string source;                     ///< free text: where the frames came from
   /// False when the colour images are blank (written from a depth-only input); a `.raw` without

@@ -511,6 +511,7 @@ class SyntheticReader final : public Reader {
   int frame_count() const override { return scene_.options().frames; }
   bool has_colour() const override { return true; }
   std::optional<Intrinsics> default_intrinsics() const override { return scene_.intrinsics(); }
+  bool ideal_lens() const override { return true; }  // rendered by a pinhole camera
   std::string intrinsics_source() const override {
     return "the synthetic scene's own camera (exact)";
   }

@@ -39,9 +39,10 @@ int freiburg_camera_in(const std::string& text) {
 
 /// TUM's published intrinsics at 640×480 for the camera named by the folder (then the path),
 /// else the generic Kinect defaults (525, 525, 319.5, 239.5); `source` says which and why,
-/// `distortion` gets the camera's published lens distortion (fr3's images are undistorted).
+/// `distortion` gets the camera's published lens distortion (fr3's images are undistorted:
+/// `ideal_lens`); `named` says whether a TUM camera was named.
 Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source,
-                              LensDistortion* distortion) {
+                              LensDistortion* distortion, bool* ideal_lens, bool* named) {
   int camera = freiburg_camera_in(folder.filename().string());
   const bool by_name = camera != 0;
   if (camera == 0) camera = freiburg_camera_in(folder.string());
@@ -55,6 +56,8 @@ Intrinsics tum_intrinsics_for(const fs::path& folder, std::string* source,
               "if these are wrong";
   }
   *distortion = {};
+  *ideal_lens = camera == 3;
+  *named = camera != 0;
   switch (camera) {
     case 1:
       *distortion = {0.2624f, -0.9531f, -0.0054f, 0.0026f, 1.1633f};
@@ -103,8 +106,16 @@ std::unique_ptr<Reader> open_tum_folder(const std::string& path, const ReaderOpt
     associate_colour_listing(spec.entries, spec.colour_listing, spec.folder);
   }
   spec.depth_scale_per_m = resolve_depth_scale(options.depth_scale_per_m, kPngDepthScalePerM);
-  spec.intrinsics = tum_intrinsics_for(fs::absolute(spec.folder, error).lexically_normal(),
-                                       &spec.intrinsics_source, &spec.distortion);
+  bool named = false;
+  const fs::path folder = fs::absolute(spec.folder, error).lexically_normal();
+  spec.intrinsics = tum_intrinsics_for(folder, &spec.intrinsics_source, &spec.distortion,
+                                       &spec.ideal_lens, &named);
+  if (!named) {  // generic Kinect intrinsics, and TUM's scale unless one was given
+    spec.assumptions.intrinsics = true;
+    spec.assumptions.depth_scale = options.depth_scale_per_m == 0.0;
+    spec.assumptions.why = "the TUM-style folder path '" + folder.string() +
+                           "' names no TUM camera (fr1, fr2, fr3 or freiburg1..3)";
+  }
   const fs::path groundtruth = fs::path(spec.folder) / "groundtruth.txt";
   spec.ground_truth = load_ground_truth(
       options.ground_truth_path,

@@ -2,7 +2,7 @@
 
 #include <iostream>
 
-#include "output/mesh_ply.hpp"
+#include "output/mesh_file.hpp"
 
 namespace kfx::output {
 
@@ -11,11 +11,11 @@ void write_run_mesh(const std::string& path, const MeshView& mesh, const std::st
   if (mesh.triangle_count == 0) {
     std::cerr << "kfx: note: the volume holds no surface (no cell with all 8 corners observed "
                  "crosses zero); "
-              << path << " is a valid PLY with no faces\n";
+              << path << " is a valid mesh file with no faces\n";
   }
-  write_mesh_ply(path, mesh,
-                 "kfx " + std::string(KFX_VERSION) + " mesh of " + source +
-                     ", volume frame (as trajectory.txt), metres");
+  write_mesh_file(path, mesh,
+                  "kfx " + std::string(KFX_VERSION) + " mesh of " + source +
+                      ", volume frame (as trajectory.txt), metres");
 }
 
 }  // namespace kfx::output

@@ -8,9 +8,10 @@
 
 namespace kfx::output {
 
-/// Writes `mesh` as PLY (output/mesh_ply.hpp) with a header comment naming `source`, the frame
-/// and units. An empty mesh (nothing integrated) is still a valid PLY; a note on stderr says so
-/// (always: it is a warning, not progress).
+/// Writes `mesh` in the format `path`'s extension names (output/mesh_file.hpp: .ply, .obj,
+/// .glb) with a comment naming `source`, the frame and units. An empty mesh (nothing
+/// integrated) is still a valid file; a note on stderr says so (always: it is a warning, not
+/// progress). Throws kfx::Error on an extension no writer serves.
 void write_run_mesh(const std::string& path, const MeshView& mesh, const std::string& source);
 
 }  // namespace kfx::output

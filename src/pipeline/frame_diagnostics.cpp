@@ -76,7 +76,8 @@ FrameDiagnostics::FrameDiagnostics(const PipelineConfig& config, const Intrinsic
       has_faces_(config.volume.kind == MapKind::kDense),
       start_factor_(config.volume.init_pose_factor),
       far_m_(config.raycast.far_m),
-      depth_scale_per_m_(config.input.depth_scale_per_m) {}
+      depth_scale_per_m_(config.input.depth_scale_per_m),
+      near_m_(config.raycast.near_m) {}
 
 DepthSample FrameDiagnostics::sample(ImageView<const uint16_t> depth_mm) const {
   DepthSample s;
@@ -94,6 +95,14 @@ DepthSample FrameDiagnostics::sample(ImageView<const uint16_t> depth_mm) const {
     const auto mid = depths_m.begin() + depths_m.size() / 2;
     std::nth_element(depths_m.begin(), mid, depths_m.end());
     s.median_depth_m = *mid;
+    const auto share_nearer = [&](float scale) {
+      const auto n = std::count_if(depths_m.begin(), depths_m.end(),
+                                   [&](float z) { return z * scale < near_m_; });
+      return static_cast<float>(n) / depths_m.size();
+    };
+    s.near_share = share_nearer(1.0f);
+    s.near_share_if_5x_farther = share_nearer(kScaleFactor);
+    s.near_share_if_5x_nearer = share_nearer(1.0f / kScaleFactor);
   }
   return s;
 }
@@ -131,20 +140,8 @@ std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& d
       << " m): little can be integrated or tracked; check the volume size (-s), the start "
          "position (-p) and the depth scale";
     note(FrameCause::kDepthOutsideVolume, fraction > kMostDepthFraction, frame, m.str(), warnings);
-    std::ostringstream scale;
-    scale.precision(3);
-    scale << "the depth is implausible for an RGB-D camera (median " << depth.median_depth_m
-          << " m; expected " << kPlausibleMedianDepthMin_m << " to " << kPlausibleMedianDepthMax_m
-          << " m) at the depth scale ";
-    if (depth_scale_per_m_ > 0) {
-      scale << std::to_string(static_cast<long long>(depth_scale_per_m_ + 0.5)) << " units/m";
-    } else {
-      scale << "of the format";
-    }
-    scale << ": is --depth-scale right? (TUM RGB-D and ICL-NUIM PNGs: 5000 units/m)";
-    const bool implausible = depth.median_depth_m < kPlausibleMedianDepthMin_m ||
-                             depth.median_depth_m > kPlausibleMedianDepthMax_m;
-    note(FrameCause::kImplausibleDepth, implausible, frame, scale.str(), warnings);
+    note(FrameCause::kImplausibleDepth, !depth_plausible(depth.median_depth_m, depth.near_share),
+         frame, implausible_depth_words(depth), warnings);
   }
   // The ICP's weakest direction: a view with too little geometry across it (a flat wall, a
   // corridor, a floor and far walls beyond the sensor's range) lets the pose slide there while
@@ -175,6 +172,53 @@ std::vector<std::string> FrameDiagnostics::check(int frame, const DepthSample& d
     note(FrameCause::kPoorlyConstrained, poor, frame, m.str(), warnings);
   }
   return warnings;
+}
+
+bool FrameDiagnostics::depth_plausible(float median_m, float near_share) {
+  return median_m >= kPlausibleMedianDepthMin_m && median_m <= kPlausibleMedianDepthMax_m &&
+         near_share <= kNearShareImplausible;
+}
+
+std::string FrameDiagnostics::implausible_depth_words(const DepthSample& depth) const {
+  const auto units = [](double per_m) {
+    return std::to_string(static_cast<long long>(per_m + 0.5)) + " units/m";
+  };
+  std::ostringstream m;
+  m.precision(3);
+  m << "the depth is implausible for an RGB-D camera (median " << depth.median_depth_m << " m, "
+    << static_cast<int>(100 * depth.near_share + 0.5f) << " % of it nearer than the " << near_m_
+    << " m near plane; expected a median of " << kPlausibleMedianDepthMin_m << " to "
+    << kPlausibleMedianDepthMax_m << " m with at most "
+    << static_cast<int>(100 * kNearShareImplausible) << " % nearer) at the depth scale "
+    << (depth_scale_per_m_ > 0 ? units(depth_scale_per_m_) : std::string("used"));
+  // The scale that would make the frame plausible, if one of the two in use does.
+  const float farther_m = depth.median_depth_m * kScaleFactor;
+  const float nearer_m = depth.median_depth_m / kScaleFactor;
+  // Only a scale in use is named (from a known scale: the other of 1000 and 5000).
+  const auto in_use = [&](float factor) {
+    if (depth_scale_per_m_ <= 0) return true;
+    const double other = depth_scale_per_m_ / factor;
+    return std::fabs(other - 1000.0) < 0.5 || std::fabs(other - 5000.0) < 0.5;
+  };
+  const bool fits_farther =
+      in_use(kScaleFactor) && depth_plausible(farther_m, depth.near_share_if_5x_farther);
+  const bool fits_nearer =
+      in_use(1.0f / kScaleFactor) && depth_plausible(nearer_m, depth.near_share_if_5x_nearer);
+  if (fits_farther || fits_nearer) {
+    const float factor = fits_farther ? kScaleFactor : 1.0f / kScaleFactor;
+    m << "; "
+      << (depth_scale_per_m_ > 0 ? units(depth_scale_per_m_ / factor)
+                                 : (fits_farther ? std::string("a 5x smaller scale")
+                                                 : std::string("a 5x larger scale")))
+      << " would fit (median " << depth.median_depth_m * factor << " m, "
+      << static_cast<int>(
+             100 * (fits_farther ? depth.near_share_if_5x_farther : depth.near_share_if_5x_nearer) +
+             0.5f)
+      << " % nearer than the near plane)";
+  }
+  m << ": is --depth-scale right? (millimetre depth, as Kinect drivers and RealSense write it: "
+       "1000 units/m; TUM RGB-D and ICL-NUIM PNGs: 5000 units/m)";
+  return m.str();
 }
 
 void FrameDiagnostics::note(FrameCause cause, bool present, int frame, const std::string& message,

@@ -34,6 +34,12 @@ const char* frame_cause_name(FrameCause cause);
 struct DepthSample {
   std::vector<Vec3f> p_cam_m;  ///< sampled valid pixels, camera frame, metres
   float median_depth_m = 0;    ///< median depth of the samples (0 when there are none)
+  /// Share of the samples nearer than the near plane (raycast near_m), which the raycast never
+  /// sees; and the same share were the depth 5× farther (a millimetre input read at TUM's
+  /// 5000 units/m) or 5× nearer (TUM's PNGs read as millimetres).
+  float near_share = 0;
+  float near_share_if_5x_farther = 0;
+  float near_share_if_5x_nearer = 0;
 };
 
 /// How often each cause was seen over a run.
@@ -58,6 +64,13 @@ class FrameDiagnostics {
   static constexpr float kPlausibleMedianDepthMax_m = 5.0f;
   /// "Most" of the depth: more than this fraction of the valid samples.
   static constexpr float kMostDepthFraction = 0.75f;
+  /// The depth is also implausible when more than this share of it lies nearer than the near
+  /// plane while 5× farther or nearer it would be plausible: a median inside the band can
+  /// still be a wrong scale (millimetre depth read at 5000 units/m: a room at 1.9 m reads 0.38 m,
+  /// most of it nearer than the 0.4 m near plane). Depth scales in use are 1000 (Kinect
+  /// drivers, RealSense, SLAMBench's .raw) and 5000 units/m (TUM, ICL-NUIM): a factor of 5.
+  static constexpr float kNearShareImplausible = 0.5f;
+  static constexpr float kScaleFactor = 5.0f;
   /// A stretch of frames with a cause ends after this many frames without it.
   static constexpr int kFramesToEndStretch = 10;
   /// Every this many pixels in x and y are sampled (a few thousand points at 640×480).
@@ -89,6 +102,10 @@ class FrameDiagnostics {
   const FrameCauseCount& count(FrameCause cause) const { return counts_[static_cast<int>(cause)]; }
 
  private:
+  /// Whether depth of this median (metres) and share nearer than the near plane is plausible.
+  static bool depth_plausible(float median_m, float near_share);
+  /// The implausible-depth warning for `depth`, with the scale that would fit, if any.
+  std::string implausible_depth_words(const DepthSample& depth) const;
   /// Records that `cause` is (or is not) present at `frame`; a warning when a stretch begins.
   void note(FrameCause cause, bool present, int frame, const std::string& message,
             std::vector<std::string>& warnings);
@@ -102,7 +119,8 @@ class FrameDiagnostics {
   int weak_run_first_ = -1;             ///< the first of them
   float weak_run_lowest_ = 0;           ///< the lowest figure among them
   TrackingConstraint weak_run_last_{};  ///< the last of them
-  double depth_scale_per_m_;            ///< 0: the format's
+  double depth_scale_per_m_;            ///< 0: the format's, not known here
+  float near_m_;                        ///< the raycast's near plane
   std::array<FrameCauseCount, static_cast<int>(FrameCause::kCount)> counts_{};
   std::array<bool, static_cast<int>(FrameCause::kCount)> active_{};         ///< in a stretch
   std::array<int, static_cast<int>(FrameCause::kCount)> frames_without_{};  ///< since the last

@@ -71,8 +71,26 @@ def test_bad_colour(reconstruction, frames):
         reconstruction.process(depth)
     grey = kfx.Reconstruction(kfx.open("synthetic:frames=2,width=160,height=120"),
                               backend="cpu", volume_resolution=64, colour="off")
-    grey.process(depth, colour=np.zeros((120, 160, 3), np.uint8))  # colour off: not used
+    # Colour off: a colour image passed in would be dropped, so it is an error naming the setting.
+    with pytest.raises(kfx.Error, match="frame 0: a colour image was given.*colour=off"):
+        grey.process(depth, colour=np.zeros((120, 160, 3), np.uint8))
+    assert grey.frame_count == 0
+    grey.process(frames[0])  # a frame the sequence read: its colour is the input's, not used
     assert grey.mesh().colours is None
+
+
+def test_bad_stamps(frames):
+    r = kfx.Reconstruction(kfx.open("synthetic:frames=2,width=160,height=120"),
+                           backend="cpu", volume_resolution=64, colour="off")
+    depth = np.array(frames[0].depth)
+    with pytest.raises(kfx.Error, match="frame 0: time stamp nan s is not a finite number"):
+        r.process(depth, stamp=float("nan"))
+    with pytest.raises(kfx.Error, match="time stamp inf s is not a finite number"):
+        r.process(depth, stamp=float("inf"))
+    r.process(depth, stamp=2.0)
+    with pytest.raises(kfx.Error, match="frame 1: time stamp 1 s is earlier than"):
+        r.process(depth, stamp=1.0)
+    assert r.frame_count == 1
 
 
 def test_unknown_setting():

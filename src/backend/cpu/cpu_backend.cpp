@@ -341,9 +341,7 @@ class CpuBackend final : public Backend {
                    buffers_.render_colour};
   }
   std::vector<Voxel> read_volume() override {
-    KFX_CHECK(!blocks(),
-              "volume=blocks: the map has no dense cube to read (save and load of a "
-              "block map are not built yet)");
+    KFX_CHECK(!blocks(), "volume=blocks: the map has no dense cube to read (read_blocks())");
     return buffers_.volume;
   }
   std::vector<ColourVoxel> read_colour_volume() override { return buffers_.colour_volume; }
