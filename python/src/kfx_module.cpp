@@ -512,7 +512,8 @@ NB_MODULE(_kfx, m) {
            "(`input` names the source in its header).")
       .def("save_mesh", &kfx::Reconstruction::save_mesh, "path"_a, "input"_a = "",
            nb::call_guard<nb::gil_scoped_release>(),
-           "Writes the mesh as binary PLY, as `kfx run`'s mesh.ply.")
+           "Writes the mesh in the format its extension names: .ply (binary, as `kfx run`'s "
+           "mesh.ply), .obj or .glb; any other extension is an error before anything is written.")
       .def_prop_ro("map_saveable", &kfx::Reconstruction::map_saveable)
       .def("save_map", &kfx::Reconstruction::save_map, "path"_a,
            nb::call_guard<nb::gil_scoped_release>(),
