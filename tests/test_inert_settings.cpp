@@ -23,12 +23,12 @@ std::vector<std::string> keys(const std::vector<InertSetting>& inert) {
 TEST(InertSettings, MapKindBackendAndOtherSettingsDecide) {
   PipelineConfig dense;  // exact: the dense cube
   const std::vector<std::string> user = {
-      "voxel_size_m", "map_budget_mb", "map_swap",      "raycast_tile_bounds",
-      "mu_m",         "cuda_pdl",      "cuda_z_chunks", "icp_robust_scale_m"};
-  EXPECT_EQ(
-      keys(inert_settings(dense, user, "cpu")),
-      (std::vector<std::string>{"voxel_size_m", "map_budget_mb", "map_swap", "raycast_tile_bounds",
-                                "icp_robust_scale_m", "cuda_pdl", "cuda_z_chunks"}));
+      "voxel_size_m", "map_budget_mb", "map_swap",           "raycast_tile_bounds",   "mu_m",
+      "cuda_pdl",     "cuda_z_chunks", "icp_robust_scale_m", "icp_robust_scale_noise"};
+  EXPECT_EQ(keys(inert_settings(dense, user, "cpu")),
+            (std::vector<std::string>{"voxel_size_m", "map_budget_mb", "map_swap",
+                                      "raycast_tile_bounds", "icp_robust_scale_m",
+                                      "icp_robust_scale_noise", "cuda_pdl", "cuda_z_chunks"}));
   // On the GPU the cuda_* settings act; on blocks the block settings do.
   PipelineConfig blocks = dense;
   blocks.volume.kind = MapKind::kBlocks;

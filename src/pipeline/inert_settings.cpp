@@ -17,7 +17,8 @@ struct Dependency {
 bool blocks(const PipelineConfig& c) { return c.volume.kind == MapKind::kBlocks; }
 
 /// Every setting that is read only under a condition, in the settings table's order. The
-/// conditions follow the code that reads each (the help texts in config.cpp say the same).
+/// conditions follow the code that reads each (the settings' help texts, src/pipeline/settings/,
+/// say the same).
 const std::vector<Dependency>& dependencies() {
   using C = PipelineConfig;
   const auto on_cuda = [](const C&, const std::string& backend) { return backend == "cuda"; };
@@ -48,6 +49,8 @@ const std::vector<Dependency>& dependencies() {
       {"integration_pattern", "integration_z_stride > 1", "integration_z_stride=1",
        [](const C& c, const std::string&) { return c.approx.integration_z_stride > 1; }},
       {"icp_robust_scale_m", "icp_robust=huber or tukey", "icp_robust=none",
+       [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
+      {"icp_robust_scale_noise", "icp_robust=huber or tukey", "icp_robust=none",
        [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
       {"icp_noise_floor_m", "icp_noise_weight=nguyen", "icp_noise_weight=off",
        [](const C& c, const std::string&) {
