@@ -44,8 +44,7 @@ TEST(SyntheticTwins, SpecDefaultsDescriptionAndSettings) {
   EXPECT_EQ(parse_synthetic_spec("synthetic:scene=twins,speed=2").frames, 600);
   EXPECT_EQ(parse_synthetic_spec("synthetic:scene=twins,frames=9").frames, 9);
   auto reader = make_synthetic_reader("synthetic:scene=twins,frames=3,width=64,height=48");
-  EXPECT_EQ(reader->description(),
-            "synthetic twin rooms (3 frames, 64\u00d748, seed 1, noise on)");
+  EXPECT_EQ(reader->description(), "synthetic twin rooms (3 frames, 64\u00d748, seed 1, noise on)");
   const auto settings = reader->recommended_settings();
   EXPECT_NE(std::find(settings.begin(), settings.end(),
                       std::pair<std::string, std::string>{"volume", "blocks"}),
