@@ -150,9 +150,11 @@ struct PoseGraphResult {
   std::string solver_report;  ///< Ceres' one-line summary of the final solve
 };
 
-/// Optimises a graph (blocking). kfx::Error when check_solvable() fails, when Ceres reports the
-/// problem invalid, or when `cancel` (if given) becomes true: the solve then stops at its next
-/// iteration. Deterministic for a given graph and options (threads = 1).
+/// Optimises a graph (blocking). Nodes whose only path to a fixed node runs through rejected
+/// loops are not determined by the final solve: they stay at (or, as a group joined by
+/// odometry, near) their given poses. kfx::Error when check_solvable() fails, when Ceres reports
+/// the problem invalid, or when `cancel` (if given) becomes true: the solve then stops at its
+/// next iteration. Deterministic for a given graph and options (threads = 1).
 PoseGraphResult optimise(const PoseGraph& graph, const PoseGraphOptions& options = {},
                          const std::atomic<bool>* cancel = nullptr);
 
