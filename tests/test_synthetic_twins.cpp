@@ -20,6 +20,7 @@
 namespace kfx::io {
 namespace {
 
+using synth::RoomGeometry;
 using synth::Vec3d;
 
 SyntheticScene twins(const std::string& extra = "") {
@@ -72,7 +73,7 @@ TEST(SyntheticTwins, PathVisitsBothRoomsSmoothly) {
   // turns' 0.94°), the handheld pace the tracker follows in the room.
   double Rp[3][3], tp[3];
   scene.pose(0, Rp, tp);
-  double max_step_m = 0, max_turn_deg = 0, max_x = -1e9;
+  double max_step_m = 0, max_turn_deg = 0, max_x = -1e9, min_clearance_m = 1e9;
   for (int f = 1; f <= scene.options().frames; ++f) {
     scene.pose(f, R, t);
     max_step_m = std::max(max_step_m, std::hypot(t[0] - tp[0], t[1] - tp[1], t[2] - tp[2]));
@@ -82,12 +83,38 @@ TEST(SyntheticTwins, PathVisitsBothRoomsSmoothly) {
     max_turn_deg = std::max(max_turn_deg,
                             std::acos(std::clamp((trace - 1) / 2, -1.0, 1.0)) * 180 / 3.14159265);
     max_x = std::max(max_x, t[0]);
+    // Always in free space, clear of every wall and the doorway's jambs: the path really
+    // passes through the doorway (the back wall is 0.35 m behind the first camera).
+    min_clearance_m =
+        std::min(min_clearance_m, scene.geometry().signed_distance_m({t[0], t[1], t[2]}));
     std::copy(&R[0][0], &R[0][0] + 9, &Rp[0][0]);
     std::copy(t, t + 3, tp);
   }
   EXPECT_LT(max_step_m, 0.02);
   EXPECT_LT(max_turn_deg, 1.0);
   EXPECT_GT(max_x, synth::kTwinsOffsetM);  // it walked the second room's loop
+  EXPECT_GT(min_clearance_m, 0.3);
+}
+
+TEST(SyntheticTwins, TrueSurfaceIsTheRoomsTwiceAndTheWallBetween) {
+  // The evaluation's true surface: twice the room's, plus the wall between them, less the
+  // doorway and the stretches of the two side walls that the wall between now covers.
+  const RoomGeometry room;
+  const RoomGeometry pair(synth::SceneLayout::kTwins);
+  EXPECT_EQ(pair.primitive_count(), 2 * room.primitive_count() + 2);
+  double room_m2 = 0, pair_m2 = 0;
+  for (const synth::SurfaceSample& s : room.sample_surface(0.05)) room_m2 += s.area_m2;
+  for (const synth::SurfaceSample& s : pair.sample_surface(0.05)) pair_m2 += s.area_m2;
+  EXPECT_GT(pair_m2, 1.9 * room_m2);
+  EXPECT_LT(pair_m2, 2.1 * room_m2);
+  // The doorway is open, the wall beside it solid, the two rooms' corresponding points alike.
+  const double wall_x = synth::kRoomMaxX + 0.5 * synth::kTwinsWallM;
+  EXPECT_GT(pair.signed_distance_m({wall_x, 0.0, 0.3}), 0.0);
+  EXPECT_LT(pair.signed_distance_m({wall_x, 0.0, 2.0}), 0.0);
+  for (const Vec3d p : {Vec3d{0.1, 0.2, 2.0}, Vec3d{-1.0, 1.0, 3.0}, Vec3d{0.5, -1.2, 1.2}}) {
+    EXPECT_NEAR(pair.signed_distance_m(p),
+                pair.signed_distance_m({p.x + synth::kTwinsOffsetM, p.y, p.z}), 1e-9);
+  }
 }
 
 TEST(SyntheticTwins, GroundTruthPosesAgreeWithRenderedDepth) {
