@@ -285,10 +285,11 @@ std::map<NodeId, Pose3d> to_poses(const NodeBlocks& blocks) {
 ceres::Solver::Summary solve_once(const PoseGraph& graph, const std::vector<bool>& use,
                                   double loop_loss_k, const PoseGraphOptions& options,
                                   const std::atomic<bool>* cancel, NodeBlocks& blocks) {
+  // Declared before the problem, which refers to it until destroyed.
+  ceres::EigenQuaternionManifold quaternion_manifold;
   ceres::Problem::Options problem_options;
   problem_options.manifold_ownership = ceres::DO_NOT_TAKE_OWNERSHIP;
   ceres::Problem problem(problem_options);
-  ceres::EigenQuaternionManifold quaternion_manifold;
   const std::vector<PoseGraphEdge>& edges = graph.edges();
   for (std::size_t i = 0; i < edges.size(); ++i) {
     if (!use[i]) continue;
