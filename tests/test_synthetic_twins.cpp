@@ -199,6 +199,21 @@ TEST(SyntheticTwins, TheRoomsLookTheSameFromCorrespondingPoses) {
   }
 }
 
+TEST(SyntheticTwins, NoViewOfTheLoopSeesTheDoorway) {
+  // Every frame of the first room's loop against its partner, at a small size: the doorway (or
+  // anything else that tells the rooms apart) would show as a patch of differing depth.
+  const SyntheticScene scene = twins(",width=64,height=48,noise=0");
+  int worst_px = 0, worst_frame = -1;
+  for (int f = 0; f < kPartnerFrames / 3; ++f) {
+    const int differing = compare_frames(scene, f, f + kPartnerFrames).depth_px;
+    if (differing > worst_px) {
+      worst_px = differing;
+      worst_frame = f;
+    }
+  }
+  EXPECT_LE(worst_px, 2) << "frame " << worst_frame;
+}
+
 TEST(SyntheticTwins, BlockMapTracksAShortStretch) {
   // The scene's own settings (blocks, 1 cm), 320×240 at compute size 2 as the house's test,
   // 12 frames in the first room: every frame after the four start-up frames tracks, and the
