@@ -50,7 +50,7 @@ TEST(SyntheticHouse, SpecDefaultsDescriptionAndSettings) {
     parse_synthetic_spec("synthetic:scene=garden");
     ADD_FAILURE() << "scene=garden was accepted";
   } catch (const Error& e) {
-    EXPECT_NE(std::string(e.what()).find("room or house"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("room, house or twins"), std::string::npos) << e.what();
   }
   auto reader = make_synthetic_reader("synthetic:scene=house,frames=3,width=64,height=48");
   EXPECT_EQ(reader->description(), "synthetic house (3 frames, 64\u00d748, seed 1, noise on)");

@@ -145,7 +145,8 @@ void parse_stretch(const std::string& spec, const std::string& key, const std::s
 
 std::string synthetic_spec_syntax() {
   // Keep in step with kAllowedKeys (a test checks that help names every key).
-  return "synthetic[:scene=room|house,frames=N,width=W,height=H,seed=S,noise=0|1,speed=X,jump=A-B,"
+  return "synthetic[:scene=room|house|twins,frames=N,width=W,height=H,seed=S,noise=0|1,speed=X,"
+         "jump=A-B,"
          "blank=A-B]";
 }
 
@@ -171,10 +172,12 @@ SyntheticOptions parse_synthetic_spec(const std::string& spec) {
     KFX_CHECK(seen.insert(key).second,
               "synthetic spec '" << spec << "': key '" << key << "' given more than once");
     if (key == "scene") {
-      KFX_CHECK(value == "room" || value == "house", "synthetic spec '"
-                                                         << spec << "': scene must be room or "
-                                                         << "house, got '" << value << "'");
-      opt.scene = value == "house" ? synth::SceneLayout::kHouse : synth::SceneLayout::kRoom;
+      KFX_CHECK(value == "room" || value == "house" || value == "twins",
+                "synthetic spec '" << spec << "': scene must be room, house or twins, got '"
+                                   << value << "'");
+      opt.scene = value == "house"   ? synth::SceneLayout::kHouse
+                  : value == "twins" ? synth::SceneLayout::kTwins
+                                     : synth::SceneLayout::kRoom;
     } else if (key == "frames") {
       opt.frames = static_cast<int>(parse_int(spec, key, value, 1, kMaxFrames));
     } else if (key == "width") {
@@ -216,6 +219,8 @@ SyntheticOptions parse_synthetic_spec(const std::string& spec) {
   KFX_CHECK(spec.back() != ',', "synthetic spec '" << spec << "': trailing ','");
   if (opt.scene == synth::SceneLayout::kHouse && seen.count("frames") == 0)
     opt.frames = SyntheticScene::house_loop_frames(opt.speed);
+  if (opt.scene == synth::SceneLayout::kTwins && seen.count("frames") == 0)
+    opt.frames = SyntheticScene::twins_path_frames(opt.speed);
   return opt;
 }
 
@@ -325,7 +330,31 @@ LoopState house_state(const synth::HousePath& path, int frame, double speed) {
   return s;
 }
 
+/// The camera's state on the twins' path at a frame (io/synthetic_twins.hpp): the room's loop in
+/// the first room, the transit, the room's loop shifted into the second room.
+LoopState twins_state(int frame, double speed) {
+  const double u = std::min(speed * SyntheticScene::stamp_s(frame), synth::kTwinsEndS);
+  if (u < synth::kTwinsLoopS) return loop_state(2 * kPi * u / synth::kTwinsLoopS);
+  if (u >= synth::kTwinsSecondLoopStartS) {
+    LoopState s = loop_state(2 * kPi * (u - synth::kTwinsSecondLoopStartS) / synth::kTwinsLoopS);
+    s.p[0] += synth::kTwinsOffsetM;
+    return s;
+  }
+  const synth::PathState p = synth::twins_transit_state(u - synth::kTwinsLoopS);
+  LoopState s;
+  for (int i = 0; i < 3; ++i) s.p[i] = p.p[i];
+  s.yaw = p.yaw;
+  s.pitch = p.pitch;
+  s.roll = p.roll;
+  return s;
+}
+
 }  // namespace
+
+int SyntheticScene::twins_path_frames(double speed) {
+  return static_cast<int>(
+      std::min<double>(kMaxFrames, std::ceil(synth::kTwinsEndS / speed * 30.0)));
+}
 
 int SyntheticScene::house_loop_frames(double speed) {
   const double frames = synth::HousePath().length_m() / (synth::kHouseSpeedMps * speed) * 30.0;
@@ -333,9 +362,9 @@ int SyntheticScene::house_loop_frames(double speed) {
 }
 
 void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
-  if (options_.scene == synth::SceneLayout::kHouse) {
-    // The house's pose as its stamped pose's quaternion, as a matrix.
-    const StampedPose p = house_stamped_pose(frame);
+  if (options_.scene != synth::SceneLayout::kRoom) {
+    // The house's or the twins' pose as its stamped pose's quaternion, as a matrix.
+    const StampedPose p = stamped_pose(frame);
     const double x = p.q[0], y = p.q[1], z = p.q[2], w = p.q[3];
     const double m[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
                             {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
@@ -366,6 +395,15 @@ void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
 
 StampedPose SyntheticScene::stamped_pose(int frame) const {
   if (options_.scene == synth::SceneLayout::kHouse) return house_stamped_pose(frame);
+  if (options_.scene == synth::SceneLayout::kTwins) {
+    LoopState s = twins_state(frame, options_.speed);
+    if (options_.jumped(frame)) s.yaw += kJumpYawRad;
+    StampedPose out;
+    out.stamp_s = stamp_s(frame);
+    for (int i = 0; i < 3; ++i) out.t[i] = s.p[i];
+    loop_quaternion(s, out.q);
+    return out;
+  }
   // NOTE: the room's pose exactly as before the house existed: its ground truth is pinned bit
   // for bit, and the compiler's multiply-add contraction follows the code's shape.
   LoopState s = loop_state(loop_phase(frame, options_.speed));
@@ -410,6 +448,14 @@ Rgb8 SyntheticScene::true_colour(double x_m, double y_m, double z_m) {
               channel(std::sin(kTwoPi * z_m / 2.4 + 2.0))};
 }
 
+Rgb8 SyntheticScene::surface_colour(double x_m, double y_m, double z_m) const {
+  // The wall between the twins is split down its middle: its far face belongs to room two.
+  if (options_.scene == synth::SceneLayout::kTwins &&
+      x_m > synth::kRoomMaxX + 0.5 * synth::kTwinsWallM)
+    return true_colour(x_m - synth::kTwinsOffsetM, y_m, z_m);
+  return true_colour(x_m, y_m, z_m);
+}
+
 void SyntheticScene::render(int frame, HostImage<uint16_t>& depth_mm) const {
   render(frame, depth_mm, nullptr);
 }
@@ -443,7 +489,7 @@ void SyntheticScene::render(int frame, HostImage<uint16_t>& depth_mm, HostImage<
         const double c[3] = {(x - cx) / f * z, (y - cy) / f * z, z};
         double p[3];
         for (int i = 0; i < 3; ++i) p[i] = R[i][0] * c[0] + R[i][1] * c[1] + R[i][2] * c[2] + t[i];
-        (*rgb)(x, y) = true_colour(p[0], p[1], p[2]);
+        (*rgb)(x, y) = surface_colour(p[0], p[1], p[2]);
       }
     }
   }
@@ -526,14 +572,16 @@ class SyntheticReader final : public Reader {
   std::string description() const override {
     const SyntheticOptions& o = scene_.options();
     std::ostringstream s;
-    s << (o.scene == synth::SceneLayout::kHouse ? "synthetic house (" : "synthetic room (")
+    s << (o.scene == synth::SceneLayout::kHouse   ? "synthetic house ("
+          : o.scene == synth::SceneLayout::kTwins ? "synthetic twin rooms ("
+                                                  : "synthetic room (")
       << o.frames << " frames, " << o.width_px << "\u00d7" << o.height_px << ", seed " << o.seed
       << ", noise " << (o.noise ? "on" : "off") << ")";
     return s.str();
   }
 
   std::vector<std::pair<std::string, std::string>> recommended_settings() const override {
-    if (scene_.options().scene == synth::SceneLayout::kHouse)
+    if (scene_.options().scene != synth::SceneLayout::kRoom)  // no cube holds house or twins
       return {{"volume", "blocks"}, {"voxel_size_m", "0.01"}, {"init_pose_factor", "0,0,0"}};
     std::ostringstream size, factor;
     size << SyntheticScene::kVolumeSizeM;

@@ -4,8 +4,11 @@
 ///
 /// Spec: "synthetic" or "synthetic:key=value,key=value,...". Keys (defaults):
 ///   scene=room    room: the furnished room below; house: five furnished rooms and a corridor
-///                 (16 × 11.5 m) and a 33 m closed path through them (io/synthetic_house.hpp)
-///   frames=300    number of frames, 1 … 1000000 (the house: one loop of its path by default)
+///                 (16 × 11.5 m) and a 33 m closed path through them (io/synthetic_house.hpp);
+///                 twins: two identical rooms side by side, the room's loop walked in each in
+///                 turn, made to fool place recognition (io/synthetic_twins.hpp)
+///   frames=300    number of frames, 1 … 1000000 (the house: one loop of its path by default;
+///                 the twins: their whole path, 40 s at speed 1)
 ///   width=640     image width in pixels, 16 … 8192
 ///   height=480    image height in pixels, 16 … 8192
 ///   seed=1        noise seed, 0 … 2⁶⁴−1
@@ -32,6 +35,9 @@
 /// origin, 8° down (its first pose is not the identity), and surfaces beyond the sensor's 4 m
 /// (the corridor's far end): the depth model reads 0 there, as a Kinect does. Colour as the
 /// room's (true_colour()).
+///
+/// The twins (scene=twins) are the room twice, 3.72 m apart along x, and recommend the house's
+/// settings; the second room wears the first room's colours (surface_colour()).
 
 #include <cstdint>
 #include <memory>
@@ -43,6 +49,7 @@
 #include "io/reader.hpp"
 #include "io/synthetic_house.hpp"
 #include "io/synthetic_scene.hpp"
+#include "io/synthetic_twins.hpp"
 #include "io/trajectory.hpp"
 
 namespace kfx::io {
@@ -117,6 +124,9 @@ class SyntheticScene {
   /// scene=house).
   static int house_loop_frames(double speed);
 
+  /// Frames of the twins' whole path at `speed` (the default frame count of scene=twins).
+  static int twins_path_frames(double speed);
+
   /// Intrinsics at the chosen resolution: fx = fy = 525·width/640, cx = (width−1)/2,
   /// cy = (height−1)/2 (pixel centres at integer coordinates).
   Intrinsics intrinsics() const;
@@ -140,11 +150,15 @@ class SyntheticScene {
   /// depend on the thread count.
   void render(int frame, HostImage<uint16_t>& depth_mm) const;
   /// The same, and the frame's colour image into `rgb` when it is not null (the depth camera's
-  /// view, registered pixel for pixel, each pixel true_colour() of the surface point it sees).
+  /// view, registered pixel for pixel, each pixel surface_colour() of the surface point it sees).
   void render(int frame, HostImage<uint16_t>& depth_mm, HostImage<Rgb8>* rgb) const;
   /// The exact colour of the scene's surfaces at scene point (x, y, z), metres: a smooth solid
   /// texture (one sinusoid per channel along one axis, periods 1.6–2.4 m, 48..208 per channel).
   static Rgb8 true_colour(double x_m, double y_m, double z_m);
+  /// The colour this scene's surfaces have at scene point (x, y, z), metres: true_colour(),
+  /// except that the twins' second room wears the first room's colours (x shifted back by
+  /// synth::kTwinsOffsetM), so the rooms look the same in colour as in depth.
+  Rgb8 surface_colour(double x_m, double y_m, double z_m) const;
 
   /// Side of a cubic TSDF volume that holds the WHOLE room, metres (so it holds everything the
   /// camera sees at any resolution or aspect ratio); the reader recommends it.
@@ -169,7 +183,8 @@ class SyntheticScene {
 
 /// Opens the synthetic scene from a spec (see the top of this header) as a Reader. The room's
 /// recommended_settings() are {"volume_size_m", "4.2"} and {"init_pose_factor", "0.5,0.52,0.09"};
-/// the house's (which no cube holds) {"volume", "blocks"}, {"voxel_size_m", "0.01"} and
+/// the house's and the twins' (which no cube holds) {"volume", "blocks"}, {"voxel_size_m", "0.01"}
+/// and
 /// {"init_pose_factor", "0,0,0"} (the map's frame is the first camera's).
 std::unique_ptr<Reader> make_synthetic_reader(const std::string& spec);
 

@@ -40,6 +40,8 @@ inline double slab_entry(const double o[3], const double inv_d[3], const double 
 RoomGeometry::RoomGeometry(SceneLayout layout) {
   if (layout == SceneLayout::kHouse) {
     build_house();
+  } else if (layout == SceneLayout::kTwins) {
+    build_twins();
   } else {
     build_room();
   }

@@ -29,6 +29,7 @@ inline constexpr double kRoomMaxZ = 3.6;    ///< front wall, facing the first ca
 enum class SceneLayout {
   kRoom,   ///< the furnished room (kRoomMinX … kRoomMaxZ)
   kHouse,  ///< five furnished rooms and a corridor, 16 × 11.5 m (io/synthetic_house.hpp)
+  kTwins,  ///< two copies of the room side by side, joined by a doorway (io/synthetic_twins.hpp)
 };
 
 /// One area sample of a scene's visible surface: a point on it, the unit normal pointing into
@@ -111,9 +112,10 @@ class RoomGeometry {
   /// A ray with its reciprocal direction and its best hit so far.
   struct Ray;
 
-  /// The two layouts (the house in io/synthetic_house.cpp).
+  /// The layouts (the house in io/synthetic_house.cpp, the twins in io/synthetic_twins.cpp).
   void build_room();
   void build_house();
+  void build_twins();
   /// Signed distance of `p` to primitive `p` alone (negative inside).
   static double prim_signed_distance(const Prim& prim, const double p[3]);
   /// Appends the area samples of one primitive's surface (every face, unfiltered).
