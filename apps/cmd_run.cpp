@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <sstream>
 
 #include "api/internal.hpp"
 #include "commands.hpp"
@@ -155,6 +156,13 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   const FrameDiagnostics& diagnostics = ReconstructionAccess::diagnostics(reconstruction);
   std::array<int, static_cast<int>(FrameCause::kCount)> cause_frames_before{};
   std::vector<int> trajectory_frames;  ///< the input's number of each pose in `trajectory`
+  // Every warning line said on the terminal, with its frame (stats.json's `warnings`, the
+  // report): the input's assumptions and settings that do nothing come with the first frame.
+  nlohmann::json warning_lines = nlohmann::json::array();
+  auto said = [&](const nlohmann::json& frame, const std::string& line) {
+    std::cerr << "kfx run: warning: " << line << "\n";
+    warning_lines.push_back({{"frame", frame}, {"text", line}});
+  };
   // Writes one finished frame's log line and pose (frames finish in order).
   auto finish = [&](const FrameResult& result) {
     const double acquisition_s = acquisition_s_in_flight.front();
@@ -165,7 +173,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     report.index = result.input_index;
     // The camera or the scene leaving the volume, or a depth scale that looks wrong: warnings,
     // not progress, said with -q too, before the tracking loss they may explain.
-    for (const auto& line : result.warnings) std::cerr << "kfx run: warning: " << line << "\n";
+    for (const auto& line : result.warnings) said(report.index, line);
     log.add(report, acquisition_s);
     trajectory.push_back(io::to_stamped_pose(result.stamp_s, report.T_world_cam));
     trajectory_frames.push_back(report.index);
@@ -197,18 +205,19 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     // The block map's budget: never a silent stop. Said at the first frame short of blocks and
     // then every 100th (stats.json counts them all).
     if (report.map_blocks_dropped > 0 && (summary.map_frames_short - 1) % 100 == 0) {
-      std::cerr << "kfx run: warning: frame " << report.index << ": the map is full ("
-                << report.map_blocks << " blocks, map_budget_mb "
-                << pipeline.config().volume.map_budget_mb << "): " << report.map_blocks_dropped
-                << " blocks of this frame's surface were not stored (" << summary.map_frames_short
-                << " frame(s) short so far)";
+      std::ostringstream full;
+      full << "frame " << report.index << ": the map is full (" << report.map_blocks
+           << " blocks, map_budget_mb " << pipeline.config().volume.map_budget_mb
+           << "): " << report.map_blocks_dropped
+           << " blocks of this frame's surface were not stored (" << summary.map_frames_short
+           << " frame(s) short so far)";
       if (pipeline.config().volume.map_swap) {
-        std::cerr << "; the blocks within map_swap_distance_m (" << pipeline.swap_distance_m()
-                  << " m) of the camera fill it alone: raise map_budget_mb or lower "
-                  << "map_swap_distance_m (at least " << pipeline.swap_reach_m() + kSwapMinMarginM
-                  << " m)";
+        full << "; the blocks within map_swap_distance_m (" << pipeline.swap_distance_m()
+             << " m) of the camera fill it alone: raise map_budget_mb or lower "
+             << "map_swap_distance_m (at least " << pipeline.swap_reach_m() + kSwapMinMarginM
+             << " m)";
       }
-      std::cerr << "\n";
+      said(report.index, full.str());
     }
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
@@ -249,7 +258,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     if (result.status == io::ReadStatus::kBadFrame) {
       KFX_CHECK(options.skip_bad_frames,
                 result.message << " (use --skip-bad-frames to skip bad frames)");
-      std::cerr << "kfx run: warning: skipping bad frame: " << result.message << "\n";
+      said(frame.index, "skipping bad frame: " + result.message);
       ++skipped;
       skipped_frames.push_back(frame.index);
       continue;
@@ -337,7 +346,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       summary.ate_rmse_m = result.ate.stats_m.rmse;
     } catch (const Error& e) {
       stats["ate_error"] = e.what();
-      std::cerr << "kfx run: warning: no ATE: " << e.what() << "\n";
+      said(nullptr, std::string("no ATE: ") + e.what());
     }
   }
 
@@ -350,6 +359,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     i = j;
   }
   stats["warning_stretches"] = stretches.to_json();
+  stats["warnings"] = warning_lines;
   // The whole run's warnings once more, every stretch counted (the live warnings stop after a
   // few per cause): the terminal says what stats.json and the report say.
   for (const auto& line : warning_summary_lines(stretches.stretches())) {

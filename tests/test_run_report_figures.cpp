@@ -108,6 +108,35 @@ TEST_F(RunReportFigures, AFullBlockMapIsAStretchFromItsFirstFrame) {
   EXPECT_EQ(full[0][2], stats["map_frames_short_of_blocks"].get<int>());
 }
 
+TEST_F(RunReportFigures, EveryWarningLineIsInStatsAndTheReportWithItsFrame) {
+  // voxel_size_m on the dense cube does nothing: said with the first frame; a 1 MiB block budget
+  // would be another, but one cause suffices to follow a line from the terminal to the report.
+  const fs::path run = dir_ / "run";
+  const auto r = run_kfx(
+      "run synthetic:frames=4,width=160,height=120 --backend cpu -q --no-mesh -v 64 "
+      "--set voxel_size_m=0.02 --out " +
+      run.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string expected =
+      "setting voxel_size_m=0.02 does nothing: it needs volume=blocks (this reconstruction has "
+      "volume=dense)";
+  EXPECT_NE(r.output.find("kfx run: warning: " + expected), std::string::npos) << r.output;
+  const json stats = read_json(run / "stats.json");
+  ASSERT_TRUE(stats["warnings"].is_array()) << stats.dump();
+  bool found = false;
+  for (const auto& w : stats["warnings"]) {
+    if (w["text"] == expected) {
+      found = true;
+      EXPECT_EQ(w["frame"], 0);
+    }
+  }
+  EXPECT_TRUE(found) << stats["warnings"];
+  std::ifstream page(run / "report.html");
+  std::stringstream html;
+  html << page.rdbuf();
+  EXPECT_NE(html.str().find(expected), std::string::npos);
+}
+
 /// Every key ending in "_bytes" (at any depth) of `j`, as "a.b" paths.
 void byte_keys(const json& j, const std::string& prefix, std::vector<std::string>& keys) {
   if (!j.is_object()) return;

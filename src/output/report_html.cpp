@@ -363,6 +363,8 @@ ReportResult write_report(const std::string& run_dir) {
   data["log"] = log;
   data["lost_frames"] = lost_frames(stats, log);
   data["warning_stretches"] = warning_stretches(stats, data["lost_frames"]);
+  // Every warning line the terminal said, with its frame (absent from runs written before).
+  data["warning_lines"] = stats.value("warnings", json::array());
   data["renders"] = renders_data(run_dir, result);
   data["render_frames_in_run"] = result.render_frames_in_run;
   data["mesh"] = mesh_data(run_dir, result);

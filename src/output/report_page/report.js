@@ -90,16 +90,24 @@
 
   // ---- Warnings: every stretch of frames with a warning cause (stats.json's warning_stretches) ----
   var stretches = KFX.warning_stretches || [];
-  if (!stretches.length) {
-    el("warnings").innerHTML = '<div class="note">No warnings: no frame was lost, poorly constrained, diverged or ' +
-      "out of the volume, and no depth looked implausible.</div>";
-  } else {
-    el("warnings").innerHTML = '<table class="warnings"><tr><th>cause</th><th>frames</th><th>frames with it</th></tr>' +
+  // Every warning line as the terminal said it (stats.json's warnings), with its frame.
+  var lines = KFX.warning_lines || [];
+  var warningsHtml = "";
+  if (stretches.length) {
+    warningsHtml += '<table class="warnings"><tr><th>cause</th><th>frames</th><th>frames with it</th></tr>' +
       stretches.map(function (w) {
         var range = w.first_frame === w.last_frame ? String(w.first_frame) : w.first_frame + "–" + w.last_frame;
         return "<tr><td>" + text(w.description || w.cause) + "</td><td>" + text(range) + "</td><td>" + text(w.frames) + "</td></tr>";
       }).join("") + "</table>";
   }
+  if (lines.length) {
+    warningsHtml += '<h3>As said during the run</h3><table class="warning-lines"><tr><th>frame</th><th>warning</th></tr>' +
+      lines.map(function (w) {
+        return "<tr><td>" + text(w.frame === null ? "whole run" : w.frame) + "</td><td>" + text(w.text) + "</td></tr>";
+      }).join("") + "</table>";
+  }
+  el("warnings").innerHTML = warningsHtml || '<div class="note">No warnings: no frame was lost, poorly constrained, diverged or ' +
+    "out of the volume, no depth looked implausible, and the input and settings needed no remark.</div>";
 
   // ---- Lost frames: tracking ran and failed (stats.json's lost_frames) ----
   var L = KFX.log;
