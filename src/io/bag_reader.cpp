@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include "core/platform.hpp"
@@ -18,9 +19,13 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kImageType = "sensor_msgs/Image";
+constexpr const char* kCompressedImageType = "sensor_msgs/CompressedImage";
 constexpr const char* kCameraInfoType = "sensor_msgs/CameraInfo";
-/// RealSense's recorder names its image topics <stream>/image/data and keeps the stream's
-/// CameraInfo at <stream>/info/camera_info, its extrinsic at <stream>/tf/0.
+constexpr const char* kStringType = "std_msgs/String";
+/// RealSense's recorder names its image topics <stream>/image/data (ROS 2 form: with
+/// /compressed or /compressedDepth after it), keeps the stream's CameraInfo at
+/// <stream>/info/camera_info (ROS 2 form: <stream>/image/camera_info) and its extrinsic at
+/// <stream>/tf/0 (ROS 2 form: a string at <stream>/tf/ref_N).
 constexpr const char* kRealSenseImageSuffix = "/image/data";
 /// Colour further than this from a depth image in time is not its colour.
 constexpr double kMaxColourGapS = 0.1;
@@ -35,11 +40,46 @@ std::string parent_topic(const std::string& topic) {
   return slash == std::string::npos ? std::string() : topic.substr(0, slash);
 }
 
+/// The image topic a compressed one transports (".../image_raw/compressedDepth" →
+/// ".../image_raw"); `topic` itself otherwise.
+std::string base_image_topic(const std::string& topic) {
+  const auto slash = topic.rfind('/');
+  if (slash != std::string::npos && topic.compare(slash + 1, 10, "compressed") == 0) {
+    return topic.substr(0, slash);
+  }
+  return topic;
+}
+
 /// RealSense's stream prefix ("/device_0/sensor_0/Depth_0") of an image topic, "" otherwise.
-std::string realsense_stream(const std::string& topic) {
-  return ends_with(topic, kRealSenseImageSuffix)
-             ? topic.substr(0, topic.size() - std::char_traits<char>::length(kRealSenseImageSuffix))
-             : std::string();
+std::string realsense_stream(const std::string& image_topic) {
+  const std::string topic = base_image_topic(image_topic);
+  const std::string suffix = kRealSenseImageSuffix;
+  return ends_with(topic, suffix) ? topic.substr(0, topic.size() - suffix.size()) : std::string();
+}
+
+/// The number after `key=` in RealSense's "key=value;key=value" strings; NaN when absent.
+double realsense_value(const std::string& text, const std::string& key) {
+  size_t at = 0;
+  while ((at = text.find(key + "=", at)) != std::string::npos) {
+    if (at == 0 || text[at - 1] == ';') {
+      return std::strtod(text.c_str() + at + key.size() + 1, nullptr);
+    }
+    at += key.size();
+  }
+  return std::nan("");
+}
+
+/// RealSense's "key=v0,v1,...;" list; empty when absent.
+std::vector<double> realsense_list(const std::string& text, const std::string& key) {
+  std::vector<double> values;
+  const auto at = text.find(key + "=");
+  if (at == std::string::npos) return values;
+  const size_t start = at + key.size() + 1;
+  const size_t end = std::min(text.find(';', start), text.size());
+  std::stringstream stream(text.substr(start, end - start));
+  std::string item;
+  while (std::getline(stream, item, ',')) values.push_back(std::strtod(item.c_str(), nullptr));
+  return values;
 }
 
 std::string list_topics(const std::vector<std::string>& names) {
@@ -93,7 +133,11 @@ class BagReader : public Reader {
     const std::string where = kind_ + " '" + bag_->path() + "'";
     std::vector<std::string> images, infos;
     for (const auto& topic : bag_->topics()) {
-      if (topic.type == kImageType) images.push_back(topic.name);
+      if (topic.type == kImageType || topic.type == kCompressedImageType) {
+        images.push_back(topic.name);
+        types_[topic.name] = topic.type;
+      }
+      if (topic.type == kStringType) types_[topic.name] = topic.type;
       if (topic.type == kCameraInfoType) infos.push_back(topic.name);
     }
     // The depth topic: named, else the one image topic holding depth.
@@ -116,6 +160,7 @@ class BagReader : public Reader {
     }
     require_image_topic(depth_topic_, images, "depth", where);
     const RosImage first = first_image(depth_topic_);
+
     KFX_CHECK(is_depth_encoding(first.encoding),
               where << ", topic '" << depth_topic_ << "', first message: unknown depth encoding '"
                     << first.encoding << "' (kfx reads 16UC1, mono16 and 32FC1)");
@@ -123,7 +168,7 @@ class BagReader : public Reader {
     height_px_ = static_cast<int>(first.height_px);
     depth_ = bag_->messages(depth_topic_);
     realsense_ = !realsense_stream(depth_topic_).empty();
-    if (realsense_) kind_ = "RealSense bag";
+    if (realsense_) kind_ = "RealSense recording";
 
     // Intrinsics from the depth camera's CameraInfo.
     depth_info_topic_ =
@@ -154,16 +199,25 @@ class BagReader : public Reader {
     if (first.encoding != "32FC1") {
       metres_per_unit_ = 0.001;
       if (realsense_) {
-        const std::string units = parent_topic(parent_topic(realsense_stream(depth_topic_))) +
-                                  "/option/Depth Units/value";
-        const auto messages = bag_->messages(units);
-        if (!messages.empty()) {
+        // ROS 1 form: a Float32 at "Depth Units"; ROS 2 form: a string at "Depth_Units".
+        const std::string sensor = parent_topic(realsense_stream(depth_topic_));
+        for (const char* name : {"/option/Depth Units/value", "/option/Depth_Units/value"}) {
+          const std::string units = sensor + name;
+          const auto messages = bag_->messages(units);
+          if (messages.empty()) continue;
           const std::string what = where + ", topic '" + units + "'";
+          const auto bytes = bag_->read(messages.front(), units);
           metres_per_unit_ =
-              decode_float32(bag_->read(messages.front(), units), bag_->encoding(), what);
+              types_.count(units)
+                  ? std::strtod(decode_string(bytes, bag_->encoding(), what).c_str(), nullptr)
+                  : decode_float32(bytes, bag_->encoding(), what);
           KFX_CHECK(metres_per_unit_ > 0 && metres_per_unit_ < 1,
                     what << ": absurd depth units " << metres_per_unit_ << " m");
         }
+        // The ROS 2 form stamps images with the recording's clock; the camera's own timestamp
+        // (ms) is in the per-frame metadata string.
+        metadata_topic_ = realsense_stream(depth_topic_) + "/image/metadata";
+        if (types_.count(metadata_topic_)) metadata_ = bag_->messages(metadata_topic_);
       }
       if (options.depth_scale_per_m > 0) metres_per_unit_ = 1.0 / options.depth_scale_per_m;
     }
@@ -187,6 +241,11 @@ class BagReader : public Reader {
                       << "encoding '" << colour.encoding
                       << "' (kfx reads rgb8, bgr8, rgba8, bgra8)");
       colour_ = bag_->messages(colour_topic_);
+      colour_stamps_.assign(colour_.size(), std::nan(""));
+      colour_metadata_topic_ = realsense_stream(colour_topic_) + "/image/metadata";
+      if (realsense_ && types_.count(colour_metadata_topic_)) {
+        colour_metadata_ = bag_->messages(colour_metadata_topic_);
+      }
       set_colour_camera(colour, choice, infos, where);
     }
   }
@@ -201,16 +260,18 @@ class BagReader : public Reader {
          << " (" << message.time_ns * 1e-9 << " s)";
     frame.source = what.str();
     try {
-      const RosImage depth =
-          decode_image(bag_->read(message, depth_topic_), bag_->encoding(), what.str());
+      const RosImage depth = read_image(depth_topic_, message, what.str());
       KFX_CHECK(static_cast<int>(depth.width_px) == width_px_ &&
                     static_cast<int>(depth.height_px) == height_px_,
                 what.str() << ": image is " << depth.width_px << "x" << depth.height_px
                            << ", the first was " << width_px_ << "x" << height_px_);
       frame.depth_mm = depth_image_mm(depth, metres_per_unit_, what.str());
       frame.stamp_s = depth.stamp_s > 0 ? depth.stamp_s : message.time_ns * 1e-9;
+      if (!metadata_.empty()) {
+        frame.stamp_s = camera_stamp_s(message, metadata_topic_, metadata_, what.str());
+      }
       frame.rgb = HostImage<Rgb8>();
-      if (!colour_.empty()) read_colour(message, frame);
+      if (!colour_.empty()) read_colour(frame);
     } catch (const Error& error) {
       return {ReadStatus::kBadFrame, error.what()};
     }
@@ -246,7 +307,63 @@ class BagReader : public Reader {
               kind_ << " '" << bag_->path() << "': topic '" << topic << "' holds no message");
     std::ostringstream what;
     what << kind_ << " '" << bag_->path() << "', topic '" << topic << "', first message";
-    return decode_image(bag_->read(messages.front(), topic), bag_->encoding(), what.str());
+    return read_image(topic, messages.front(), what.str());
+  }
+
+  /// An Image, or a CompressedImage uncompressed.
+  RosImage read_image(const std::string& topic, const BagMessage& message,
+                      const std::string& what) {
+    const auto bytes = bag_->read(message, topic);
+    const auto type = types_.find(topic);
+    if (type != types_.end() && type->second == kCompressedImageType) {
+      return uncompress_image(decode_compressed_image(bytes, bag_->encoding(), what), what);
+    }
+    return decode_image(bytes, bag_->encoding(), what);
+  }
+
+  /// RealSense's (ROS 2 form) camera timestamp of the image `message`, from the metadata
+  /// recorded with it (`metadata`, on `metadata_topic`).
+  double camera_stamp_s(const BagMessage& message, const std::string& metadata_topic,
+                        const std::vector<BagMessage>& metadata, const std::string& what) {
+    const auto at = std::lower_bound(metadata.begin(), metadata.end(), message.time_ns,
+                                     [](const BagMessage& m, int64_t t) { return m.time_ns < t; });
+    KFX_CHECK(at != metadata.end() && at->time_ns == message.time_ns,
+              what << ": no metadata on '" << metadata_topic << "' recorded with it");
+    const std::string text =
+        decode_string(bag_->read(*at, metadata_topic), bag_->encoding(), what + " metadata");
+    const double stamp_ms = realsense_value(text, "timestamp");
+    KFX_CHECK(std::isfinite(stamp_ms),
+              what << ": its metadata on '" << metadata_topic << "' has no timestamp");
+    return stamp_ms * 1e-3;
+  }
+
+  /// A RealSense stream's extrinsic to its reference: a Transform at <stream>/tf/0 (ROS 1
+  /// form) or "rotation=9 values, column-major;translation=3 values" at <stream>/tf/ref_N.
+  bool realsense_extrinsic(const std::string& stream, const std::string& where, RosTransform* out) {
+    for (const auto& topic : bag_->topics()) {
+      if (topic.name.rfind(stream + "/tf/", 0) != 0) continue;
+      const auto messages = bag_->messages(topic.name);
+      const std::string what = where + ", topic '" + topic.name + "'";
+      const auto bytes = bag_->read(messages.front(), topic.name);
+      if (topic.type != kStringType) {
+        *out = decode_transform(bytes, bag_->encoding(), what);
+        return true;
+      }
+      const std::string text = decode_string(bytes, bag_->encoding(), what);
+      const auto r = realsense_list(text, "rotation");
+      const auto t = realsense_list(text, "translation");
+      KFX_CHECK(r.size() == 9 && t.size() == 3,
+                what << ": cannot read the extrinsic '" << text << "'");
+      // Column-major rotation, as a quaternion through its rotation vector.
+      const double m[3][3] = {{r[0], r[3], r[6]}, {r[1], r[4], r[7]}, {r[2], r[5], r[8]}};
+      const auto v = rotation_vector(m);
+      const double angle = std::sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+      const double k = angle > 1e-12 ? std::sin(angle / 2) / angle : 0.5;
+      out->rotation_xyzw = {v[0] * k, v[1] * k, v[2] * k, std::cos(angle / 2)};
+      out->translation_m = {t[0], t[1], t[2]};
+      return true;
+    }
+    return false;
   }
 
   RosCameraInfo first_info(const std::string& topic) {
@@ -268,7 +385,7 @@ class BagReader : public Reader {
   /// <stream>/info/camera_info.
   static std::string info_topic_for(const std::string& image,
                                     const std::vector<std::string>& infos) {
-    std::vector<std::string> tries = {parent_topic(image) + "/camera_info"};
+    std::vector<std::string> tries = {parent_topic(base_image_topic(image)) + "/camera_info"};
     if (!realsense_stream(image).empty())
       tries.push_back(realsense_stream(image) + "/info/camera_info");
     for (const auto& t : tries) {
@@ -309,15 +426,9 @@ class BagReader : public Reader {
     const std::string colour_stream = realsense_stream(colour_topic_);
     if (!depth_stream.empty() && !colour_stream.empty()) {
       // RealSense records each stream's extrinsic to its device's reference stream.
-      const auto depth_tf = bag_->messages(depth_stream + "/tf/0");
-      const auto colour_tf = bag_->messages(colour_stream + "/tf/0");
-      if (!depth_tf.empty() && !colour_tf.empty()) {
-        const RosTransform d =
-            decode_transform(bag_->read(depth_tf.front(), depth_stream + "/tf/0"), bag_->encoding(),
-                             where + ", " + depth_stream + "/tf/0");
-        const RosTransform c =
-            decode_transform(bag_->read(colour_tf.front(), colour_stream + "/tf/0"),
-                             bag_->encoding(), where + ", " + colour_stream + "/tf/0");
+      RosTransform d, c;
+      if (realsense_extrinsic(depth_stream, where, &d) &&
+          realsense_extrinsic(colour_stream, where, &c)) {
         double rd[3][3], rc[3][3], r[3][3];
         quaternion_matrix(d.rotation_xyzw, rd);
         quaternion_matrix(c.rotation_xyzw, rc);
@@ -349,32 +460,56 @@ class BagReader : public Reader {
     colour_settings_ = {{"colour_camera", camera}, {"colour_extrinsic", pose}};
   }
 
-  void read_colour(const BagMessage& depth, Frame& frame) {
-    const auto later =
-        std::lower_bound(colour_.begin(), colour_.end(), depth.time_ns,
-                         [](const BagMessage& m, int64_t t) { return m.time_ns < t; });
-    auto best = later;
-    if (best == colour_.end() ||
-        (later != colour_.begin() &&
-         depth.time_ns - std::prev(later)->time_ns < later->time_ns - depth.time_ns)) {
-      best = std::prev(later);
-    }
-    const double gap_s = std::abs(best->time_ns - depth.time_ns) * 1e-9;
+  std::string colour_what(size_t i) const {
     std::ostringstream what;
-    what << kind_ << " '" << bag_->path() << "', topic '" << colour_topic_ << "', message "
-         << (best - colour_.begin()) << " (" << best->time_ns * 1e-9 << " s)";
-    KFX_CHECK(gap_s <= kMaxColourGapS, frame.source << ": no colour image within " << kMaxColourGapS
-                                                    << " s on topic '" << colour_topic_
-                                                    << "' (nearest " << gap_s << " s away)");
-    const RosImage colour =
-        decode_image(bag_->read(*best, colour_topic_), bag_->encoding(), what.str());
-    frame.rgb = colour_image_rgb(colour, width_px_, height_px_, what.str());
+    what << kind_ << " '" << bag_->path() << "', topic '" << colour_topic_ << "', message " << i
+         << " (" << colour_[i].time_ns * 1e-9 << " s)";
+    return what.str();
+  }
+
+  /// The camera's stamp of colour message `i` (cached: pairing walks the list in order).
+  double colour_stamp_s(size_t i) {
+    if (std::isnan(colour_stamps_[i])) {
+      const BagMessage& m = colour_[i];
+      if (!colour_metadata_.empty()) {
+        colour_stamps_[i] =
+            camera_stamp_s(m, colour_metadata_topic_, colour_metadata_, colour_what(i));
+      } else {
+        const double stamp_s =
+            decode_stamp_s(bag_->read(m, colour_topic_), bag_->encoding(), colour_what(i));
+        colour_stamps_[i] = stamp_s > 0 ? stamp_s : m.time_ns * 1e-9;
+      }
+    }
+    return colour_stamps_[i];
+  }
+
+  /// The colour image nearest the frame's stamp. Both streams run forward in time, so a cursor
+  /// walks the colour stream once.
+  void read_colour(Frame& frame) {
+    const auto gap_s = [&](size_t i) { return std::abs(colour_stamp_s(i) - frame.stamp_s); };
+    while (colour_cursor_ + 1 < colour_.size() &&
+           gap_s(colour_cursor_ + 1) <= gap_s(colour_cursor_)) {
+      ++colour_cursor_;
+    }
+    KFX_CHECK(gap_s(colour_cursor_) <= kMaxColourGapS,
+              frame.source << ": no colour image within " << kMaxColourGapS << " s on topic '"
+                           << colour_topic_ << "' (nearest " << gap_s(colour_cursor_)
+                           << " s away)");
+    const std::string what = colour_what(colour_cursor_);
+    const RosImage colour = read_image(colour_topic_, colour_[colour_cursor_], what);
+    frame.rgb = colour_image_rgb(colour, width_px_, height_px_, what);
   }
 
   std::unique_ptr<BagContainer> bag_;
   std::string kind_;
   bool realsense_ = false;
-  std::string depth_topic_, depth_info_topic_, colour_topic_;
+  std::string depth_topic_, depth_info_topic_, colour_topic_, metadata_topic_;
+  std::map<std::string, std::string> types_;  ///< image and string topics' types
+  std::vector<BagMessage> metadata_;
+  std::string colour_metadata_topic_;
+  std::vector<BagMessage> colour_metadata_;
+  std::vector<double> colour_stamps_;  ///< camera stamps of colour_, NaN until read
+  size_t colour_cursor_ = 0;
   std::vector<BagMessage> depth_, colour_;
   int width_px_ = 0, height_px_ = 0;
   Intrinsics intrinsics_;

@@ -7,6 +7,8 @@
 #include <sstream>
 
 #include "core/platform.hpp"
+#include "io/jpeg.hpp"
+#include "io/png.hpp"
 
 namespace kfx::io {
 namespace {
@@ -131,6 +133,84 @@ RosImage decode_image(const std::vector<uint8_t>& bytes, RosEncoding encoding,
   image.step_bytes = c.read<uint32_t>();
   image.data = c.bytes("data");
   return image;
+}
+
+RosCompressedImage decode_compressed_image(const std::vector<uint8_t>& bytes, RosEncoding encoding,
+                                           const std::string& what) {
+  Cursor c(bytes, encoding, what);
+  RosCompressedImage image;
+  c.header(&image.stamp_s, &image.frame_id);
+  image.format = c.string("format");
+  image.data = c.bytes("data");
+  return image;
+}
+
+double decode_stamp_s(const std::vector<uint8_t>& bytes, RosEncoding encoding,
+                      const std::string& what) {
+  Cursor c(bytes, encoding, what);
+  RosImage header;
+  c.header(&header.stamp_s, &header.frame_id);
+  return header.stamp_s;
+}
+
+std::string decode_string(const std::vector<uint8_t>& bytes, RosEncoding encoding,
+                          const std::string& what) {
+  Cursor c(bytes, encoding, what);
+  return c.string("data");
+}
+
+RosImage uncompress_image(const RosCompressedImage& image, const std::string& what) {
+  static constexpr uint8_t kPngSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1a, '\n'};
+  const auto is_png_at = [&](size_t at) {
+    return image.data.size() >= at + 8 &&
+           std::memcmp(image.data.data() + at, kPngSignature, 8) == 0;
+  };
+  RosImage out;
+  out.stamp_s = image.stamp_s;
+  out.frame_id = image.frame_id;
+  const auto fill = [&](const auto& pixels, const char* encoding, size_t bytes_per_px) {
+    out.width_px = static_cast<uint32_t>(pixels.width());
+    out.height_px = static_cast<uint32_t>(pixels.height());
+    out.encoding = encoding;
+    out.step_bytes = static_cast<uint32_t>(out.width_px * bytes_per_px);
+    const auto* bytes = reinterpret_cast<const uint8_t*>(pixels.data());
+    out.data.assign(bytes, bytes + static_cast<size_t>(out.step_bytes) * out.height_px);
+  };
+  if (image.format.find("compressedDepth") != std::string::npos) {
+    // image_transport's compressedDepth: a 12-byte header (int32 format, float quantisation
+    // A and B) before the PNG, which older writers leave out.
+    const size_t at = is_png_at(0) ? 0 : 12;
+    KFX_CHECK(is_png_at(at), what << ": compressed depth in format '" << image.format
+                                  << "' is not PNG (kfx reads PNG compressedDepth)");
+    const std::vector<unsigned char> png(image.data.begin() + static_cast<std::ptrdiff_t>(at),
+                                         image.data.end());
+    const HostImage<uint16_t> raw = decode_png_gray16(png, what);
+    if (image.format.rfind("32FC1", 0) != 0) {
+      fill(raw, "16UC1", 2);
+      return out;
+    }
+    // 32FC1 is stored as quantised inverse depth: depth = A / (value − B).
+    KFX_CHECK(at == 12, what << ": 32FC1 compressedDepth lacks its quantisation header");
+    float quant[2];
+    std::memcpy(quant, image.data.data() + 4, 8);
+    HostImage<float> metres(raw.width(), raw.height());
+    for (size_t i = 0; i < static_cast<size_t>(raw.width()) * raw.height(); ++i) {
+      const float v = raw.data()[i];
+      metres.data()[i] = v == 0 ? 0.0f : quant[0] / (v - quant[1]);
+    }
+    fill(metres, "32FC1", 4);
+    return out;
+  }
+  if (is_png_at(0)) {
+    fill(decode_png_rgb8(std::vector<unsigned char>(image.data.begin(), image.data.end()), what),
+         "rgb8", 3);
+    return out;
+  }
+  KFX_CHECK(
+      has_jpeg_signature(image.data.data(), image.data.size()),
+      what << ": compressed image in format '" << image.format << "' is neither PNG nor JPEG");
+  fill(decode_jpeg_rgb8(image.data, what), "rgb8", 3);
+  return out;
 }
 
 RosCameraInfo decode_camera_info(const std::vector<uint8_t>& bytes, RosEncoding encoding,

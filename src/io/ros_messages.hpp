@@ -30,6 +30,15 @@ struct RosImage {
   std::vector<uint8_t> data;
 };
 
+/// A sensor_msgs/CompressedImage: image_transport's "compressed" (PNG or JPEG colour) and
+/// "compressedDepth" (PNG depth behind a 12-byte header) forms.
+struct RosCompressedImage {
+  double stamp_s = 0.0;
+  std::string frame_id;
+  std::string format;  ///< e.g. "rgb8; png compressed bgr8", "16UC1; compressedDepth png"
+  std::vector<uint8_t> data;
+};
+
 /// A sensor_msgs/CameraInfo (only what kfx uses).
 struct RosCameraInfo {
   double stamp_s = 0.0;
@@ -50,12 +59,26 @@ struct RosTransform {
 /// naming it when the bytes are too short or hold absurd sizes.
 RosImage decode_image(const std::vector<uint8_t>& bytes, RosEncoding encoding,
                       const std::string& what);
+RosCompressedImage decode_compressed_image(const std::vector<uint8_t>& bytes, RosEncoding encoding,
+                                           const std::string& what);
+/// The header stamp (seconds) of a message that starts with a std_msgs/Header (Image,
+/// CompressedImage, CameraInfo), without decoding the rest.
+double decode_stamp_s(const std::vector<uint8_t>& bytes, RosEncoding encoding,
+                      const std::string& what);
+/// A std_msgs/String's text.
+std::string decode_string(const std::vector<uint8_t>& bytes, RosEncoding encoding,
+                          const std::string& what);
 RosCameraInfo decode_camera_info(const std::vector<uint8_t>& bytes, RosEncoding encoding,
                                  const std::string& what);
 RosTransform decode_transform(const std::vector<uint8_t>& bytes, RosEncoding encoding,
                               const std::string& what);
 float decode_float32(const std::vector<uint8_t>& bytes, RosEncoding encoding,
                      const std::string& what);
+
+/// The compressed image as a plain one: "compressedDepth" PNG as 16UC1 (or 32FC1 from its
+/// quantised inverse depth), "compressed" PNG or JPEG colour as rgb8. Throws kfx::Error naming
+/// `what` on a format kfx does not read or a corrupt image.
+RosImage uncompress_image(const RosCompressedImage& image, const std::string& what);
 
 /// True for the encodings kfx reads as depth ("16UC1", "mono16", "32FC1").
 bool is_depth_encoding(const std::string& encoding);
