@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 import pathlib
+import time
 from typing import Any, Iterator, Optional, Tuple
 
 import numpy as np
@@ -143,11 +144,14 @@ def write_ros2_bag(input: str, path: str, frames: Optional[int] = None,
 
 
 def write_realsense_bag(input: str, path: str, frames: Optional[int] = None,
-                        fps: int = 30) -> int:
-    """Writes the first ``frames`` frames of ``input`` as a RealSense bag at ``path`` through
-    librealsense's own recorder (``pyrealsense2``'s software device): z16 depth with 1 mm
-    Depth Units, rgb8 colour registered to it, the camera as both streams' intrinsics. Frames
-    are stamped with the input's stamps. Returns the frames written."""
+                        fps: int = 30, paced: bool = False) -> int:
+    """Writes the first ``frames`` frames of ``input`` (all when None) as a RealSense recording
+    at ``path`` through librealsense's own recorder (``pyrealsense2``'s software device): z16
+    depth with 1 mm Depth Units, rgb8 colour registered to it, the camera as both streams'
+    intrinsics. pyrealsense2 up to 2.56 writes its ROS 1 form (``.bag``), later ones its ROS 2
+    form (``path`` must end in ``.db3``). Frames are stamped with the input's stamps, or with
+    ``paced`` at ``fps`` and recorded at that pace (a camera's recording to replay in real
+    time). Returns the frames written."""
     rs = _need("pyrealsense2", "realsense")
     camera, source = _frames(input, frames)
     source = list(source)
@@ -192,13 +196,16 @@ def write_realsense_bag(input: str, path: str, frames: Optional[int] = None,
         out = rs.software_video_frame()
         out.pixels = np.ascontiguousarray(pixels)
         out.bpp, out.stride = bpp, bpp * camera.width
-        out.timestamp = frame.stamp * 1000.0
+        out.timestamp = frame.index * 1000.0 / fps if paced else frame.stamp * 1000.0
         out.domain = rs.timestamp_domain.hardware_clock
         out.frame_number = frame.index
         out.profile = profile.as_video_stream_profile()
         sensor.on_video_frame(out)
 
+    start = time.monotonic()
     for frame in source:
+        if paced:
+            time.sleep(max(0.0, start + frame.index / fps - time.monotonic()))
         send(depth_sensor, depth_profile, frame.depth, 2, frame)
         if colour_sensor is not None:
             send(colour_sensor, colour_profile, frame.colour, 3, frame)
