@@ -55,7 +55,8 @@ class LiveStats:
     source: str = ""
     frames_received: int = 0     # frames the camera delivered to kfx
     frames_processed: int = 0    # frames the reconstruction ran on
-    frames_dropped: int = 0      # frames dropped from the full queue (kfx fell behind)
+    frames_dropped: int = 0      # received, not processed: dropped from the full queue (kfx
+    #                              fell behind) or still waiting when stopped
     frames_missed: int = 0       # gaps in the camera's frame numbers (lost before kfx saw them)
     queue_size: int = 0          # the queue's bound
     max_queue_depth: int = 0     # the most frames that ever waited
@@ -107,6 +108,7 @@ class Camera:
         self.queue: "queue.Queue[Optional[LiveFrame]]" = queue.Queue(maxsize=queue_size)
         self.stats = LiveStats(source=self.source, queue_size=queue_size)
         self._stop = threading.Event()
+        self._wait_when_full = bool(from_file) and not real_time
         self._last_number: Optional[int] = None
         self._lock = threading.Lock()
         self._thread = threading.Thread(target=self._capture, name="kfx-camera", daemon=True)
@@ -127,20 +129,29 @@ class Camera:
         return LiveFrame(np.array(depth.get_data(), copy=True), colour,
                          depth.get_timestamp() * 1e-3, depth.get_frame_number())
 
-    def _put(self, frame: Optional[LiveFrame]) -> None:
-        """Queues `frame`; when the queue is full the oldest waiting frame is dropped."""
-        while True:
+    def _put(self, frame: Optional[LiveFrame], wait: bool) -> None:
+        """Queues `frame`. When the queue is full, `wait` waits for room while the camera runs
+        (a recording played as fast as it is read: reading it loses nothing); otherwise the
+        oldest waiting frame is dropped and counted."""
+        while wait and not self._stop.is_set():
             try:
-                self.queue.put_nowait(frame)
+                self.queue.put(frame, timeout=0.1)
                 break
             except queue.Full:
+                pass
+        else:
+            while True:
                 try:
-                    dropped = self.queue.get_nowait()
+                    self.queue.put_nowait(frame)
+                    break
+                except queue.Full:
+                    try:
+                        dropped = self.queue.get_nowait()
+                    except queue.Empty:
+                        continue
                     if dropped is not None:
                         with self._lock:
                             self.stats.frames_dropped += 1
-                except queue.Empty:
-                    pass
         with self._lock:
             self.stats.max_queue_depth = max(self.stats.max_queue_depth, self.queue.qsize())
 
@@ -162,11 +173,11 @@ class Camera:
                         self.stats.frames_missed += frame.number - self._last_number - 1
                     self._last_number = frame.number
                     self.stats.frames_received += 1
-                self._put(frame)
+                self._put(frame, self._wait_when_full)
         except Exception as error:  # noqa: BLE001 (reported by the reading side)
             self.error = error
         finally:
-            self._put(None)  # tells the reader the camera stopped
+            self._put(None, False)  # tells the reader the camera stopped
 
     end_reason = ""
     error: Optional[BaseException] = None
@@ -190,23 +201,27 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
         preset: str = "exact", settings: Optional[Dict[str, str]] = None, frames: int = 0,
         queue_size: int = 2, colour: bool = True, mesh: bool = True, real_time: bool = True,
         viewer: Optional[Any] = None, on_frame: Optional[Callable[[Any], None]] = None,
-        stop: Optional[threading.Event] = None) -> LiveStats:
+        stop: Optional[threading.Event] = None,
+        on_start: Optional[Callable[["Camera"], None]] = None) -> LiveStats:
     """Reconstructs from the camera (or ``from_file`` at the camera's pace) until ``stop`` is
     set, ``frames`` frames are processed (0: no limit) or the recording ends; then writes
     ``out``/trajectory.txt, mesh.ply (unless ``mesh`` is False) and stats.json, and returns
-    the stats. ``viewer`` (a kfx.viewer.Viewer) is fed each frame off the frame loop."""
+    the stats. ``viewer`` (a kfx.viewer.Viewer) is fed each frame off the frame loop;
+    ``on_frame`` gets each FrameResult, ``on_start`` the Camera once it runs."""
     if queue_size < 1:
         raise kfx.Error("kfx live: the queue holds at least one frame")
     out_dir = pathlib.Path(out)
-    out_dir.mkdir(parents=True, exist_ok=True)
     stop = stop or threading.Event()
     camera = Camera(from_file, serial, colour=colour, queue_size=queue_size, real_time=real_time)
     stats = camera.stats
-    reconstruction = kfx.Reconstruction(camera=camera.camera, backend=backend, preset=preset,
-                                        **(settings or {}))
     depth_scale = 1.0 / camera.depth_units_m
     started = None
+    reconstruction = None
     try:
+        reconstruction = kfx.Reconstruction(camera=camera.camera, backend=backend, preset=preset,
+                                            **(settings or {}))
+        if on_start is not None:
+            on_start(camera)
         while not stop.is_set():
             try:
                 frame = camera.queue.get(timeout=0.2)
@@ -232,11 +247,19 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
             stats.stopped_by = getattr(stop, "reason", "") or "stopped"
     finally:
         camera.stop()
+        while True:  # frames still waiting when stopped: received, not processed
+            try:
+                waiting = camera.queue.get_nowait()
+            except queue.Empty:
+                break
+            if waiting is not None:
+                stats.frames_dropped += 1
+        out_dir.mkdir(parents=True, exist_ok=True)
         stats.seconds = time.monotonic() - started if started else 0.0
         stats.processed_per_s = stats.frames_processed / stats.seconds if stats.seconds else 0.0
         if viewer is not None:
             stats.viewer = viewer.close()
-        if stats.frames_processed:
+        if reconstruction is not None and stats.frames_processed:
             reconstruction.save_trajectory(str(out_dir / "trajectory.txt"), stats.source)
             if mesh:
                 reconstruction.save_mesh(str(out_dir / "mesh.ply"), stats.source)
@@ -297,7 +320,11 @@ def main(argv: Optional[List[str]] = None) -> int:
             viewer = Viewer(args.rerun)
         stats = run(args.out, args.from_file, args.serial, args.backend, args.preset, settings,
                     args.frames, args.queue, not args.no_colour, not args.no_mesh,
-                    not args.fast_playback, viewer, stop=stop.event)
+                    not args.fast_playback, viewer, stop=stop.event,
+                    on_start=None if args.quiet else lambda camera: print(
+                        f"kfx live: reading {camera.source} ({camera.camera.width}x"
+                        f"{camera.camera.height}); Ctrl-C stops and writes the outputs",
+                        file=sys.stderr, flush=True))
     except kfx.Error as error:
         print(f"kfx live: error: {error}", file=sys.stderr)
         return 1
