@@ -144,7 +144,8 @@ class Ros1BagBuilder {
     field(info_header, "end_time", uint64_t{0});
     field(info_header, "count", static_cast<int32_t>(connections_.size()));
     for (size_t c = 0; c < connections_.size(); ++c) {
-      info.put<int32_t>(static_cast<int32_t>(c)).put<uint32_t>(static_cast<uint32_t>(index[c].size()));
+      info.put<int32_t>(static_cast<int32_t>(c))
+          .put<uint32_t>(static_cast<uint32_t>(index[c].size()));
     }
     record(index_section, info_header, info.data());
     out.insert(out.end(), index_section.data().begin(), index_section.data().end());

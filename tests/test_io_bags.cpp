@@ -31,10 +31,10 @@ std::vector<uint8_t> colour_bytes(uint8_t base, int channels) {
 Ros1BagBuilder camera_bag(int frames = 2, bool with_info = true, bool with_colour = true) {
   Ros1BagBuilder bag;
   const int depth = bag.connection("/camera/depth/image_raw", "sensor_msgs/Image");
-  const int info = with_info ? bag.connection("/camera/depth/camera_info", "sensor_msgs/CameraInfo")
-                             : -1;
-  const int colour = with_colour ? bag.connection("/camera/color/image_raw", "sensor_msgs/Image")
-                                 : -1;
+  const int info =
+      with_info ? bag.connection("/camera/depth/camera_info", "sensor_msgs/CameraInfo") : -1;
+  const int colour =
+      with_colour ? bag.connection("/camera/color/image_raw", "sensor_msgs/Image") : -1;
   for (int f = 0; f < frames; ++f) {
     const double t = 10.0 + f / 30.0;
     if (info >= 0) bag.message(info, t, ros1_camera_info(kW, kH, 2.5, 2.0, 1.5, 1.0));
@@ -122,7 +122,8 @@ TEST(RosBag, RealSenseDepthUnitsAndExtrinsicComeFromTheFile) {
   const std::string d = "/device_0/sensor_0/Depth_0", c = "/device_0/sensor_1/Color_0";
   const int depth = bag.connection(d + "/image/data", "sensor_msgs/Image");
   const int info = bag.connection(d + "/info/camera_info", "sensor_msgs/CameraInfo");
-  const int units = bag.connection("/device_0/sensor_0/option/Depth Units/value", "std_msgs/Float32");
+  const int units =
+      bag.connection("/device_0/sensor_0/option/Depth Units/value", "std_msgs/Float32");
   const int depth_tf = bag.connection(d + "/tf/0", "geometry_msgs/Transform");
   const int colour = bag.connection(c + "/image/data", "sensor_msgs/Image");
   const int colour_tf = bag.connection(c + "/tf/0", "geometry_msgs/Transform");
@@ -134,7 +135,8 @@ TEST(RosBag, RealSenseDepthUnitsAndExtrinsicComeFromTheFile) {
   // Depth at the reference; colour 15 mm along x and turned 90° about z.
   Bytes identity, turned;
   for (double v : {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0}) identity.put<double>(v);
-  for (double v : {0.015, 0.0, 0.0, 0.0, 0.0, std::sqrt(0.5), std::sqrt(0.5)}) turned.put<double>(v);
+  for (double v : {0.015, 0.0, 0.0, 0.0, 0.0, std::sqrt(0.5), std::sqrt(0.5)})
+    turned.put<double>(v);
   bag.message(depth_tf, 0.0, identity.data());
   bag.message(colour_tf, 0.0, turned.data());
   bag.message(info, 1.0, ros1_camera_info(kW, kH, 2.5, 2.0, 1.5, 1.0));
@@ -213,9 +215,9 @@ TEST(RosBag, UnknownDepthEncodingNamesTheTopicAndMessage) {
   const std::string path = write_bag(dir, bag);
   // Not recognised as depth automatically, and refused when named.
   expect_error([&] { open_reader(path); }, {path, "has no depth topic"});
-  expect_error([&] { open_reader(path + "?depth=/camera/depth/image_raw"); },
-               {path, "topic '/camera/depth/image_raw'", "first message",
-                "unknown depth encoding '8UC1'"});
+  expect_error(
+      [&] { open_reader(path + "?depth=/camera/depth/image_raw"); },
+      {path, "topic '/camera/depth/image_raw'", "first message", "unknown depth encoding '8UC1'"});
 }
 
 TEST(RosBag, MissingIntrinsicsNameTheDepthTopic) {
@@ -266,7 +268,8 @@ TEST(RosBag, AMessageShorterThanItsImageIsABadFrameNamingIt) {
   const std::string path = write_bag(dir, bag);
   auto reader = open_reader(path);
   expect_ok_frame(*reader);
-  expect_bad_frame(*reader, {path, "topic '/camera/depth/image_raw'", "message 1", "10 data bytes"});
+  expect_bad_frame(*reader,
+                   {path, "topic '/camera/depth/image_raw'", "message 1", "10 data bytes"});
   expect_ok_frame(*reader);  // later frames are fine
   expect_end(*reader);
 }
