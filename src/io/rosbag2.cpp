@@ -68,7 +68,8 @@ class Statement {
  public:
   Statement(sqlite3* db, const char* sql, const std::string& where) {
     KFX_CHECK(sqlite3_prepare_v2(db, sql, -1, &statement_, nullptr) == SQLITE_OK,
-              where << ": not a rosbag2 database (" << sqlite3_errmsg(db) << ")");
+              where << ": cannot read it as a rosbag2 database (" << sqlite3_errmsg(db)
+                    << "; truncated, corrupt, or not a rosbag2 bag?)");
   }
   ~Statement() { sqlite3_finalize(statement_); }
   Statement(const Statement&) = delete;

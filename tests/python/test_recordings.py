@@ -186,3 +186,42 @@ def test_a_topic_choice_on_a_folder_is_refused():
         pytest.skip(f"{FOLDER} not present")
     with pytest.raises(kfx.Error, match="applies only to recordings"):
         kfx.open(f"{FOLDER}?depth=/camera/depth/image_raw")
+
+
+@pytest.mark.parametrize("recording", ["ros2"], indirect=True)
+def test_bad_ros2_bags_name_the_file_and_the_problem(recording, tmp_path):
+    database = next(recording.glob("*.db3"))
+    # Truncated: sqlite finds the database malformed.
+    truncated = tmp_path / "truncated.db3"
+    truncated.write_bytes(database.read_bytes()[: database.stat().st_size // 3])
+    with pytest.raises(kfx.Error, match=f"ROS 2 bag '{truncated}'"):
+        list(kfx.open(str(truncated)))
+    # Stored compressed, or as mcap: named, not misread.
+    compressed = tmp_path / "compressed"
+    compressed.mkdir()
+    (compressed / "compressed.db3").write_bytes(database.read_bytes())
+    (compressed / "metadata.yaml").write_text(
+        (recording / "metadata.yaml").read_text().replace("compression_format: ''",
+                                                          "compression_format: zstd"))
+    with pytest.raises(kfx.Error, match="zstd-compressed"):
+        kfx.open(str(compressed))
+    mcap = tmp_path / "mcap"
+    mcap.mkdir()
+    (mcap / "mcap_0.mcap").write_bytes(b"\x89MCAP0\r\n")
+    with pytest.raises(kfx.Error, match="mcap"):
+        kfx.open(str(mcap))
+
+
+@pytest.mark.parametrize("recording", ["ros1"], indirect=True)
+def test_the_cli_refuses_a_truncated_recording_and_writes_nothing(recording, tmp_path):
+    cli = kfx_cli()
+    if cli is None:
+        pytest.skip("the kfx CLI is not built")
+    cut = tmp_path / "cut.bag"
+    cut.write_bytes(recording.read_bytes()[:100000])
+    out = tmp_path / "run"
+    result = subprocess.run([str(cli), "run", str(cut), "--backend", "cpu", "-q", "--out",
+                             str(out)], capture_output=True, text=True)
+    assert result.returncode != 0
+    assert f"ROS bag '{cut}'" in result.stderr and "truncated" in result.stderr
+    assert not out.exists() or not any(out.iterdir())
