@@ -103,8 +103,21 @@ class Camera:
         coeffs = list(k.coeffs)[:5] if k.model in (rs.distortion.brown_conrady,) else [0.0] * 5
         self.camera = kfx.Camera(k.width, k.height, k.fx, k.fy, k.ppx, k.ppy, coeffs)
         self.depth_units_m = device.first_depth_sensor().get_depth_scale()
-        streams = [s.stream_type() for s in profile.get_streams()]
-        self._align = rs.align(rs.stream.depth) if colour and rs.stream.color in streams else None
+        streams = {s.stream_type(): s for s in profile.get_streams()}
+        self._colour = colour and rs.stream.color in streams
+        # Colour is aligned to the depth camera, unless it is that camera already (a registered
+        # recording): rs.align costs milliseconds a frame.
+        self._align = None
+        if self._colour:
+            colour_profile = streams[rs.stream.color].as_video_stream_profile()
+            c = colour_profile.get_intrinsics()
+            extrinsic = depth_profile.get_extrinsics_to(colour_profile)
+            registered = ((c.width, c.height, c.fx, c.fy, c.ppx, c.ppy) ==
+                          (k.width, k.height, k.fx, k.fy, k.ppx, k.ppy) and
+                          np.allclose(extrinsic.rotation, np.eye(3).reshape(9)) and
+                          np.allclose(extrinsic.translation, 0))
+            if not registered:
+                self._align = rs.align(rs.stream.depth)
         self.queue: "queue.Queue[Optional[LiveFrame]]" = queue.Queue(maxsize=queue_size)
         self.stats = LiveStats(source=self.source, queue_size=queue_size)
         self._stop = threading.Event()
@@ -120,7 +133,7 @@ class Camera:
         depth = frames.get_depth_frame()
         if not depth:
             return None
-        colour_frame = frames.get_color_frame() if self._align is not None else None
+        colour_frame = frames.get_color_frame() if self._colour else None
         colour = None
         if colour_frame:
             colour = np.array(colour_frame.get_data(), copy=True)

@@ -1,14 +1,16 @@
 """A live view of a reconstruction in Rerun (``rerun-sdk``, ``pip install kfx[viewer]``): the
-camera's pose and path, its depth and colour images, the model as the camera sees it (the last
-raycast's points and the shaded render) and, every few seconds, the model's mesh.
+camera's pose and path every frame, its depth and colour images at most every
+``images_every_s`` (0.1 s), the model as the camera sees it (the last raycast's points and the
+shaded render) and, every few seconds, the model's mesh.
 
 The frame loop hands each frame to ``Viewer.submit``, which only keeps references to arrays the
 frame already has and never waits: a thread of its own converts and logs them. When that thread
 is still busy with an earlier frame, the new one is skipped and counted, so a slow viewer costs
 frames in the view, never time in the loop. The model's render, points and mesh need the
-reconstruction, which one thread uses at a time: they are taken at most every
-``model_every_s`` seconds (points and render) and ``mesh_every_s`` seconds (mesh), on the
-frame loop's thread, and the mesh once more at the end.
+reconstruction, which one thread uses at a time: they are taken on the frame loop's thread, at
+most every ``model_every_s`` seconds (points and render) and ``mesh_every_s`` seconds (mesh),
+and only while that has cost at most ``budget`` (3 %) of the loop's time; the mesh once more at
+the end.
 """
 
 from __future__ import annotations
@@ -36,7 +38,8 @@ class Viewer:
     """Streams a reconstruction to Rerun: ``sink`` is an ``.rrd`` file to write, ``"spawn"``
     (start a viewer), or ``HOST:PORT`` of a viewer listening for gRPC."""
 
-    def __init__(self, sink: str, model_every_s: float = 1.0, mesh_every_s: float = 5.0,
+    def __init__(self, sink: str, images_every_s: float = 0.1, model_every_s: float = 1.0,
+                 mesh_every_s: float = 5.0, budget: float = 0.03,
                  application_id: str = "kfx") -> None:
         rr = _rerun()
         self._rr = rr
@@ -50,8 +53,12 @@ class Viewer:
         self.sink = sink
         self.model_every_s = model_every_s
         self.mesh_every_s = mesh_every_s
+        self.images_every_s = images_every_s
+        self._last_images = -float("inf")
+        self.budget = budget
+        self._first_submit = 0.0
+        self._model_seconds = 0.0
         self._queue: "queue.Queue[Optional[Dict[str, Any]]]" = queue.Queue(maxsize=1)
-        self._last_model = self._last_mesh = -float("inf")
         self._reconstruction: Any = None
         self.logged = 0
         self.skipped = 0
@@ -69,17 +76,26 @@ class Viewer:
             self.skipped += 1
             self.submit_seconds += time.perf_counter() - started
             return
-        item: Dict[str, Any] = {"index": result.index, "pose": np.asarray(result.pose),
-                                "tracked": result.tracked, "depth": frame.depth,
-                                "colour": frame.colour}
         now = time.monotonic()
-        if now - self._last_model >= self.model_every_s:
+        if not self._first_submit:  # the model first after its interval: the map is empty now
+            self._first_submit = self._last_model = self._last_mesh = now
+        item: Dict[str, Any] = {"index": result.index, "pose": np.asarray(result.pose),
+                                "tracked": result.tracked}
+        if now - self._last_images >= self.images_every_s:
+            self._last_images = now
+            item["depth"], item["colour"] = frame.depth, frame.colour
+        # The model is taken on this thread: only while that has cost at most `budget` of the
+        # time since the first frame (a mesh on the CPU takes seconds; on a GPU milliseconds).
+        within_budget = self._model_seconds <= self.budget * (now - self._first_submit)
+        if within_budget and now - self._last_model >= self.model_every_s:
             self._last_model = now
             item["points"] = reconstruction.cloud_arrays()
             item["render"] = reconstruction.render()
-        if self.mesh_every_s > 0 and now - self._last_mesh >= self.mesh_every_s:
+        if (within_budget and self.mesh_every_s > 0 and
+                now - self._last_mesh >= self.mesh_every_s):
             self._last_mesh = now
             item["mesh"] = reconstruction.mesh_arrays()
+        self._model_seconds += time.monotonic() - now
         try:
             self._queue.put_nowait(item)
         except queue.Full:
@@ -100,9 +116,10 @@ class Viewer:
         rec.log("world/camera", rr.Transform3D(translation=pose[:3, 3], mat3x3=pose[:3, :3]))
         rec.log("world/path", rr.Points3D([pose[:3, 3]],
                                           colors=[(0, 200, 0) if item["tracked"] else (220, 0, 0)]))
-        rec.log("camera/depth", rr.DepthImage(item["depth"], meter=1000.0))
-        if item["colour"] is not None:
-            rec.log("camera/colour", rr.Image(item["colour"]))
+        if "depth" in item:
+            rec.log("camera/depth", rr.DepthImage(item["depth"], meter=1000.0))
+            if item["colour"] is not None:
+                rec.log("camera/colour", rr.Image(item["colour"]))
         if "render" in item:
             rec.log("camera/model_render", rr.Image(item["render"]))
             points, _, colours = item["points"]

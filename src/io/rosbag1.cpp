@@ -151,16 +151,12 @@ class Ros1Bag : public BagContainer {
     where << "ROS bag '" << path_ << "', topic '" << topic << "', message at "
           << message.time_ns * 1e-9 << " s";
     KFX_CHECK(message.location < chunk_positions_.size(), where.str() << ": no such chunk");
-    if (cached_chunk_ != static_cast<int64_t>(message.location)) {
-      cached_chunk_ = -1;
-      chunk_ = read_chunk(chunk_positions_[message.location], where.str());
-      cached_chunk_ = static_cast<int64_t>(message.location);
-    }
-    const Record record = parse_record(chunk_, message.offset, where.str());
+    const std::vector<uint8_t>& chunk = cached_chunk(message.location, where.str());
+    const Record record = parse_record(chunk, message.offset, where.str());
     KFX_CHECK(record.has("op") && field_value<uint8_t>(record, "op", where.str()) == kMessageData,
               where.str() << ": the index points at a record that is not a message");
-    return std::vector<uint8_t>(chunk_.begin() + static_cast<std::ptrdiff_t>(record.data_pos),
-                                chunk_.begin() + static_cast<std::ptrdiff_t>(record.end));
+    return std::vector<uint8_t>(chunk.begin() + static_cast<std::ptrdiff_t>(record.data_pos),
+                                chunk.begin() + static_cast<std::ptrdiff_t>(record.end));
   }
 
  private:
@@ -270,6 +266,20 @@ class Ros1Bag : public BagContainer {
     }
   }
 
+  const std::vector<uint8_t>& cached_chunk(uint64_t index, const std::string& where) {
+    constexpr size_t kCachedChunks = 4;
+    auto it = std::find_if(chunks_.begin(), chunks_.end(),
+                           [&](const auto& entry) { return entry.first == index; });
+    if (it == chunks_.end()) {
+      std::vector<uint8_t> chunk = read_chunk(chunk_positions_[index], where);
+      if (chunks_.size() == kCachedChunks) chunks_.pop_back();
+      chunks_.insert(chunks_.begin(), {index, std::move(chunk)});
+    } else if (it != chunks_.begin()) {
+      std::rotate(chunks_.begin(), it, it + 1);
+    }
+    return chunks_.front().second;
+  }
+
   std::vector<uint8_t> read_chunk(uint64_t pos, const std::string& where) {
     const Record chunk = read_record(pos, where);
     const auto compression = chunk.fields.find("compression");
@@ -331,8 +341,9 @@ class Ros1Bag : public BagContainer {
   std::map<int32_t, BagTopic> connections_;
   std::map<int32_t, std::vector<BagMessage>> messages_;
   std::vector<uint64_t> chunk_positions_;
-  int64_t cached_chunk_ = -1;
-  std::vector<uint8_t> chunk_;
+  /// The last chunks read, newest first: pairing colour with depth reads back and forth across
+  /// neighbouring chunks.
+  std::vector<std::pair<uint64_t, std::vector<uint8_t>>> chunks_;
 };
 
 }  // namespace

@@ -35,7 +35,8 @@ def test_the_view_streams_poses_depth_colour_and_the_model(tmp_path):
     from kfx.viewer import Viewer  # noqa: PLC0415
 
     path = tmp_path / "live.rrd"
-    r, stats = _run(Viewer(str(path), model_every_s=0.0, mesh_every_s=0.0))
+    r, stats = _run(Viewer(str(path), images_every_s=0.0, model_every_s=0.0,
+                           mesh_every_s=0.0, budget=1.0))
     assert stats["frames_logged"] + stats["frames_skipped"] == len(r.poses())
     assert stats["frames_logged"] >= len(r.poses()) // 2
     assert stats["meshes"] == 1  # the final one (mesh_every_s=0: none while running)
