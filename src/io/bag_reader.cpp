@@ -564,6 +564,10 @@ bool is_ros2_bag_folder(const std::string& path) {
   while (std::getline(metadata, line)) {
     if (line.find("rosbag2_bagfile_information") != std::string::npos) return true;
   }
+  // Without rosbag2's metadata: a lone .db3 or .mcap, in a folder that is no dataset's.
+  for (const char* listing : {"associations.txt", "depth.txt", "rgb.txt", "groundtruth.txt"}) {
+    if (fs::exists(fs::path(path) / listing, error)) return false;
+  }
   for (const auto& entry : fs::directory_iterator(path, error)) {
     const auto extension = entry.path().extension();
     if (extension == ".db3" || extension == ".mcap") return true;

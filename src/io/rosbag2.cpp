@@ -2,6 +2,7 @@
 /// the .db3 given directly); messages are CDR-serialised rows of the `messages` table.
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -86,7 +87,17 @@ class Ros2Bag : public BagContainer {
     const std::string database = find_database(path_);
     const std::string where = "ROS 2 bag '" + path_ + "'";
     // Read-only and immutable: never a journal or lock file beside someone's recording.
-    const std::string uri = "file:" + database + "?immutable=1";
+    std::string uri = "file:";
+    for (const char c : database) {  // URI-escape what would end or bend the path
+      if (c == '%' || c == '?' || c == '#') {
+        char hex[4];
+        std::snprintf(hex, sizeof(hex), "%%%02X", static_cast<unsigned char>(c));
+        uri += hex;
+      } else {
+        uri += c;
+      }
+    }
+    uri += "?immutable=1";
     const int rc =
         sqlite3_open_v2(uri.c_str(), &db_, SQLITE_OPEN_READONLY | SQLITE_OPEN_URI, nullptr);
     if (rc != SQLITE_OK) {

@@ -225,3 +225,10 @@ def test_the_cli_refuses_a_truncated_recording_and_writes_nothing(recording, tmp
     assert result.returncode != 0
     assert f"ROS bag '{cut}'" in result.stderr and "truncated" in result.stderr
     assert not out.exists() or not any(out.iterdir())
+
+
+@pytest.mark.parametrize("recording", ["ros2"], indirect=True)
+def test_a_ros2_database_named_with_uri_characters_opens(recording, tmp_path):
+    odd = tmp_path / "take?1#50%.db3"
+    odd.write_bytes(next(recording.glob("*.db3")).read_bytes())
+    assert kfx.open(str(odd)).frame_count == FRAMES
