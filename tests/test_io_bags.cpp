@@ -290,6 +290,22 @@ TEST(RosBag, ColourTooFarInTimeIsABadFrame) {
   expect_bad_frame(*reader, {path, "no colour image within", "'/camera/color/image_raw'"});
 }
 
+TEST(RosBag, ABagIsKnownByItsContentsWhateverItsName) {
+  TempDir dir("kfx_bag");
+  const std::string path = write_bag(dir, camera_bag(), true, "camera.dat");
+  EXPECT_EQ(open_reader(path)->frame_count(), 2);
+}
+
+TEST(RosBag, OniAndMcapRecordingsSayTheyAreNotReadYet) {
+  TempDir dir("kfx_bag");
+  const std::string oni = dir.file("room.oni");
+  write_text(oni, "ONI whatever");
+  expect_error([&] { open_reader(oni); }, {oni, "OpenNI2 .oni recordings are not read"});
+  const std::string mcap = dir.file("room.mcap");
+  write_text(mcap, "\x89MCAP0\r\n");
+  expect_error([&] { open_reader(mcap); }, {mcap, "mcap", "convert it"});
+}
+
 TEST(RosBag, TopicChoiceOnAnythingButARecordingIsRefused) {
   TempDir dir("kfx_bag");
   const std::string raw = dir.file("x.raw");
