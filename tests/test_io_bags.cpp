@@ -132,7 +132,7 @@ TEST(RosBag, RealSenseDepthUnitsAndExtrinsicComeFromTheFile) {
   Bytes quarter_mm;
   quarter_mm.put<float>(0.00025f);
   bag.message(units, 0.0, quarter_mm.data());
-  // Depth at the reference; colour 15 mm along x and turned 90° about z.
+  // Depth at the reference; the colour camera sees it 15 mm along x, turned 90° about z.
   Bytes identity, turned;
   for (double v : {0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0}) identity.put<double>(v);
   for (double v : {0.015, 0.0, 0.0, 0.0, 0.0, std::sqrt(0.5), std::sqrt(0.5)})
@@ -147,8 +147,8 @@ TEST(RosBag, RealSenseDepthUnitsAndExtrinsicComeFromTheFile) {
   const Frame frame = expect_ok_frame(*reader);
   EXPECT_EQ(frame.depth_mm(0, 0), 1000);  // 4000 units of 0.25 mm
   EXPECT_EQ(frame.depth_mm(2, 0), 1001);  // 4002 × 0.25 = 1000.5, rounded
-  // p_colour = Rcᵀ (p_depth − tc): the depth origin lies at (0, 0.015, 0) in the colour frame,
-  // turned −90° about z.
+  // Each tf maps the reference (here the depth camera) into its stream: the colour camera's
+  // is the depth camera's pose in the colour frame.
   const auto settings = reader->recommended_settings();
   ASSERT_EQ(settings.size(), 2u);
   EXPECT_EQ(settings[0].second, "2.5,2,1.5,1");
@@ -157,10 +157,12 @@ TEST(RosBag, RealSenseDepthUnitsAndExtrinsicComeFromTheFile) {
   ASSERT_EQ(std::sscanf(settings[1].second.c_str(), "%lf,%lf,%lf,%lf,%lf,%lf", &e[0], &e[1], &e[2],
                         &e[3], &e[4], &e[5]),
             6);
-  EXPECT_NEAR(e[0], 0.0, 1e-9);
-  EXPECT_NEAR(e[1], 0.015, 1e-9);
+  EXPECT_NEAR(e[0], 0.015, 1e-9);
+  EXPECT_NEAR(e[1], 0.0, 1e-9);
   EXPECT_NEAR(e[2], 0.0, 1e-9);
-  EXPECT_NEAR(e[5], -M_PI / 2, 1e-6);
+  EXPECT_NEAR(e[3], 0.0, 1e-9);
+  EXPECT_NEAR(e[4], 0.0, 1e-9);
+  EXPECT_NEAR(e[5], M_PI / 2, 1e-6);
 }
 
 TEST(RosBag, TruncatedBagNamesTheFile) {

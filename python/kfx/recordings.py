@@ -144,14 +144,18 @@ def write_ros2_bag(input: str, path: str, frames: Optional[int] = None,
 
 
 def write_realsense_bag(input: str, path: str, frames: Optional[int] = None,
-                        fps: int = 30, paced: bool = False) -> int:
+                        fps: int = 30, paced: bool = False,
+                        depth_to_colour: Optional[Tuple[Any, Any]] = None) -> int:
     """Writes the first ``frames`` frames of ``input`` (all when None) as a RealSense recording
     at ``path`` through librealsense's own recorder (``pyrealsense2``'s software device): z16
     depth with 1 mm Depth Units, rgb8 colour registered to it, the camera as both streams'
     intrinsics. pyrealsense2 up to 2.56 writes its ROS 1 form (``.bag``), later ones its ROS 2
     form (``path`` must end in ``.db3``). Frames are stamped with the input's stamps, or with
     ``paced`` at ``fps`` and recorded at that pace (a camera's recording to replay in real
-    time). Returns the frames written."""
+    time). ``depth_to_colour`` = (R, t), a 3×3 rotation and a translation in metres with
+    p_colour = R p_depth + t, is recorded as the streams' extrinsic instead of identity (the
+    images stay registered: it tests what a reader makes of the extrinsic). Returns the frames
+    written."""
     rs = _need("pyrealsense2", "realsense")
     camera, source = _frames(input, frames)
     source = list(source)
@@ -180,10 +184,12 @@ def write_realsense_bag(input: str, path: str, frames: Optional[int] = None,
     if colour_sensor is not None:
         colour_profile = colour_sensor.add_video_stream(
             stream(rs.stream.color, rs.format.rgb8, 3, 1))
-        identity = rs.extrinsics()
-        identity.rotation = [1, 0, 0, 0, 1, 0, 0, 0, 1]
-        identity.translation = [0, 0, 0]
-        depth_profile.register_extrinsics_to(colour_profile, identity)
+        rotation, translation = depth_to_colour or (np.eye(3), np.zeros(3))
+        extrinsic = rs.extrinsics()
+        # librealsense keeps the rotation column-major.
+        extrinsic.rotation = [float(v) for v in np.asarray(rotation, np.float64).T.reshape(9)]
+        extrinsic.translation = [float(v) for v in np.asarray(translation, np.float64)]
+        depth_profile.register_extrinsics_to(colour_profile, extrinsic)
     recorder = rs.recorder(os.fspath(pathlib.Path(path)), device)
     sensors = [(depth_sensor, depth_profile)]
     if colour_sensor is not None:

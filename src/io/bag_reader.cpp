@@ -337,7 +337,7 @@ class BagReader : public Reader {
     return stamp_ms * 1e-3;
   }
 
-  /// A RealSense stream's extrinsic to its reference: a Transform at <stream>/tf/0 (ROS 1
+  /// A RealSense stream's extrinsic from its reference: a Transform at <stream>/tf/0 (ROS 1
   /// form) or "rotation=9 values, column-major;translation=3 values" at <stream>/tf/ref_N.
   bool realsense_extrinsic(const std::string& stream, const std::string& where, RosTransform* out) {
     for (const auto& topic : bag_->topics()) {
@@ -425,23 +425,25 @@ class BagReader : public Reader {
     const std::string depth_stream = realsense_stream(depth_topic_);
     const std::string colour_stream = realsense_stream(colour_topic_);
     if (!depth_stream.empty() && !colour_stream.empty()) {
-      // RealSense records each stream's extrinsic to its device's reference stream.
+      // RealSense records each stream's extrinsic from its device's reference stream.
       RosTransform d, c;
       if (realsense_extrinsic(depth_stream, where, &d) &&
           realsense_extrinsic(colour_stream, where, &c)) {
         double rd[3][3], rc[3][3], r[3][3];
         quaternion_matrix(d.rotation_xyzw, rd);
         quaternion_matrix(c.rotation_xyzw, rc);
-        // p_colour = Rcᵀ (Rd p_depth + td − tc)
+        // Each maps the reference into its stream (p_s = Rs p_ref + ts; checked against
+        // recordings librealsense wrote with a known extrinsic), so
+        // p_colour = Rc Rdᵀ (p_depth − td) + tc.
         for (int i = 0; i < 3; ++i) {
           for (int j = 0; j < 3; ++j) {
             r[i][j] = 0;
-            for (int m = 0; m < 3; ++m) r[i][j] += rc[m][i] * rd[m][j];
+            for (int m = 0; m < 3; ++m) r[i][j] += rc[i][m] * rd[j][m];
           }
-          extrinsic[i] = 0;
-          for (int m = 0; m < 3; ++m) {
-            extrinsic[i] += rc[m][i] * (d.translation_m[m] - c.translation_m[m]);
-          }
+        }
+        for (int i = 0; i < 3; ++i) {
+          extrinsic[i] = c.translation_m[i];
+          for (int m = 0; m < 3; ++m) extrinsic[i] -= r[i][m] * d.translation_m[m];
         }
         const auto w = rotation_vector(r);
         for (int i = 0; i < 3; ++i) extrinsic[3 + i] = w[i];

@@ -232,3 +232,32 @@ def test_a_ros2_database_named_with_uri_characters_opens(recording, tmp_path):
     odd = tmp_path / "take?1#50%.db3"
     odd.write_bytes(next(recording.glob("*.db3")).read_bytes())
     assert kfx.open(str(odd)).frame_count == FRAMES
+
+
+@pytest.mark.parametrize("form", ["realsense", "realsense-bag"])
+def test_realsense_extrinsic_is_read_as_librealsense_recorded_it(form, tmp_path):
+    """A recording whose depth-to-colour extrinsic (p_colour = R p_depth + t) librealsense
+    itself recorded: kfx run applies it as colour_extrinsic (the depth camera's pose in the
+    colour camera's frame: t, then R's rotation vector)."""
+    angle = 0.3
+    rotation = [[np.cos(angle), -np.sin(angle), 0], [np.sin(angle), np.cos(angle), 0], [0, 0, 1]]
+    translation = [0.015, -0.002, 0.001]
+    path = tmp_path / ("camera.db3" if form == "realsense" else "camera.bag")
+    code = ("import sys, kfx.recordings as r; r.write_realsense_bag(sys.argv[1], sys.argv[2], 2, "
+            f"depth_to_colour=({rotation}, {translation}))")
+    if not FOLDER.is_dir():
+        pytest.skip(f"{FOLDER} not present")
+    pytest.importorskip("pyrealsense2", reason="pyrealsense2 (pip install kfx[realsense])")
+    paths = [p for p in sys.path if p]
+    if form == "realsense-bag":
+        if not (REALSENSE_BAG_PACKAGE / "pyrealsense2").is_dir():
+            pytest.skip(f"the pyrealsense2 that writes .bag files is not at "
+                        f"{REALSENSE_BAG_PACKAGE} (scripts/test installs it)")
+        paths.insert(0, str(REALSENSE_BAG_PACKAGE))
+    subprocess.run([sys.executable, "-c", code, str(FOLDER), str(path)], check=True,
+                   capture_output=True, env=dict(os.environ, PYTHONPATH=os.pathsep.join(paths)))
+    out = _run_cli(path, tmp_path / "run")
+    config = dict(line.split(" = ", 1) for line in (out / "config.txt").read_text().splitlines()
+                  if " = " in line)
+    extrinsic = [float(v) for v in config["colour_extrinsic"].split(",")]
+    assert np.allclose(extrinsic, translation + [0, 0, angle], atol=1e-6), extrinsic
