@@ -70,6 +70,9 @@ class Camera:
     """A RealSense device, or a recording played at the camera's pace, yielding LiveFrames on
     a thread into a bounded queue (oldest dropped when full)."""
 
+    end_reason = ""  # why the camera stopped on its own ("end of recording")
+    error: Optional[BaseException] = None  # what stopped the capture thread, if it failed
+
     def __init__(self, from_file: str = "", serial: str = "", width: int = 640,
                  height: int = 480, fps: int = 30, colour: bool = True, queue_size: int = 2,
                  real_time: bool = True) -> None:
@@ -191,9 +194,6 @@ class Camera:
             self.error = error
         finally:
             self._put(None, False)  # tells the reader the camera stopped
-
-    end_reason = ""
-    error: Optional[BaseException] = None
 
     def stop(self) -> None:
         self._stop.set()
