@@ -105,3 +105,23 @@ def test_kfx_live_names_a_missing_recording(tmp_path):
                              str(tmp_path / "none.db3")], env=env, capture_output=True, text=True)
     assert result.returncode == 1
     assert f"recording '{tmp_path / 'none.db3'}' does not exist" in result.stderr
+
+
+def test_kfx_live_says_which_dependency_is_missing(tmp_path, monkeypatch):
+    import kfx  # noqa: PLC0415
+    import kfx.live  # noqa: PLC0415
+
+    monkeypatch.setitem(sys.modules, "pyrealsense2", None)  # as if not installed
+    with pytest.raises(kfx.Error, match=r"needs the PyPI package 'pyrealsense2' \(pip install "
+                                        r"kfx\[realsense\]\)"):
+        kfx.live.run(str(tmp_path / "out"))
+    assert not (tmp_path / "out").exists()
+    cli = kfx_cli()
+    if cli is None:
+        pytest.skip("the kfx CLI is not built")
+    missing = str(tmp_path / "no-python")
+    result = subprocess.run([str(cli), "live", "--out", str(tmp_path / "out")],
+                            env=dict(os.environ, KFX_PYTHON=missing), capture_output=True,
+                            text=True)
+    assert result.returncode == 1
+    assert f"cannot run '{missing}'" in result.stderr and "KFX_PYTHON" in result.stderr
