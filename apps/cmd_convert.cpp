@@ -43,7 +43,8 @@ void add_convert_command(CLI::App& app) {
       "subsampled as KFusion does (output (x,y) = input (x*R, y*R)) and the intrinsics divided "
       "by R, so running the result at ratio 1 equals running the input at ratio R");
   sub->add_option("INPUT", args->input,
-                  "TUM RGB-D folder, ICL-NUIM PNG or native folder, SLAMBench .raw, or "
+                  "TUM RGB-D folder, ICL-NUIM PNG or native folder, SLAMBench .raw, a recording "
+                  "(RealSense .bag/.db3, ROS 1 or ROS 2 bag), or "
                   "synthetic[:key=value,...]")
       ->required();
   sub->add_option("OUT", args->output, "Output .raw file")->required();

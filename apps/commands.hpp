@@ -25,5 +25,7 @@ void add_report_command(CLI::App& app);
 void add_convert_command(CLI::App& app);
 /// `kfx colour-eval INPUT`: PSNR and SSIM of the model's colour at frames held out of it.
 void add_colour_eval_command(CLI::App& app);
+/// `kfx live --out DIR`: live from a RealSense camera (hands over to the Python package).
+void add_live_command(CLI::App& app);
 
 }  // namespace kfx::cli

@@ -25,6 +25,7 @@ int main(int argc, char** argv) {
   kfx::cli::add_mesh_command(app);
   kfx::cli::add_report_command(app);
   kfx::cli::add_colour_eval_command(app);
+  kfx::cli::add_live_command(app);
   // CLI11 reports an unknown first word only as an unexpected argument; name it plainly.
   if (argc > 1 && argv[1][0] != '-') {
     std::string known;

@@ -16,7 +16,9 @@ namespace kfx::cli {
 void add_run_options(CLI::App& command, RunOptions& o) {
   command
       .add_option("input", o.input,
-                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, or " +
+                  "TUM RGB-D folder, ICL-NUIM folder (PNG or native), SLAMBench .raw, a "
+                  "recording (RealSense .bag/.db3, ROS 1 bag, ROS 2 bag; INPUT?depth=/topic&"
+                  "colour=/topic names its topics), or " +
                       io::synthetic_spec_syntax() +
                       " (jump: the camera turns 90 degrees for frames A..B; blank: they have "
                       "no depth)")

@@ -72,7 +72,9 @@ def make_settings(preset: str = "exact", backend: str = "auto", cuda_device: int
 
 class Sequence(_Sequence):
     """Frames of an input, read in order: a TUM RGB-D or ICL-NUIM folder, ICL-NUIM's native
-    form, a SLAMBench ``.raw`` or ``synthetic[:frames=N,width=W,height=H,seed=S,noise=0|1]``.
+    form, a SLAMBench ``.raw``, a recording (a RealSense ``.bag``/``.db3``, a ROS 1 bag or a
+    ROS 2 bag; ``INPUT?depth=/topic&colour=/topic`` names its topics where they are ambiguous,
+    docs/cameras.md) or ``synthetic[:scene=room|house|twins,frames=N,width=W,height=H,...]``.
 
     Iterating yields ``kfx.Frame`` objects (``.depth`` in millimetres, ``.stamp``). A bad frame
     raises ``kfx.Error`` naming it, or with ``skip_bad_frames=True`` is skipped with a warning.

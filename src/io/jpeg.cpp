@@ -106,8 +106,11 @@ bool has_jpeg_signature(const unsigned char* bytes, size_t size) {
 }
 
 HostImage<Rgb8> read_jpeg_rgb8(const std::string& path) {
+  return decode_jpeg_rgb8(read_jpeg_file(path), path);
+}
+
+HostImage<Rgb8> decode_jpeg_rgb8(const std::vector<unsigned char>& bytes, const std::string& path) {
   static_assert(sizeof(Rgb8) == 3, "Rgb8 must be 3 packed bytes");
-  const std::vector<unsigned char> bytes = read_jpeg_file(path);
   KFX_CHECK(has_jpeg_signature(bytes.data(), bytes.size()),
             "cannot read JPEG '" << path << "': not a JPEG file (bad signature)");
   JDIMENSION width = 0, height = 0;

@@ -3,10 +3,12 @@
 #include <algorithm>
 #include <cctype>
 #include <filesystem>
+#include <fstream>
 #include <sstream>
 #include <string>
 
 #include "core/platform.hpp"
+#include "io/bag_reader.hpp"
 #include "io/formats.hpp"
 #include "io/reader.hpp"
 #include "io/slambench_raw.hpp"
@@ -23,7 +25,9 @@ constexpr const char* kSupportedInputs =
     "supported inputs: a TUM RGB-D folder (depth.txt or a 4-column associations file, "
     "groundtruth.txt), an ICL-NUIM PNG folder (associations.txt 'n depth/n.png n rgb/n.png', "
     "*.gt.freiburg), an ICL-NUIM native POV-Ray folder (scene_00_NNNN.depth and .txt), a "
-    "SLAMBench .raw file (optional .raw.json sidecar), or synthetic[:key=value,...]";
+    "SLAMBench .raw file (optional .raw.json sidecar), a ROS 1 or RealSense .bag, a ROS 2 bag "
+    "(rosbag2 folder or .db3; topics chosen with INPUT?depth=/topic&colour=/topic), or "
+    "synthetic[:key=value,...]";
 
 /// Wraps a reader whose format has no place for an external ground truth (.raw, synthetic) and
 /// replaces its ground truth with the one read from a file.
@@ -127,9 +131,65 @@ std::unique_ptr<Reader> open_folder(const std::string& input, const ReaderOption
                                         << kSupportedInputs);
 }
 
+/// The first bytes of `path` ("" when it cannot be read).
+std::string file_start(const fs::path& path, size_t bytes) {
+  std::ifstream file(path, std::ios::binary);
+  std::string start(bytes, '\0');
+  file.read(start.data(), static_cast<std::streamsize>(bytes));
+  start.resize(static_cast<size_t>(std::max<std::streamsize>(0, file.gcount())));
+  return start;
+}
+
+/// A recording (ROS 1, RealSense or ROS 2 bag) by extension or contents; nullptr when `input`
+/// is none. `query` is the topic choice after '?' ("" when none was given).
+std::unique_ptr<Reader> open_recording(const std::string& input, const std::string& query,
+                                       const ReaderOptions& options) {
+  const fs::path path(input);
+  std::error_code error;
+  const bool folder = fs::is_directory(path, error);
+  const std::string start = folder ? std::string() : file_start(path, 16);
+  std::unique_ptr<BagContainer> bag;
+  if (folder ? is_ros2_bag_folder(input)
+             : (ends_with(input, ".db3") || start.rfind("SQLite format 3", 0) == 0)) {
+    bag = open_ros2_bag(input);
+  } else if (!folder && (ends_with(input, ".bag") || start.rfind("#ROSBAG", 0) == 0)) {
+    bag = open_ros1_bag(input);
+  } else if (!folder && ends_with(input, ".mcap")) {
+    KFX_FAIL("cannot open input '"
+             << input
+             << "': mcap recordings are not read by kfx yet; convert it to "
+                "a ROS 2 sqlite3 bag (`ros2 bag convert` or rosbags-convert)");
+  } else if (!folder && ends_with(input, ".oni")) {
+    KFX_FAIL("cannot open input '" << input
+                                   << "': OpenNI2 .oni recordings are not read by kfx yet");
+  } else {
+    return nullptr;
+  }
+  return with_ground_truth_override(
+      open_bag_reader(std::move(bag), parse_bag_topics(query, input), options), options);
+}
+
 }  // namespace
 
-std::unique_ptr<Reader> open_reader(const std::string& input, const ReaderOptions& options) {
+std::unique_ptr<Reader> open_reader(const std::string& input_with_query,
+                                    const ReaderOptions& options) {
+  // A recording's topic choice: INPUT?depth=/topic&colour=/topic (only where INPUT exists).
+  std::string input = input_with_query, query;
+  const auto mark = input_with_query.rfind('?');
+  if (mark != std::string::npos && input_with_query.find('=', mark) != std::string::npos) {
+    std::error_code exists_error;
+    if (fs::exists(input_with_query.substr(0, mark), exists_error)) {
+      input = input_with_query.substr(0, mark);
+      query = input_with_query.substr(mark + 1);
+    }
+  }
+  std::error_code exists_error;
+  if (fs::exists(input, exists_error) &&
+      !(is_file(input) && (ends_with(input, ".raw") || ends_with(input, ".txt")))) {
+    if (auto reader = open_recording(input, query, options)) return reader;
+  }
+  KFX_CHECK(query.empty(), "cannot open input '" << input_with_query << "': a topic choice ('?"
+                                                 << query << "') applies only to recordings");
   if (input == "synthetic" || input.rfind("synthetic:", 0) == 0) {
     require_no_depth_scale(options, input, "the synthetic scene");
     return with_ground_truth_override(make_synthetic_reader(input), options);

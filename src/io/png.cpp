@@ -208,7 +208,11 @@ PngHeader read_png_header(const std::string& path) {
 }
 
 HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth) {
-  const std::vector<unsigned char> bytes = read_whole_file(path);
+  return decode_png_gray16(read_whole_file(path), path, bit_depth);
+}
+
+HostImage<uint16_t> decode_png_gray16(const std::vector<unsigned char>& bytes,
+                                      const std::string& path, int* bit_depth) {
   PngErrorState state{};
   PngReadHandle handle(&state, path);
   PngMemorySource source{bytes.data(), bytes.size(), 0};
@@ -240,8 +244,11 @@ HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth) {
 }
 
 HostImage<Rgb8> read_png_rgb8(const std::string& path) {
+  return decode_png_rgb8(read_whole_file(path), path);
+}
+
+HostImage<Rgb8> decode_png_rgb8(const std::vector<unsigned char>& bytes, const std::string& path) {
   static_assert(sizeof(Rgb8) == 3, "Rgb8 must be 3 packed bytes");
-  const std::vector<unsigned char> bytes = read_whole_file(path);
   PngErrorState state{};
   PngReadHandle handle(&state, path);
   PngMemorySource source{bytes.data(), bytes.size(), 0};

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <string>
+#include <vector>
 
 #include "core/image.hpp"
 
@@ -30,6 +31,12 @@ HostImage<uint16_t> read_png_gray16(const std::string& path, int* bit_depth = nu
 /// Reads any PNG as 8-bit RGB (gray and palette expanded, alpha dropped, 16-bit samples reduced
 /// to 8). Throws kfx::Error naming the file for a missing, truncated or corrupt file.
 HostImage<Rgb8> read_png_rgb8(const std::string& path);
+
+/// read_png_gray16() and read_png_rgb8() of a PNG held in memory (a recording's compressed
+/// image); `name` stands for the file in error messages.
+HostImage<uint16_t> decode_png_gray16(const std::vector<unsigned char>& bytes,
+                                      const std::string& name, int* bit_depth = nullptr);
+HostImage<Rgb8> decode_png_rgb8(const std::vector<unsigned char>& bytes, const std::string& name);
 
 /// Writes `image` as an 8-bit RGB PNG, atomically. Throws kfx::Error naming the file.
 void write_png_rgb8(const std::string& path, const HostImage<Rgb8>& image);
