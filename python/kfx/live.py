@@ -130,6 +130,11 @@ class Camera:
         self._thread = threading.Thread(target=self._capture, name="kfx-camera", daemon=True)
         self._thread.start()
 
+    @property
+    def has_colour(self) -> bool:
+        """Whether the camera delivers colour registered to its depth."""
+        return bool(self._colour)
+
     def _frame(self, frames: Any) -> Optional[LiveFrame]:
         if self._align is not None:
             frames = self._align.process(frames)
@@ -231,8 +236,14 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
     started = None
     reconstruction = None
     try:
+        # The camera's colour is fused unless the settings turn colour off (a reconstruction
+        # without colour refuses a colour image, so none is passed then).
+        live_settings = dict(settings or {})
+        if camera.has_colour:
+            live_settings.setdefault("colour", "on")
+        use_colour = camera.has_colour and str(live_settings.get("colour")).lower() in ("on", "true")
         reconstruction = kfx.Reconstruction(camera=camera.camera, backend=backend, preset=preset,
-                                            **(settings or {}))
+                                            **live_settings)
         if on_start is not None:
             on_start(camera)
         while not stop.is_set():
@@ -246,7 +257,8 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
                     raise kfx.Error(f"kfx live: the camera failed: {camera.error}")
                 break
             started = started or time.monotonic()
-            result = reconstruction.process(frame.depth, frame.stamp, depth_scale, frame.colour,
+            result = reconstruction.process(frame.depth, frame.stamp, depth_scale,
+                                            frame.colour if use_colour else None,
                                             input_index=frame.number)
             stats.frames_processed += 1
             if viewer is not None:
