@@ -12,6 +12,7 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 
 #include "api/internal.hpp"
 #include "commands.hpp"
@@ -94,6 +95,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   const std::string& out_dir = outputs.dir;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
+  std::optional<Pose> init_pose;  // checked before any output exists
+  if (!options.init_pose.empty()) init_pose = parse_init_pose(options.init_pose);
   // Everything that can fail for want of room or permission fails here, before the run.
   const CreatedFolderCleanup cleanup(out_dir);
   output::prepare_run_folder(out_dir, outputs.overwrite);
@@ -106,6 +109,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // The frame loop's bookkeeping is the library's (kfx::Reconstruction); the run folder's
   // outputs read the pipeline behind it (stage times, renders, the SLAMBench log).
   Reconstruction reconstruction(prepared.setup.settings, prepared.setup.camera);
+  // Before anything reads the first pose (slambench.log's origin, trajectory.txt's header).
+  if (init_pose) reconstruction.set_pose(*init_pose);
   Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
   if (outputs.mesh) {
     // The GPU backend checks its own memory; a block map sizes its scratch by its blocks.
@@ -193,8 +198,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
       std::cerr << "kfx run: frame " << report.index << " done (" << summary.frames;
       if (total_frames > 0) std::cerr << "/" << total_frames;
-      std::cerr << " frames), tracked " << summary.tracked << ", " << summary.frames_per_second()
-                << " frames/s computation";
+      std::cerr << " frames), tracked " << summary.tracked << " (poor "
+                << summary.tracking_states.count(TrackingQuality::kPoor) << "), lost "
+                << summary.tracking_states.count(TrackingQuality::kLost) << ", "
+                << summary.frames_per_second() << " frames/s computation";
       if (report.map_blocks > 0) {
         std::cerr << ", map " << report.map_blocks << " blocks ("
                   << static_cast<double>(report.map_bytes) / (1 << 20) << " MiB)";
@@ -352,6 +359,7 @@ void add_run_command(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
   auto outputs = std::make_shared<RunOutputs>();
   add_run_options(*command, *options);
+  add_init_pose_option(*command, *options);
   command->add_option("-o,--out", outputs->dir, "output folder")->required();
   command->add_flag("--overwrite", outputs->overwrite,
                     "replace an earlier run in the output folder (removes kfx's own outputs "
