@@ -87,6 +87,36 @@ TEST_P(MapPose, ALoadedMapContinuesFromTheSavedCameraAndIntegratesOnlyOnceTracke
 INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, MapPose, ::testing::Values(false, true),
                          [](const auto& info) { return info.param ? "blocks" : "dense"; });
 
+// localise_only: frames are tracked against the loaded map, nothing is integrated, so the map
+// comes out as it went in.
+TEST(MapPose, LocaliseOnlyTracksAndLeavesTheMapAsLoaded) {
+  const auto dir = test::fresh_test_dir("kfx_map_pose_");
+  const auto frames = read_all();
+  Sequence sequence(kInput);
+  Reconstruction first(map_settings(true), sequence);
+  for (int i = 0; i < kSaveAfter; ++i) first.process(frames[i]);
+  const std::string path = (dir / "map.kfxblocks").string();
+  first.save_map(path);
+  const TriangleMesh saved = first.mesh();
+
+  Settings fixed = map_settings(true);
+  fixed.set("localise_only", "on");
+  Reconstruction localise(fixed, sequence);
+  io::test::expect_error([&] { localise.process(frames[0]); }, {"localise_only", "no map"});
+  EXPECT_EQ(localise.frame_count(), 0);
+  localise.load_map(path);
+  int tracked = 0;
+  for (int i = kSaveAfter; i < static_cast<int>(frames.size()); ++i) {
+    const FrameResult r = localise.process(frames[i]);
+    EXPECT_FALSE(r.integrated) << "frame " << i;
+    tracked += r.tracked;
+  }
+  EXPECT_GE(tracked, static_cast<int>(frames.size()) - kSaveAfter - 1);  // all but the first
+  const TriangleMesh after = localise.mesh();
+  EXPECT_EQ(after.vertices_m, saved.vertices_m);
+  EXPECT_EQ(after.triangles, saved.triangles);
+}
+
 TEST(MapPose, AnOlderFileWithoutTheCameraLoadsAndSaysSo) {
   const auto dir = test::fresh_test_dir("kfx_map_pose_");
   const auto frames = read_all();

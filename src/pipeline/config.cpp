@@ -302,6 +302,10 @@ std::vector<ConfigField> build_fields() {
           "evaluation: never integrate frames f >= bootstrap_frames with f % N == 0, so renders "
           "there show the model from views it has not seen (0 = off)",
           [](C& c) -> int& { return c.integration.holdout; });
+  on_off("localise_only", "integration",
+         "track against a loaded map and integrate nothing: the map stays as loaded (on|off; "
+         "needs a map loaded before the first frame)",
+         [](C& c) -> bool& { return c.integration.localise_only; });
   num("near_m", "raycast", "", "", "raycast near plane, metres",
       [](C& c) -> float& { return c.raycast.near_m; });
   num("far_m", "raycast", "", "", "raycast far plane, metres",

@@ -179,6 +179,9 @@ FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostIma
 
 void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
   const int f = frame_;
+  KFX_CHECK(!config_.integration.localise_only || map_loaded_,
+            "frame " << f << ": setting localise_only is on, but no map was loaded to localise "
+                     << "in (load one before the first frame, or set localise_only=off)");
   FrameReport report;
   report.index = f;
   if (swap_due_) {
@@ -207,7 +210,8 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   const bool always = f < bootstrap && !map_loaded_;
   const int holdout = config_.integration.holdout;
   const bool held_out = !always && holdout > 0 && f % holdout == 0;
-  const bool may_integrate = always || (f % config_.integration.rate == 0 && !held_out);
+  const bool may_integrate = !config_.integration.localise_only &&
+                             (always || (f % config_.integration.rate == 0 && !held_out));
   report.raycast = (f >= bootstrap - 1 || map_loaded_) &&
                    (f % config_.approx.raycast_rate == 0 || reference_stale_);
   if (report.raycast) {
