@@ -57,6 +57,7 @@ struct RunOutputs {
   bool mesh = true;          ///< mesh.ply
   bool cloud = false;        ///< cloud.ply
   bool save_volume = false;  ///< volume.kfxtsdf
+  std::string load_map;      ///< a saved map to continue (or localise in), "" = none
   bool renders = false;      ///< PNG renders every render_rate frames under renders/
   bool report = true;        ///< report.html
   bool overwrite = false;    ///< replace an earlier run's outputs in dir
@@ -110,6 +111,12 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // outputs read the pipeline behind it (stage times, renders, the SLAMBench log).
   Reconstruction reconstruction(prepared.setup.settings, prepared.setup.camera);
   // Before anything reads the first pose (slambench.log's origin, trajectory.txt's header).
+  if (!outputs.load_map.empty()) {
+    const LoadedMap loaded = reconstruction.load_map(outputs.load_map);
+    std::cerr << "kfx run: loaded " << outputs.load_map
+              << (loaded.pose_restored ? " (the camera at its saved pose)" : "") << "\n";
+    if (!loaded.note.empty()) std::cerr << "kfx run: warning: " << loaded.note << "\n";
+  }
   if (init_pose) reconstruction.set_pose(*init_pose);
   Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
   if (outputs.mesh) {
@@ -367,6 +374,13 @@ void add_run_command(CLI::App& app) {
   command->add_flag("!--no-mesh", outputs->mesh, "do not write mesh.ply");
   command->add_flag("--cloud", outputs->cloud,
                     "also write cloud.ply (points and normals of the last raycast)");
+  command
+      ->add_option("--load-map", outputs->load_map,
+                   "continue a map saved with --save-volume (same settings and camera): the "
+                   "camera starts at the saved pose (or --start-pose), and nothing is "
+                   "integrated until a frame is tracked against the map; with "
+                   "--set localise_only=on nothing is integrated at all")
+      ->check(CLI::ExistingFile);
   command->add_flag("--save-volume", outputs->save_volume,
                     "also write the TSDF as volume.kfxtsdf (with volume=blocks: the block map as "
                     "map.kfxblocks), for kfx mesh");

@@ -248,3 +248,32 @@ TEST(MapPose, StartPoseOnTheCommandLine) {
 
 }  // namespace
 }  // namespace kfx
+
+namespace kfx {
+namespace {
+
+TEST(MapPose, LoadMapOnTheCommandLine) {
+  const auto dir = test::fresh_test_dir("kfx_map_pose_");
+  const std::string run =
+      std::string("run 'synthetic:frames=8,width=160,height=120' --backend cpu --no-mesh ") +
+      "--no-report ";
+  const auto first = test::run_kfx(run + "-q -v 64 --save-volume --out " + (dir / "a").string());
+  ASSERT_EQ(first.exit_code, 0) << first.output;
+  const std::string map = (dir / "a" / "volume.kfxtsdf").string();
+  const auto fixed = test::run_kfx(run + "-v 64 --load-map " + map +
+                                   " --set localise_only=on --out " + (dir / "b").string());
+  ASSERT_EQ(fixed.exit_code, 0) << fixed.output;
+  EXPECT_NE(fixed.output.find("the camera at its saved pose"), std::string::npos) << fixed.output;
+  std::ifstream in(dir / "b" / "stats.json");
+  const std::string stats((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  EXPECT_NE(stats.find("\"integrated\": 0,"), std::string::npos);
+  // Another volume size: refused naming the file, before any output.
+  const auto wrong =
+      test::run_kfx(run + "-v 32 --load-map " + map + " --out " + (dir / "c").string());
+  EXPECT_NE(wrong.exit_code, 0);
+  EXPECT_NE(wrong.output.find(map), std::string::npos) << wrong.output;
+  EXPECT_FALSE(std::filesystem::exists(dir / "c" / "stats.json"));
+}
+
+}  // namespace
+}  // namespace kfx
