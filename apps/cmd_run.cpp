@@ -13,6 +13,7 @@
 #include <filesystem>
 #include <iostream>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <sstream>
 
 #include "api/internal.hpp"
@@ -62,6 +63,7 @@ struct RunOutputs {
   bool mesh = true;          ///< mesh.ply
   bool cloud = false;        ///< cloud.ply
   bool save_volume = false;  ///< volume.kfxtsdf
+  std::string load_map;      ///< a saved map to continue (or localise in), "" = none
   bool renders = false;      ///< PNG renders every render_rate frames under renders/
   bool report = true;        ///< report.html
   bool overwrite = false;    ///< replace an earlier run's outputs in dir
@@ -102,6 +104,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   const InterruptRequests interrupt_requests;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
+  std::optional<Pose> init_pose;  // checked before any output exists
+  if (!options.init_pose.empty()) init_pose = parse_init_pose(options.init_pose);
   // Everything that can fail for want of room or permission fails here, before the run.
   const CreatedFolderCleanup cleanup(out_dir);
   output::prepare_run_folder(out_dir, outputs.overwrite);
@@ -114,6 +118,14 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // The frame loop's bookkeeping is the library's (kfx::Reconstruction); the run folder's
   // outputs read the pipeline behind it (stage times, renders, the SLAMBench log).
   Reconstruction reconstruction(prepared.setup.settings, prepared.setup.camera);
+  // Before anything reads the first pose (slambench.log's origin, trajectory.txt's header).
+  if (!outputs.load_map.empty()) {
+    const LoadedMap loaded = reconstruction.load_map(outputs.load_map);
+    std::cerr << "kfx run: loaded " << outputs.load_map
+              << (loaded.pose_restored ? " (the camera at its saved pose)" : "") << "\n";
+    if (!loaded.note.empty()) std::cerr << "kfx run: warning: " << loaded.note << "\n";
+  }
+  if (init_pose) reconstruction.set_pose(*init_pose);
   Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
   if (outputs.mesh) {
     // The GPU backend checks its own memory; a block map sizes its scratch by its blocks.
@@ -235,7 +247,9 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       } else {
         std::cerr << " frames";
       }
-      std::cerr << "), tracked " << summary.tracked << ", "
+      std::cerr << "), tracked " << summary.tracked << " (poor "
+                << summary.tracking_states.count(TrackingQuality::kPoor) << "), lost "
+                << summary.tracking_states.count(TrackingQuality::kLost) << ", "
                 << output::frame_rate_text(summary.frames_per_second()) << " frames/s computation, "
                 << output::frame_rate_text(wall_fps) << " frames/s wall clock";
       if (report.map_blocks > 0) {
@@ -434,6 +448,7 @@ void add_run_command(CLI::App& app) {
   auto options = std::make_shared<RunOptions>();
   auto outputs = std::make_shared<RunOutputs>();
   add_run_options(*command, *options);
+  add_init_pose_option(*command, *options);
   command->add_option("-o,--out", outputs->dir, "output folder")->required();
   command->add_flag("--overwrite", outputs->overwrite,
                     "replace an earlier run in the output folder (removes kfx's own outputs "
@@ -441,6 +456,13 @@ void add_run_command(CLI::App& app) {
   command->add_flag("!--no-mesh", outputs->mesh, "do not write mesh.ply");
   command->add_flag("--cloud", outputs->cloud,
                     "also write cloud.ply (points and normals of the last raycast)");
+  command
+      ->add_option("--load-map", outputs->load_map,
+                   "continue a map saved with --save-volume (same settings and camera): the "
+                   "camera starts at the saved pose (or --start-pose), and nothing is "
+                   "integrated until a frame is tracked against the map; with "
+                   "--set localise_only=on nothing is integrated at all")
+      ->check(CLI::ExistingFile);
   command->add_flag("--save-volume", outputs->save_volume,
                     "also write the TSDF as volume.kfxtsdf (with volume=blocks: the block map as "
                     "map.kfxblocks), for kfx mesh");

@@ -1,6 +1,7 @@
 #include "run_options.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <sstream>
@@ -55,6 +56,48 @@ void add_run_options(CLI::App& command, RunOptions& o) {
   command.add_flag("--skip-bad-frames", o.skip_bad_frames,
                    "warn about bad frames and skip them instead of stopping");
   command.add_flag("-q,--quiet", o.quiet, "no progress lines");
+}
+
+void add_init_pose_option(CLI::App& command, RunOptions& o) {
+  command.add_option("--start-pose", o.init_pose,
+                     "the first camera pose, tx,ty,tz,qx,qy,qz,qw (metres and a unit "
+                     "quaternion, camera to volume frame as in trajectory.txt; default: "
+                     "init_pose_factor, SLAMBench's -p or --init-pose)");
+}
+
+Pose parse_init_pose(const std::string& text) {
+  std::vector<double> v;
+  std::stringstream in(text);
+  std::string item;
+  while (std::getline(in, item, ',')) {
+    size_t used = 0;
+    double x = 0;
+    try {
+      x = std::stod(item, &used);
+    } catch (const std::exception&) {
+      used = 0;
+    }
+    KFX_CHECK(used > 0 && used == item.size() && std::isfinite(x),
+              "--start-pose: '" << item << "' is not a number (give tx,ty,tz,qx,qy,qz,qw)");
+    v.push_back(x);
+  }
+  KFX_CHECK(v.size() == 7, "--start-pose: " << v.size()
+                                            << " numbers, give 7: tx,ty,tz,qx,qy,qz,qw (metres, "
+                                               "then a unit quaternion)");
+  const double norm = std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5] + v[6] * v[6]);
+  KFX_CHECK(std::fabs(norm - 1.0) < 1e-3,
+            "--start-pose: the quaternion qx,qy,qz,qw has norm " << norm << ", not 1");
+  const double x = v[3] / norm, y = v[4] / norm, z = v[5] / norm, w = v[6] / norm;
+  const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
+                          {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
+                          {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+  Pose pose{};
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) pose[i * 4 + j] = static_cast<float>(r[i][j]);
+    pose[i * 4 + 3] = static_cast<float>(v[i]);
+  }
+  pose[15] = 1.0f;
+  return pose;
 }
 
 namespace {

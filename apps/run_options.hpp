@@ -26,10 +26,18 @@ struct RunOptions {
   std::string ground_truth_path;
   bool skip_bad_frames = false;
   bool quiet = false;
+  /// --start-pose (kfx run): "tx,ty,tz,qx,qy,qz,qw", the first camera pose; "" = the setting
+  /// init_pose_factor's.
+  std::string init_pose;
 };
 
 /// Registers the shared options on a subcommand.
 void add_run_options(CLI::App& command, RunOptions& options);
+/// Registers --start-pose (kfx run: the commands that time runs keep init_pose_factor).
+void add_init_pose_option(CLI::App& command, RunOptions& options);
+/// The pose of "tx,ty,tz,qx,qy,qz,qw" (metres; a quaternion of norm 1 within 1e-3, normalised):
+/// camera to volume frame, as trajectory.txt's lines. Throws kfx::Error naming --start-pose.
+Pose parse_init_pose(const std::string& text);
 
 /// A configuration and a reader ready to run.
 struct PreparedRun {

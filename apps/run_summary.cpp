@@ -5,6 +5,7 @@
 #include <numeric>
 
 #include "output/frame_rate_text.hpp"
+#include "output/stats_json.hpp"
 
 namespace kfx::cli {
 
@@ -31,6 +32,7 @@ void RunSummary::add(const FrameReport& report) {
     lost_frames.push_back(report.index);
   }
   integrated += report.integrated ? 1 : 0;
+  tracking_states.add(report.index, report.quality);
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
     stage_ms[s].push_back(report.stage_ms[s]);
   }
@@ -77,6 +79,7 @@ nlohmann::json RunSummary::to_json() const {
                                                          {"median", median_of(stage_ms[s])}};
   }
   j["computation_ms"] = {{"mean", mean_of(computation_ms)}, {"median", median_of(computation_ms)}};
+  output::add_tracking_states(j, tracking_states);
   if (!tracking_constraint.empty()) {
     j["tracking_constraint"] = {{"min", tracking_constraint_min},
                                 {"min_frame", tracking_constraint_min_frame},

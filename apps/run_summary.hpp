@@ -17,7 +17,8 @@ struct RunSummary {
   int lost = 0;  ///< frames where tracking ran and failed (pose kept, not integrated)
   std::vector<int> lost_frames;  ///< their frame numbers, in order (the report marks them)
   int integrated = 0;
-  double ate_rmse_m = -1.0;  ///< set when ground truth was evaluated
+  TrackingTimeline tracking_states;  ///< each frame's tracking state (good / poor / lost)
+  double ate_rmse_m = -1.0;          ///< set when ground truth was evaluated
   std::array<std::vector<double>, static_cast<int>(Stage::kCount)> stage_ms;
   std::vector<double> computation_ms;
   // The block map (volume=blocks): its size after the last frame, and what did not fit.
@@ -45,7 +46,8 @@ struct RunSummary {
   /// "map_blocks", "map_bytes" (blocks × block_bytes(colour)), "map_blocks_dropped",
   /// "map_frames_short_of_blocks", "map_first_frame_short_of_blocks", "map_blocks_swapped",
   /// "map_swapped_bytes", "map_swap_passes", "map_swap_seconds"; when a frame was tracked,
-  /// "tracking_constraint": {"min", "min_frame", "median"}.
+  /// "tracking_constraint": {"min", "min_frame", "median"}; "tracking_states"
+  /// (output::add_tracking_states).
   nlohmann::json to_json() const;
   /// "500 frames, 496 tracked, 20.1 frames/s, ATE 0.84 cm".
   std::string one_line() const;

@@ -135,10 +135,10 @@ int main(int argc, char** argv) try {
     std::printf("gt %.2f %.2f %.2f | ", t[0], t[2], std::atan2(R[0][2], R[2][2]) * 57.2958);
     std::printf(
         "%d %.2f %+.1f %+.1f %+.1f %.3f %d | %.4f %.4f %.4f %.4f %.4f %.4f | %+.2f %+.2f "
-        "%+.2f ; %+.2f %+.2f %+.2f %s\n",
+        "%+.2f ; %+.2f %+.2f %+.2f | rms %.2f mm, %s\n",
         f, 100 * err.norm(), 100 * err_cam.x(), 100 * err_cam.y(), 100 * err_cam.z(),
         r.inlier_fraction, r.icp_iterations, ev[0], ev[1], ev[2], ev[3], ev[4], ev[5], v[0], v[1],
-        v[2], v[3], v[4], v[5], r.tracking_ran && !r.tracked ? "LOST" : "");
+        v[2], v[3], v[4], v[5], 1000 * r.residual_rms_m, tracking_quality_name(r.quality));
     std::fflush(stdout);
   }
   return 0;

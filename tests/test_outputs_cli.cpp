@@ -43,9 +43,9 @@ TEST_F(OutputsCli, SavedVolumeMeshesToTheRunsOwnMesh) {
   ASSERT_EQ(r.exit_code, 0) << r.output;
   const Mesh run_mesh = output::read_mesh_ply((out / "mesh.ply").string());
   ASSERT_GT(run_mesh.triangles.size(), 100u);
-  // The synthetic room has colour: 4 bytes a voxel, then 8 of colour.
+  // The synthetic room has colour: 4 bytes a voxel, then 8 of colour, then the camera.
   EXPECT_EQ(fs::file_size(out / "volume.kfxtsdf"),
-            output::kVolumeHeaderBytes + (4u + 8u) * 64 * 64 * 64);
+            output::kVolumeHeaderBytes + (4u + 8u) * 64 * 64 * 64 + output::kMapCameraBytes);
   const auto stats = nlohmann::json::parse(std::ifstream(out / "stats.json"));
   EXPECT_EQ(stats["mesh_triangles"].get<size_t>(), run_mesh.triangles.size());
   EXPECT_GT(stats["cloud_points"].get<size_t>(), 1000u);
@@ -78,8 +78,9 @@ TEST_F(OutputsCli, SavedBlockMapMeshesToTheRunsOwnMeshAndStatsSayItsSize) {
   ASSERT_EQ(run_mesh.colours.size(), run_mesh.vertices.size());
   EXPECT_EQ(stats["map_bytes"].get<size_t>(), blocks * block_bytes(true));
   EXPECT_EQ(stats["map_blocks_dropped"].get<long long>(), 0);
-  // 92 header bytes, then per block 3 coordinates, 8^3 voxels and 8^3 colours.
-  EXPECT_EQ(fs::file_size(out / "map.kfxblocks"), 92u + blocks * (12u + 4u * 512 + 8u * 512));
+  // 92 header bytes, then per block 3 coordinates, 8^3 voxels and 8^3 colours, then the camera.
+  EXPECT_EQ(fs::file_size(out / "map.kfxblocks"),
+            92u + blocks * (12u + 4u * 512 + 8u * 512) + output::kMapCameraBytes);
 
   r = run_kfx("mesh " + (out / "map.kfxblocks").string() + " " + (dir_ / "again.ply").string() +
               " --backend cpu");

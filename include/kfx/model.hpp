@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "kfx/tracking_quality.hpp"
+
 namespace kfx {
 
 /// A rigid transform as a row-major 4×4 matrix (rotation, translation in metres, last row
@@ -21,7 +23,11 @@ struct FrameResult {
   bool tracking_ran = false;  ///< tracking was attempted (a model existed, on the tracking rate)
   bool tracked = false;     ///< tracking held (tracking_ran && !tracked: tracking lost, pose kept)
   bool integrated = false;  ///< the depth was fused into the map
-  Pose T_world_cam{};       ///< the camera's pose after the frame, in the map (volume) frame
+  /// How far the pose can be trusted: good; poor (tracked, but the view lets the pose slide:
+  /// a run of frames whose tracking_constraint is low); lost (tracking failed, or the camera is
+  /// not yet located in a loaded map). docs/tracking.md.
+  TrackingQuality tracking_quality = TrackingQuality::kGood;
+  Pose T_world_cam{};         ///< the camera's pose after the frame, in the map (volume) frame
   double computation_ms = 0;  ///< the frame's computation time (GPU time on CUDA)
   int icp_iterations = 0;     ///< ICP iterations run, all pyramid levels
   /// How well the ICP pinned the pose (0 when tracking did not run): the smallest eigenvalue of

@@ -42,6 +42,16 @@ struct ResolvedSetup {
 /// the format's own). Throws kfx::Error when the input has no intrinsics and none are given.
 ResolvedSetup resolve_setup(const Settings& settings, const Sequence& sequence);
 
+/// What Reconstruction::load_map() found in a map file.
+struct LoadedMap {
+  /// The file held the camera's pose when it was saved (format version 3 and later), and the
+  /// camera is there now.
+  bool pose_restored = false;
+  /// What the file lacks, one line naming it ("" when nothing): a file of an older format
+  /// holds no camera pose, so the camera stays where it was (set_pose() places it).
+  std::string note;
+};
+
 /// A reconstruction over one backend, its map allocated once at construction.
 class Reconstruction {
  public:
@@ -79,8 +89,16 @@ class Reconstruction {
   /// Starts over: empty map, initial pose, frame 0, trajectory cleared (buffers are kept).
   void reset();
 
-  /// The pose after the last collected frame (the initial pose before any).
+  /// The pose after the last collected frame (the initial pose before any), or the one
+  /// set_pose() or load_map() put the camera at since.
   Pose pose() const;
+  /// Puts the camera at `T_world_cam` (camera to map frame, metres; a rigid transform) before
+  /// the next frame, keeping the map; waits for the frames in flight. Before the first frame of
+  /// a map that was not loaded, it is the first pose (the map is built from there, and
+  /// reset() starts there again). Otherwise the next frame raycasts the map from there, and
+  /// after a load_map() nothing is integrated until a frame is tracked against the map.
+  /// Throws kfx::Error when the matrix is not a rigid transform.
+  void set_pose(const Pose& T_world_cam);
   /// The first camera pose (a translation into the volume, setting init_pose_factor).
   Pose initial_pose() const;
   /// Results of every collected frame since the start or the last reset, in order.
@@ -112,12 +130,17 @@ class Reconstruction {
   void save_mesh(const std::string& path, const std::string& input = "");
   /// True when the map can be saved and loaded (both kinds can: volume=dense and blocks).
   bool map_saveable() const;
-  /// Writes the map (volume.kfxtsdf, or map.kfxblocks with volume=blocks; docs/outputs.md);
-  /// throws kfx::Error where the map kind cannot be saved.
+  /// Writes the map (volume.kfxtsdf, or map.kfxblocks with volume=blocks; docs/outputs.md)
+  /// with the camera: its current pose (pose()) and intrinsics; throws kfx::Error where the
+  /// map kind cannot be saved.
   void save_map(const std::string& path);
-  /// Replaces the map by one save_map() wrote (the dense volume: same resolution and size; a
-  /// block map: same voxel size); the pose is kept.
-  void load_map(const std::string& path);
+  /// Replaces the map by one save_map() wrote (the dense volume: same resolution and size; a block
+  /// map: same voxel size) and puts the camera at the pose saved with it (older files hold none:
+  /// the camera stays, and the result's note says so). From then on nothing is integrated until a
+  /// frame has been tracked against the loaded map (FrameResult::tracking_quality is lost until
+  /// then). Waits for the frames in flight. Throws kfx::Error naming the file when it is not a map
+  /// of this kind, resolution and size, or was saved with another camera (both named).
+  LoadedMap load_map(const std::string& path);
 
   /// The settings in force (after validation), as `kfx settings` prints them.
   std::string settings_dump() const;

@@ -360,6 +360,11 @@ NB_MODULE(_kfx, m) {
           "lost", [](const kfx::FrameResult& r) { return r.tracking_ran && !r.tracked; },
           "Tracking ran and failed (the pose was kept, the frame not integrated).")
       .def_ro("integrated", &kfx::FrameResult::integrated)
+      .def_prop_ro(
+          "tracking_state",
+          [](const kfx::FrameResult& r) { return kfx::tracking_quality_name(r.tracking_quality); },
+          "'good', 'poor' (tracked, but the view lets the pose slide) or 'lost' (tracking "
+          "failed, or not yet located in a loaded map); docs/tracking.md.")
       .def_ro("computation_ms", &kfx::FrameResult::computation_ms)
       .def_ro("icp_iterations", &kfx::FrameResult::icp_iterations)
       .def_ro("tracking_constraint", &kfx::FrameResult::tracking_constraint,
@@ -518,9 +523,20 @@ NB_MODULE(_kfx, m) {
       .def("save_map", &kfx::Reconstruction::save_map, "path"_a,
            nb::call_guard<nb::gil_scoped_release>(),
            "Writes the map (volume.kfxtsdf) where the map kind can be saved.")
-      .def("load_map", &kfx::Reconstruction::load_map, "path"_a,
-           nb::call_guard<nb::gil_scoped_release>(),
-           "Replaces the map by one save_map() wrote (same resolution and size).")
+      .def(
+          "load_map",
+          [](kfx::Reconstruction& r, const std::string& path) { return r.load_map(path).note; },
+          "path"_a, nb::call_guard<nb::gil_scoped_release>(),
+          "Replaces the map by one save_map() wrote (same resolution, size and camera) and puts "
+          "the camera at the pose saved with it; nothing is integrated until a frame is tracked "
+          "against the map (tracking_state 'lost' until then). Returns what the file lacks "
+          "('' when nothing; older files hold no camera pose).")
+      .def(
+          "set_pose",
+          [](kfx::Reconstruction& r, const AnyArray& pose) { r.set_pose(pose_from(pose)); },
+          "pose"_a,
+          "Puts the camera at `pose` (4x4, camera to map frame, metres) before the next frame: "
+          "the first pose of a new map, or where to track from in a loaded one.")
       .def("settings_dump", &kfx::Reconstruction::settings_dump,
            "The settings in force, `key = value` lines.")
       .def_prop_ro("camera", &kfx::Reconstruction::camera)

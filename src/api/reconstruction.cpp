@@ -59,6 +59,8 @@ struct Reconstruction::Impl {
   /// Said once, with the first collected frame's warnings: what the input's format assumed
   /// (ResolvedSetup::warnings) and the settings that do nothing here (inert_settings.hpp).
   std::vector<std::string> input_warnings;
+  /// The pose set_pose() or load_map() put the camera at, until the next frame is collected.
+  std::optional<Pose> placed_pose;
 
   /// `from_input`: keys of `settings` that the input recommended rather than the user set.
   Impl(const Settings& settings, const Camera& given,
@@ -184,6 +186,7 @@ struct Reconstruction::Impl {
     r.tracking_ran = last_report.tracking_ran;
     r.tracked = last_report.tracked;
     r.integrated = last_report.integrated;
+    r.tracking_quality = last_report.quality;
     r.T_world_cam = api::to_pose(last_report.T_world_cam);
     r.computation_ms = last_report.computation_ms;
     r.icp_iterations = last_report.icp_iterations;
@@ -198,6 +201,7 @@ struct Reconstruction::Impl {
     }
     samples_in_flight.pop_front();
     trajectory.push_back(r);
+    placed_pose.reset();
     return r;
   }
 
@@ -229,6 +233,56 @@ struct Reconstruction::Impl {
     output::SavedVolume v = volume();
     return api::render_view(v.voxels, v.res, v.size_m, params.render, width_px, height_px,
                             T_world_cam, want_depth);
+  }
+
+  /// Reads a dense map file into the cube (colour too where this map fuses it); returns the
+  /// camera saved with it. Throws, changing nothing, on a file that does not fit.
+  std::optional<output::MapCamera> load_dense_map(const std::string& path) {
+    output::SavedVolume v = output::read_volume_file(path);
+    const auto& vol = config.volume;
+    KFX_CHECK(v.res == vol.resolution_vox && v.size_m == vol.size_m,
+              path << ": the saved map is " << v.res << " voxels over " << v.size_m
+                   << " m, this reconstruction's " << vol.resolution_vox << " over " << vol.size_m
+                   << " m (set volume_resolution and volume_size_m to match)");
+    check_map_camera(v.camera, path);
+    drain();
+    pipeline->backend().upload_volume(v.voxels);
+    // A map saved with colour gives it back where this reconstruction fuses colour.
+    if (config.colour.fuse && !v.colours.empty()) {
+      pipeline->backend().upload_colour_volume(v.colours);
+    }
+    return v.camera;
+  }
+
+  /// The camera as a map file records it, at `pose`.
+  output::MapCamera map_camera(const Pose& pose) const {
+    output::MapCamera c;
+    c.T_map_cam = api::to_mat4f(pose);
+    c.fx_px = camera.fx_px;
+    c.fy_px = camera.fy_px;
+    c.cx_px = camera.cx_px;
+    c.cy_px = camera.cy_px;
+    c.width_px = camera.width_px;
+    c.height_px = camera.height_px;
+    return c;
+  }
+
+  /// Refuses a map saved with another camera (`saved`; none: an older file, not checked).
+  void check_map_camera(const std::optional<output::MapCamera>& saved,
+                        const std::string& path) const {
+    if (!saved) return;
+    const output::MapCamera& s = *saved;
+    const auto near = [](float a, float b) { return std::fabs(a - b) <= 1e-4f * std::fabs(b); };
+    const bool same = s.width_px == camera.width_px && s.height_px == camera.height_px &&
+                      near(s.fx_px, camera.fx_px) && near(s.fy_px, camera.fy_px) &&
+                      near(s.cx_px, camera.cx_px) && near(s.cy_px, camera.cy_px);
+    KFX_CHECK(same, path << ": the map was saved with a camera of " << s.width_px << "x"
+                         << s.height_px << " px, fx " << s.fx_px << ", fy " << s.fy_px << ", cx "
+                         << s.cx_px << ", cy " << s.cy_px << "; this reconstruction's camera is "
+                         << camera.width_px << "x" << camera.height_px << " px, fx " << camera.fx_px
+                         << ", fy " << camera.fy_px << ", cx " << camera.cx_px << ", cy "
+                         << camera.cy_px
+                         << " (a map is tracked against with the camera that built it)");
   }
 };
 
@@ -275,7 +329,27 @@ void Reconstruction::reset() {
 }
 
 Pose Reconstruction::pose() const {
+  if (impl_->placed_pose) return *impl_->placed_pose;
   return impl_->trajectory.empty() ? initial_pose() : impl_->trajectory.back().T_world_cam;
+}
+
+void Reconstruction::set_pose(const Pose& T_world_cam) {
+  for (float x : T_world_cam) KFX_CHECK(std::isfinite(x), "set_pose(): the pose is not finite");
+  KFX_CHECK(
+      T_world_cam[12] == 0 && T_world_cam[13] == 0 && T_world_cam[14] == 0 && T_world_cam[15] == 1,
+      "set_pose(): the pose's last row is not 0 0 0 1");
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      float dot = 0;
+      for (int l = 0; l < 3; ++l) dot += T_world_cam[l * 4 + i] * T_world_cam[l * 4 + j];
+      KFX_CHECK(std::fabs(dot - (i == j ? 1.0f : 0.0f)) < 1e-3f,
+                "set_pose(): the pose's rotation is not orthonormal (columns "
+                    << i << " and " << j << " give " << dot << ")");
+    }
+  }
+  impl_->drain();
+  impl_->pipeline->set_pose(api::to_mat4f(T_world_cam));
+  impl_->placed_pose = T_world_cam;
 }
 Pose Reconstruction::initial_pose() const { return api::to_pose(impl_->pipeline->initial_pose()); }
 const std::vector<FrameResult>& Reconstruction::trajectory() const { return impl_->trajectory; }
@@ -389,32 +463,39 @@ void Reconstruction::save_map(const std::string& path) {
     impl_->drain();
     output::SavedBlockMap map;
     map.map = impl_->pipeline->read_map();
+    map.camera = impl_->map_camera(pose());
     output::write_block_map_file(path, map);
     return;
   }
-  output::write_volume_file(path, impl_->volume());
+  output::SavedVolume volume = impl_->volume();
+  volume.camera = impl_->map_camera(pose());
+  output::write_volume_file(path, volume);
 }
 
-void Reconstruction::load_map(const std::string& path) {
+LoadedMap Reconstruction::load_map(const std::string& path) {
   KFX_CHECK(map_saveable(), path << ": this map kind cannot be loaded");
+  std::optional<output::MapCamera> camera;
   if (impl_->config.volume.kind == MapKind::kBlocks) {
     const output::SavedBlockMap saved = output::read_block_map_file(path);
+    impl_->check_map_camera(saved.camera, path);
     impl_->drain();
     impl_->pipeline->load_map(saved.map);
-    return;
+    camera = saved.camera;
+  } else {
+    camera = impl_->load_dense_map(path);
   }
-  output::SavedVolume v = output::read_volume_file(path);
-  const auto& vol = impl_->config.volume;
-  KFX_CHECK(v.res == vol.resolution_vox && v.size_m == vol.size_m,
-            path << ": the saved map is " << v.res << " voxels over " << v.size_m
-                 << " m, this reconstruction's " << vol.resolution_vox << " over " << vol.size_m
-                 << " m (set volume_resolution and volume_size_m to match)");
-  impl_->drain();
-  impl_->pipeline->backend().upload_volume(v.voxels);
-  // A map saved with colour gives it back where this reconstruction fuses colour.
-  if (impl_->config.colour.fuse && !v.colours.empty()) {
-    impl_->pipeline->backend().upload_colour_volume(v.colours);
+  impl_->pipeline->adopt_loaded_map();
+  LoadedMap loaded;
+  if (camera) {
+    set_pose(api::to_pose(camera->T_map_cam));
+    loaded.pose_restored = true;
+  } else {
+    loaded.note = path +
+                  ": saved without the camera's pose (an older format): the camera "
+                  "stays where it was; give the pose with set_pose() if you know it. "
+                  "Nothing is integrated until a frame is tracked against the map.";
   }
+  return loaded;
 }
 
 std::string Reconstruction::settings_dump() const { return impl_->pipeline->config().dump(); }

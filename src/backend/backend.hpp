@@ -128,6 +128,9 @@ class Backend {
 
   /// Empties the volume (tsdf 1, weight 0) and sets the pose; no reference view yet.
   virtual void reset(const Mat4f& T_world_cam) = 0;
+  /// Moves the camera to `T_world_cam` between frames, keeping the map (kernels/camera_move.hpp);
+  /// call with no frame in flight.
+  virtual void set_pose(const Mat4f& T_world_cam) = 0;
   /// Copies the next input depth frame (input size, millimetres, rows packed: pitch == width) to
   /// the backend; the caller's memory is read during the call only.
   virtual void upload_depth(ImageView<const uint16_t> depth_mm) = 0;

@@ -38,7 +38,9 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
             path << ": " << m.keys.size() << " blocks with " << m.colours.size() << " colours");
   io::BinaryOutputFile file(path, "block map");
   unsigned char header[kHeaderBytes];
-  const uint32_t version = colour ? kBlockMapFileVersionColour : kBlockMapFileVersion;
+  const uint32_t version =
+      saved.camera ? (colour ? kBlockMapFileVersionColourCamera : kBlockMapFileVersionCamera)
+                   : (colour ? kBlockMapFileVersionColour : kBlockMapFileVersion);
   const uint32_t res = static_cast<uint32_t>(m.grid_res);
   const uint64_t count = m.keys.size();
   std::memcpy(header, kMagic, 8);
@@ -57,6 +59,7 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
       std::fwrite(&m.colours[i * kBlockVoxels], sizeof(ColourVoxel), kBlockVoxels, file.file());
     }
   }
+  if (saved.camera) write_map_camera(file.file(), *saved.camera);
   file.commit();
 }
 
@@ -77,10 +80,12 @@ SavedBlockMap read_block_map_file(const std::string& path) {
   std::memcpy(&m.grid_size_m, header + 16, 4);
   std::memcpy(saved.T_trajectory_map.m, header + 20, 64);
   std::memcpy(&count, header + 84, 8);
-  KFX_CHECK(version == kBlockMapFileVersion || version == kBlockMapFileVersionColour,
+  KFX_CHECK(version >= kBlockMapFileVersion && version <= kBlockMapFileVersionColourCamera,
             path << ": block map format version " << version << ", this kfx reads "
-                 << kBlockMapFileVersion << " and " << kBlockMapFileVersionColour);
-  const bool colour = version == kBlockMapFileVersionColour;
+                 << kBlockMapFileVersion << " to " << kBlockMapFileVersionColourCamera);
+  const bool colour =
+      version == kBlockMapFileVersionColour || version == kBlockMapFileVersionColourCamera;
+  const uint64_t camera_bytes = version >= kBlockMapFileVersionCamera ? kMapCameraBytes : 0;
   const size_t block_bytes = kBlockBytes + (colour ? kBlockColourBytes : 0);
   KFX_CHECK(res >= 1 && res <= 1 << 20, path << ": grid_res " << res << " outside 1 to 2^20");
   KFX_CHECK(std::isfinite(m.grid_size_m) && m.grid_size_m > 0,
@@ -91,10 +96,12 @@ SavedBlockMap read_block_map_file(const std::string& path) {
   m.grid_res = static_cast<int>(res);
   in.seekg(0, std::ios::end);
   const uint64_t size = static_cast<uint64_t>(in.tellg());
-  KFX_CHECK(
-      count <= (size - kHeaderBytes) / block_bytes && size == kHeaderBytes + count * block_bytes,
-      path << ": " << size << " bytes, a map of " << count << " blocks"
-           << (colour ? " with colour" : "") << " has " << kHeaderBytes + count * block_bytes);
+  KFX_CHECK(size >= kHeaderBytes + camera_bytes &&
+                count <= (size - kHeaderBytes - camera_bytes) / block_bytes &&
+                size == kHeaderBytes + count * block_bytes + camera_bytes,
+            path << ": " << size << " bytes, a map of " << count << " blocks"
+                 << (colour ? " with colour" : "") << (camera_bytes ? " and its camera" : "")
+                 << " has " << kHeaderBytes + count * block_bytes + camera_bytes);
   in.seekg(static_cast<std::streamoff>(kHeaderBytes));
   m.keys.resize(count);
   m.voxels.resize(count * kBlockVoxels);
@@ -114,6 +121,12 @@ SavedBlockMap read_block_map_file(const std::string& path) {
     KFX_CHECK(i == 0 || m.keys[i - 1] < m.keys[i], path << ": block " << i << " at (" << c[0]
                                                         << ", " << c[1] << ", " << c[2]
                                                         << ") is listed twice or out of order");
+  }
+  if (camera_bytes > 0) {
+    unsigned char bytes[kMapCameraBytes];
+    in.read(reinterpret_cast<char*>(bytes), sizeof(bytes));
+    KFX_CHECK(in, path << ": cannot read the camera section");
+    saved.camera = parse_map_camera(bytes, path);
   }
   return saved;
 }

@@ -32,6 +32,21 @@ void add_flat_evaluation(nlohmann::json& out, const eval::EvalResult& r) {
   out["departure_frame"] = d.departed ? nlohmann::json(d.departure_index) : nlohmann::json(nullptr);
 }
 
+void add_tracking_states(nlohmann::json& out, const TrackingTimeline& timeline) {
+  nlohmann::json& j = out["tracking_states"];
+  for (TrackingQuality q :
+       {TrackingQuality::kGood, TrackingQuality::kPoor, TrackingQuality::kLost}) {
+    j[tracking_quality_name(q)] = timeline.count(q);
+  }
+  j["stretches"] = nlohmann::json::array();
+  for (const TrackingStretch& s : timeline.stretches()) {
+    j["stretches"].push_back({{"state", tracking_quality_name(s.quality)},
+                              {"first_frame", s.first_frame},
+                              {"last_frame", s.last_frame},
+                              {"frames", s.frames}});
+  }
+}
+
 void write_json_document(const std::string& path, nlohmann::json document) {
   document["schema_version"] = kJsonSchemaVersion;
   io::AtomicFile file(path);

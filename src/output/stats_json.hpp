@@ -7,6 +7,7 @@
 #include <string>
 
 #include "eval/report.hpp"
+#include "localise/tracking_judge.hpp"
 
 namespace kfx::output {
 
@@ -16,6 +17,10 @@ constexpr int kJsonSchemaVersion = 2;
 /// The ATE/RPE figures of an evaluation as flat keys (ate_rmse_m, ate_mean_m, ...,
 /// rpe_translation_rmse_m, ...) added to `out`.
 void add_flat_evaluation(nlohmann::json& out, const eval::EvalResult& result);
+
+/// The run's tracking states as `tracking_states`: {"good", "poor", "lost": frame counts,
+/// "stretches": [{"state", "first_frame", "last_frame", "frames"}] of poor and lost frames}.
+void add_tracking_states(nlohmann::json& out, const TrackingTimeline& timeline);
 
 /// Writes `document` with `schema_version` set to `path` (temporary name, renamed when
 /// complete).

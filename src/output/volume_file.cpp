@@ -30,7 +30,9 @@ void write_volume_file(const std::string& path, const SavedVolume& v) {
             path << ": " << v.colours.size() << " colours for resolution " << v.res);
   io::BinaryOutputFile file(path, "volume");
   unsigned char header[kVolumeHeaderBytes];
-  const uint32_t version = colour ? kVolumeFileVersionColour : kVolumeFileVersion;
+  const uint32_t version =
+      v.camera ? (colour ? kVolumeFileVersionColourCamera : kVolumeFileVersionCamera)
+               : (colour ? kVolumeFileVersionColour : kVolumeFileVersion);
   const uint32_t res = static_cast<uint32_t>(v.res);
   std::memcpy(header, kMagic, 8);
   std::memcpy(header + 8, &version, 4);
@@ -40,6 +42,7 @@ void write_volume_file(const std::string& path, const SavedVolume& v) {
   std::fwrite(header, 1, sizeof(header), file.file());
   std::fwrite(v.voxels.data(), sizeof(Voxel), v.voxels.size(), file.file());
   if (colour) std::fwrite(v.colours.data(), sizeof(ColourVoxel), v.colours.size(), file.file());
+  if (v.camera) write_map_camera(file.file(), *v.camera);
   file.commit();
 }
 
@@ -58,10 +61,12 @@ SavedVolume read_volume_file(const std::string& path) {
   std::memcpy(&res, header + 12, 4);
   std::memcpy(&v.size_m, header + 16, 4);
   std::memcpy(v.T_trajectory_volume.m, header + 20, 64);
-  KFX_CHECK(version == kVolumeFileVersion || version == kVolumeFileVersionColour,
+  KFX_CHECK(version >= kVolumeFileVersion && version <= kVolumeFileVersionColourCamera,
             path << ": volume format version " << version << ", this kfx reads "
-                 << kVolumeFileVersion << " and " << kVolumeFileVersionColour);
-  const bool colour = version == kVolumeFileVersionColour;
+                 << kVolumeFileVersion << " to " << kVolumeFileVersionColourCamera);
+  const bool colour =
+      version == kVolumeFileVersionColour || version == kVolumeFileVersionColourCamera;
+  const bool camera = version >= kVolumeFileVersionCamera;
   KFX_CHECK(res >= 2 && res <= kMaxResolution,
             path << ": resolution " << res << " outside 2 to " << kMaxResolution);
   KFX_CHECK(std::isfinite(v.size_m) && v.size_m > 0,
@@ -74,9 +79,11 @@ SavedVolume read_volume_file(const std::string& path) {
   in.seekg(0, std::ios::end);
   const std::streamoff size = in.tellg();
   const std::streamoff want = static_cast<std::streamoff>(
-      kVolumeHeaderBytes + count * (sizeof(Voxel) + (colour ? sizeof(ColourVoxel) : 0)));
+      kVolumeHeaderBytes + count * (sizeof(Voxel) + (colour ? sizeof(ColourVoxel) : 0)) +
+      (camera ? kMapCameraBytes : 0));
   KFX_CHECK(size == want, path << ": " << size << " bytes, a " << res << "^3 volume"
-                               << (colour ? " with colour" : "") << " has " << want);
+                               << (colour ? " with colour" : "")
+                               << (camera ? " and its camera" : "") << " has " << want);
   in.seekg(static_cast<std::streamoff>(kVolumeHeaderBytes));
   v.voxels.resize(count);
   in.read(reinterpret_cast<char*>(v.voxels.data()),
@@ -87,6 +94,12 @@ SavedVolume read_volume_file(const std::string& path) {
     in.read(reinterpret_cast<char*>(v.colours.data()),
             static_cast<std::streamsize>(count * sizeof(ColourVoxel)));
     KFX_CHECK(in, path << ": cannot read the colours");
+  }
+  if (camera) {
+    unsigned char bytes[kMapCameraBytes];
+    in.read(reinterpret_cast<char*>(bytes), sizeof(bytes));
+    KFX_CHECK(in, path << ": cannot read the camera section");
+    v.camera = parse_map_camera(bytes, path);
   }
   return v;
 }

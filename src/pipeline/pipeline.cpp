@@ -104,11 +104,34 @@ void Pipeline::reset() {
   backend_->reset(initial_pose_);
   frame_ = 0;
   have_reference_ = false;
+  judge_.restart(false);
+  map_loaded_ = false;
+  reference_stale_ = false;
   swap_store_.clear();
   swap_active_ = BlockMapContents{};
   swap_due_ = false;
   swap_passes_ = 0;
   blocks_after_pass_ = 0;
+}
+
+void Pipeline::set_pose(const Mat4f& T_world_cam) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::set_pose() with frames in flight: collect them first");
+  backend_->set_pose(T_world_cam);
+  camera_m_ = T_world_cam.translation_part();
+  if (frame_ == 0 && !map_loaded_) {
+    initial_pose_ = T_world_cam;
+    return;
+  }
+  have_reference_ = false;
+  reference_stale_ = true;
+}
+
+void Pipeline::adopt_loaded_map() {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::adopt_loaded_map() with frames in flight");
+  map_loaded_ = true;
+  have_reference_ = false;
+  reference_stale_ = true;
+  judge_.restart(true);
 }
 
 void Pipeline::swap_pass() {
@@ -156,6 +179,9 @@ FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostIma
 
 void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
   const int f = frame_;
+  KFX_CHECK(!config_.integration.localise_only || map_loaded_,
+            "frame " << f << ": setting localise_only is on, but no map was loaded to localise "
+                     << "in (load one before the first frame, or set localise_only=off)");
   FrameReport report;
   report.index = f;
   if (swap_due_) {
@@ -179,12 +205,19 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).
   const int bootstrap = config_.quality.bootstrap_frames;
   const bool track = have_reference_ && f % config_.tracking.rate == 0;
-  const bool always = f < bootstrap;
+  // A loaded map is not bootstrapped: integrating untracked frames would fuse them at a pose
+  // nobody checked against it.
+  const bool always = f < bootstrap && !map_loaded_;
   const int holdout = config_.integration.holdout;
   const bool held_out = !always && holdout > 0 && f % holdout == 0;
-  const bool may_integrate = always || (f % config_.integration.rate == 0 && !held_out);
-  report.raycast = f >= bootstrap - 1 && f % config_.approx.raycast_rate == 0;
-  if (report.raycast) have_reference_ = true;
+  const bool may_integrate = !config_.integration.localise_only &&
+                             (always || (f % config_.integration.rate == 0 && !held_out));
+  report.raycast = (f >= bootstrap - 1 || map_loaded_) &&
+                   (f % config_.approx.raycast_rate == 0 || reference_stale_);
+  if (report.raycast) {
+    have_reference_ = true;
+    reference_stale_ = false;
+  }
   // Which stages run depends on the frame number only: the shape names the sequence.
   report.rendered = renders(f);
   const int shape = (track ? 1 : 0) | (may_integrate ? 2 : 0) | (always ? 4 : 0) |
@@ -292,9 +325,17 @@ FrameReport Pipeline::collect() {
   report.inlier_fraction =
       track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)
             : 0.0;
+  const double inliers = state.accumulator[kAccInliers];
+  report.residual_rms_m =
+      track && inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
   // On the host from the state both backends return: the GPU's one-thread decision kernels
   // stay as they were (a 6×6 eigen-decomposition in one device thread would cost the frame).
   if (track) report.constraint = tracking_constraint(state.accumulator, state.T_world_cam);
+  TrackingEvidence evidence;
+  evidence.tracking_ran = track;
+  evidence.tracked = report.tracked;
+  evidence.constraint_min = report.constraint.eigenvalues[0];
+  report.quality = judge_.judge(evidence);
   for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
   }

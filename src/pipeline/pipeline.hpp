@@ -12,6 +12,7 @@
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "kernels/tracking_constraint.hpp"
+#include "localise/tracking_judge.hpp"
 #include "map/block_swap.hpp"
 #include "pipeline/config.hpp"
 
@@ -30,10 +31,17 @@ struct FrameReport {
   double computation_ms = 0;   ///< preprocess + track + integrate + raycast
   int icp_iterations = 0;      ///< ICP iterations run (all levels)
   double inlier_fraction = 0;  ///< inliers / compute pixels at the last iteration
+  /// sqrt(Σe² / inliers) of the last ICP iteration, metres (the accept test's RMS; 0 when
+  /// tracking did not run or had no inliers).
+  double residual_rms_m = 0;
   /// How well the last ICP iteration pinned the pose (kernels/tracking_constraint.hpp): its
   /// normal matrix's eigenvalues about the camera and the weakest direction; all 0 when
   /// tracking did not run.
   TrackingConstraint constraint{};
+  /// The frame's tracking state (localise/tracking_judge.hpp): good, poor (tracked, but the
+  /// view lets the pose slide) or lost. It only observes: the frame's pose and integration do
+  /// not depend on it.
+  TrackingQuality quality = TrackingQuality::kGood;
   /// The block map (volume=blocks; 0 with the dense cube): blocks allocated after the frame,
   /// and blocks its truncation band reached that did not fit the map's budget (that part of
   /// the frame's surface was not stored).
@@ -86,6 +94,19 @@ class Pipeline {
   /// Frames submitted but not collected.
   int frames_in_flight() const { return static_cast<int>(in_flight_.size()); }
 
+  /// Moves the camera to `T_world_cam` (volume frame) before the next frame, keeping the map;
+  /// no frame may be in flight. Before the first frame of a map that was not loaded it becomes
+  /// the first pose (initial_pose(), used again after reset()); otherwise the next frame
+  /// raycasts the map from there and is not tracked (the reference view is new).
+  void set_pose(const Mat4f& T_world_cam);
+  /// Says that the map was replaced by a saved one (load_map(), or the dense cube uploaded):
+  /// from now until reset() no frame is integrated untracked (the bootstrap frames included),
+  /// the next frame raycasts the map from the current pose, and the tracking state is lost
+  /// until a frame is tracked against it. No frame may be in flight.
+  void adopt_loaded_map();
+  /// True after adopt_loaded_map(), until reset().
+  bool map_loaded() const { return map_loaded_; }
+
   /// The first camera pose: a translation to init_pose_factor · volume size.
   const Mat4f& initial_pose() const { return initial_pose_; }
   /// Compute-size intrinsics.
@@ -132,6 +153,11 @@ class Pipeline {
   int frame_ = 0;
   bool have_reference_ = false;  ///< a raycast has run: frames can be tracked
   bool rendering_ = false;
+  TrackingJudge judge_;      ///< each collected frame's tracking state
+  bool map_loaded_ = false;  ///< adopt_loaded_map() was called (until reset())
+  /// The camera was moved (set_pose) or the map replaced: the next frame raycasts whatever the
+  /// raycast rate says, as the old reference view belongs to another pose or map.
+  bool reference_stale_ = false;
 
   /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
   /// next frame; decided in collect() (swap_due_).

@@ -210,3 +210,24 @@ def test_warnings_name_the_frame_by_its_number_in_the_input(frames):
     # A Sequence's frames carry their own numbers.
     s = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
     assert [s.process(f).input_index for f in frames[:3]] == [f.index for f in frames[:3]]
+
+
+def test_tracking_state_and_the_camera_saved_with_the_map(frames, tmp_path):
+    """Each frame says how far its pose can be trusted; a loaded map puts the camera where it
+    was saved and integrates nothing before a frame is tracked against it."""
+    half = len(frames) // 2
+    r = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    results = [r.process(f) for f in frames[:half]]
+    assert {x.tracking_state for x in results} <= {"good", "poor", "lost"}
+    assert results[0].tracking_state == "good"
+    r.save_map(str(tmp_path / "map.kfxtsdf"))
+    loaded = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    assert loaded.load_map(str(tmp_path / "map.kfxtsdf")) == ""  # nothing lacking
+    assert np.array_equal(loaded.pose, r.pose)
+    first = loaded.process(frames[half])
+    assert not first.integrated and first.tracking_state == "lost"  # raycast only
+    later = [loaded.process(f) for f in frames[half + 1:]]
+    assert later[-1].tracked and later[-1].tracking_state == "good"
+    assert all(x.tracked or not x.integrated for x in later)
+    with pytest.raises(kfx.Error, match="orthonormal"):
+        loaded.set_pose(np.diag([2.0, 1.0, 1.0, 1.0]).astype(np.float32))

@@ -14,6 +14,7 @@
 #include "backend/block_map_mesh.hpp"
 #include "backend/frame_buffers.hpp"
 #include "kernels/block_allocation.hpp"
+#include "kernels/camera_move.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/marching_cubes.hpp"
 #include "kernels/photometric.hpp"
@@ -101,6 +102,8 @@ class CpuBackend final : public Backend {
     state_ = initial_tracking_state(T_world_cam);
     finished_.clear();
   }
+
+  void set_pose(const Mat4f& T_world_cam) override { move_camera(state_, T_world_cam); }
 
   void upload_depth(ImageView<const uint16_t> depth_mm) override {
     check_depth_frame(depth_mm, setup_);

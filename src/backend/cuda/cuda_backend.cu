@@ -22,6 +22,7 @@
 #include "backend/cuda/cuda_memory.hpp"
 #include "backend/cuda/cuda_mesh.hpp"
 #include "backend/frame_buffers.hpp"
+#include "kernels/camera_move.hpp"
 
 namespace kfx {
 
@@ -198,6 +199,16 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     pending_.clear();
     frames_submitted_ = 0;
+  }
+
+  void set_pose(const Mat4f& T_world_cam) override {
+    // The readback buffer is free only while no frame's state waits in it.
+    KFX_CHECK(pending_.empty(), "set_pose() with a frame in flight");
+    KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
+    TrackingState& host = *state_readback_[0].data();
+    KFX_CUDA_CHECK(cudaMemcpy(&host, state_.data(), sizeof(TrackingState), cudaMemcpyDeviceToHost));
+    move_camera(host, T_world_cam);
+    KFX_CUDA_CHECK(cudaMemcpy(state_.data(), &host, sizeof(TrackingState), cudaMemcpyHostToDevice));
   }
 
   void upload_depth(ImageView<const uint16_t> depth_mm) override {

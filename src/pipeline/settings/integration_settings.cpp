@@ -29,6 +29,11 @@ SettingsSection integration_section() {
       "evaluation: never integrate frames f >= bootstrap_frames with f % N == 0, so renders "
       "there show the model from views it has not seen (0 = off)",
       [](C& c) -> int& { return c.integration.holdout; }));
+  rows.push_back(on_off_row(
+      "localise_only", s,
+      "track against a loaded map and integrate nothing: the map stays as loaded (on|off; "
+      "needs a map loaded before the first frame)",
+      [](C& c) -> bool& { return c.integration.localise_only; }));
   return section;
 }
 

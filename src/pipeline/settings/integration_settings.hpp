@@ -10,6 +10,9 @@ struct IntegrationSettings {
   /// Evaluation: frames f ≥ bootstrap with f % holdout == 0 are tracked but never integrated,
   /// so the model can be compared with frames it has not seen (0 = none held out).
   int holdout = 0;
+  /// Localisation only: track against a loaded map and integrate nothing (the map stays as
+  /// loaded; a robot that maps once and then navigates). Needs a loaded map.
+  bool localise_only = false;
 };
 
 }  // namespace kfx
