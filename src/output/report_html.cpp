@@ -365,6 +365,7 @@ ReportResult write_report(const std::string& run_dir) {
   data["warning_stretches"] = warning_stretches(stats, data["lost_frames"]);
   // Every warning line the terminal said, with its frame (absent from runs written before).
   data["warning_lines"] = stats.value("warnings", json::array());
+  data["tracking_states"] = stats.value("tracking_states", json(nullptr));
   data["renders"] = renders_data(run_dir, result);
   data["render_frames_in_run"] = result.render_frames_in_run;
   data["mesh"] = mesh_data(run_dir, result);

@@ -136,6 +136,19 @@ def check_summary_against_stats(check, name, dom, stats):
     check(listed == expected, f"{name}: warnings listed {listed}, stats.json {expected}")
     if not expected:
         check(section is not None and "No warnings" in section.group(1), f"{name}: no 'No warnings' note")
+    # The tracking state: stats.json's counts, and its stretches of poor and lost frames in order.
+    start = dom.find('<div id="tracking-states">')
+    states = dom[start:dom.find("<h2>", start)] if start >= 0 else ""
+    t = stats.get("tracking_states")
+    check(t is not None, f"{name}: stats.json has no tracking_states")
+    if t is not None:
+        counts = f"good {t['good']}, poor {t['poor']}, lost {t['lost']} frame(s)"
+        check(counts in states, f"{name}: tracking state section lacks {counts!r}")
+        listed = re.findall(r"<tr><td>(good|poor|lost)</td><td>(.*?)</td><td>(.*?)</td></tr>", states)
+        expected = [(s["state"], str(s["first_frame"]) if s["first_frame"] == s["last_frame"]
+                     else f"{s['first_frame']}–{s['last_frame']}", str(s["frames"]))
+                    for s in t["stretches"]]
+        check(listed == expected, f"{name}: tracking stretches listed {listed}, stats.json {expected}")
     stage_plots = [p for p in plots if "Stage times" in p]
     check(len(stage_plots) == 1, f"{name}: {len(stage_plots)} stage-time plots")
     if stage_plots:

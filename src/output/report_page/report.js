@@ -109,6 +109,24 @@
   el("warnings").innerHTML = warningsHtml || '<div class="note">No warnings: no frame was lost, poorly constrained, diverged or ' +
     "out of the volume, no depth looked implausible, and the input and settings needed no remark.</div>";
 
+  // ---- Tracking state: good / poor / lost per frame, as counts and stretches (stats.json's
+  // tracking_states; absent from runs written before it existed) ----
+  var T = KFX.tracking_states;
+  if (!T) {
+    el("tracking-states").innerHTML = '<div class="note">This run was written before kfx judged each frame\'s tracking state.</div>';
+  } else {
+    var timeline = '<div class="note">good ' + text(T.good) + ", poor " + text(T.poor) + ", lost " + text(T.lost) +
+      " frame(s). Poor: the view leaves a direction nearly free, so the pose can slide while every frame passes the accept test; lost: the accept test failed.</div>";
+    if ((T.stretches || []).length) {
+      timeline += '<table class="tracking-states"><tr><th>state</th><th>frames</th><th>frames in it</th></tr>' +
+        T.stretches.map(function (t) {
+          var range = t.first_frame === t.last_frame ? String(t.first_frame) : t.first_frame + "–" + t.last_frame;
+          return "<tr><td>" + text(t.state) + "</td><td>" + text(range) + "</td><td>" + text(t.frames) + "</td></tr>";
+        }).join("") + "</table>";
+    }
+    el("tracking-states").innerHTML = timeline;
+  }
+
   // ---- Lost frames: tracking ran and failed (stats.json's lost_frames) ----
   var L = KFX.log;
   var lost = KFX.lost_frames;
