@@ -90,7 +90,8 @@ KFX_HD inline Vec3f volume_gradient(const Map& vol, Vec3f p_m) {
 /// trilinear sample (settings raycast_normal_span_m, raycast_normal_span_noise: normal_span_at_m).
 /// Wider than volume_gradient's one voxel, it averages the surface over more voxels: with
 /// voxels finer than the depth noise, one-voxel differences give noisy normals, and ICP against
-/// them can slide to a wrong minimum after a gap (bench/RESULTS.md, "Session 16").
+/// them can slide to a wrong minimum after a gap (measured: bench/RESULTS.md, "the model's
+/// normals over the depth noise").
 /// Out of line: inlined into raycast_pixel, its six samples changed how GCC compiled the
 /// march's samples, and with them `exact`'s CPU trajectory in its last bits.
 template <class Map>
@@ -434,8 +435,8 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const bool constant_step = a.constant_step_m > 0.0f;
   float step = constant_step ? a.constant_step_m : a.large_step_m;
   // What the ray remembers of the map (nothing for the cube). The GPU keeps none: there this
-  // memo, and a per-ray block cache before it, made the raycast slower (bench/RESULTS.md,
-  // "Session 13: the CPU block-map work ... on the GPU").
+  // memo, and a per-ray block cache before it, made the raycast slower (measured:
+  // bench/RESULTS.md, "the CPU block-map work ... on the GPU").
 #if defined(__CUDA_ARCH__)
   NoRayMemo memo;
 #else
@@ -531,7 +532,7 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   ray_range_of_pixel(a.ranges, x, y, touched_from_m, touched_to_m);
   // A constant step (approximation) reads one sample at a time: its samples lie centimetres
   // apart, so one read ahead is mostly wasted (14 % off the 5 mm block raycast with `fast`'s
-  // settings, no change with fine steps; bench/RESULTS.md, Session 14).
+  // settings, no change with fine steps; bench/RESULTS.md, "the block raycast ... taken apart").
   const float t_hit =
       a.constant_step_m > 0.0f
           ? raycast_ray<1>(a, origin, direction, hit, touched_from_m, touched_to_m)
@@ -557,7 +558,8 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
 /// raycast_normals=neighbours: along either image axis, a pixel whose hit lies more than this
 /// many times farther from one neighbour's hit than from the other's (plus
 /// kNeighbourNormalEdgeSlackM) sits on a depth edge and gets no normal. A ratio, not a distance:
-/// a fixed 3 cm also dropped far oblique walls at 320x240 (bench/RESULTS.md, Session 20).
+/// a fixed 3 cm also dropped far oblique walls at 320x240 (bench/RESULTS.md, "the raycast's
+/// normals from neighbouring rays").
 constexpr float kNeighbourNormalEdgeRatio = 3.0f;
 constexpr float kNeighbourNormalEdgeSlackM = 0.005f;  ///< hit noise the ratio forgives
 

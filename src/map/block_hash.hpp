@@ -55,10 +55,10 @@ KFX_HD inline Vec3i unpack_block_key(uint64_t key) {
 /// high 16 bits folded onto the low ones (the table keeps the low bits). 32-bit arithmetic only:
 /// every lookup of the block raycast and of the allocation computes it, and the GPU raycast is
 /// bound by its instructions, so it runs faster than with SplitMix64's finaliser (64-bit
-/// multiplies and shifts), with the same answers (bench/RESULTS.md, "Session 21"). Neighbouring
-/// blocks, the keys a map holds, probe no longer than random keys do (tests/test_block_hash.cpp),
-/// which a bare multiplicative hash of the packed key did not do in small tables (z, the key's
-/// top bits, stayed above the mask).
+/// multiplies and shifts), with the same answers (bench/RESULTS.md, "fewer instructions per block
+/// lookup"). Neighbouring blocks, the keys a map holds, probe no longer than random keys do
+/// (tests/test_block_hash.cpp), which a bare multiplicative hash of the packed key did not do in
+/// small tables (z, the key's top bits, stayed above the mask).
 KFX_HD inline uint64_t block_key_hash(uint64_t key) {
   uint32_t h =
       static_cast<uint32_t>(key) * 0x9e3779b1u + static_cast<uint32_t>(key >> 32) * 0x85ebca77u;

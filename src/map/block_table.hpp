@@ -4,7 +4,8 @@
 /// when it is the only allocated block that maps there. The coarse cells (map/block_map.hpp)
 /// have a table of their own in front of their hash. A lookup then costs one 16-byte load and
 /// three compares instead of packing the key, hashing it and probing; the GPU's block raycast,
-/// bound by its instructions, does several lookups per sample (bench/RESULTS.md, "Session 21").
+/// bound by its instructions, does several lookups per sample (bench/RESULTS.md, "fewer
+/// instructions per block lookup").
 ///
 /// Each entry is in one of three states, whatever order the blocks were inserted in:
 /// - empty (index kBlockTableEmpty): no allocated block maps here, so a block that does is absent;

@@ -80,7 +80,7 @@ class FrameDiagnostics {
   /// kMinTrackingConstraint for kPoorlyConstrainedFrames tracked frames in a row. Single frames
   /// dip that low on sequences that track well (TUM fr1_rpy: 12 in a row at most, fr1_xyz: 16
   /// frames in all); the synthetic house's C door, where the pose slid 0.5 m, stayed below it
-  /// for 85. See docs/tracking.md and bench/RESULTS.md, "Session 13".
+  /// for 85. See docs/tracking-constraint.md and bench/RESULTS.md, "tracking on the house".
   static constexpr float kMinTrackingConstraint = 0.004f;
   static constexpr int kPoorlyConstrainedFrames = 30;
 
