@@ -318,16 +318,19 @@ double loop_phase(int frame, double speed) {
   return 2 * kPi * speed * SyntheticScene::stamp_s(frame) / kLoopPeriodS;
 }
 
-/// The camera's state on the house's path at a frame, walked at kHouseSpeedMps · speed.
-LoopState house_state(const synth::HousePath& path, int frame, double speed) {
-  const synth::PathState p =
-      path.state(synth::kHouseSpeedMps * speed * SyntheticScene::stamp_s(frame));
+/// A path's state as the camera's state.
+LoopState loop_state_of(const synth::PathState& p) {
   LoopState s;
   for (int i = 0; i < 3; ++i) s.p[i] = p.p[i];
   s.yaw = p.yaw;
   s.pitch = p.pitch;
   s.roll = p.roll;
   return s;
+}
+
+/// The camera's state on the house's path at a frame, walked at kHouseSpeedMps · speed.
+LoopState house_state(const synth::HousePath& path, int frame, double speed) {
+  return loop_state_of(path.state(synth::kHouseSpeedMps * speed * SyntheticScene::stamp_s(frame)));
 }
 
 /// The camera's state on the twins' path at a frame (io/synthetic_twins.hpp): the room's loop in
@@ -340,13 +343,7 @@ LoopState twins_state(int frame, double speed) {
     s.p[0] += synth::kTwinsOffsetM;
     return s;
   }
-  const synth::PathState p = synth::twins_transit_state(u - synth::kTwinsLoopS);
-  LoopState s;
-  for (int i = 0; i < 3; ++i) s.p[i] = p.p[i];
-  s.yaw = p.yaw;
-  s.pitch = p.pitch;
-  s.roll = p.roll;
-  return s;
+  return loop_state_of(synth::twins_transit_state(u - synth::kTwinsLoopS));
 }
 
 }  // namespace
