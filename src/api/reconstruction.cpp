@@ -11,6 +11,7 @@
 #include "api/internal.hpp"
 #include "api/render_view.hpp"
 #include "core/platform.hpp"
+#include "core/se3.hpp"
 #include "io/trajectory.hpp"
 #include "output/block_map_file.hpp"
 #include "output/mesh_colour.hpp"
@@ -334,19 +335,8 @@ Pose Reconstruction::pose() const {
 }
 
 void Reconstruction::set_pose(const Pose& T_world_cam) {
-  for (float x : T_world_cam) KFX_CHECK(std::isfinite(x), "set_pose(): the pose is not finite");
-  KFX_CHECK(
-      T_world_cam[12] == 0 && T_world_cam[13] == 0 && T_world_cam[14] == 0 && T_world_cam[15] == 1,
-      "set_pose(): the pose's last row is not 0 0 0 1");
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      float dot = 0;
-      for (int l = 0; l < 3; ++l) dot += T_world_cam[l * 4 + i] * T_world_cam[l * 4 + j];
-      KFX_CHECK(std::fabs(dot - (i == j ? 1.0f : 0.0f)) < 1e-3f,
-                "set_pose(): the pose's rotation is not orthonormal (columns "
-                    << i << " and " << j << " give " << dot << ")");
-    }
-  }
+  const std::string problem = rigid_transform_problem(api::to_mat4f(T_world_cam));
+  KFX_CHECK(problem.empty(), "set_pose(): the pose " << problem);
   impl_->drain();
   impl_->pipeline->set_pose(api::to_mat4f(T_world_cam));
   impl_->placed_pose = T_world_cam;

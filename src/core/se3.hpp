@@ -3,6 +3,7 @@
 /// its conversion to a float pose matrix.
 
 #include <cmath>
+#include <string>
 
 #include "core/math.hpp"
 
@@ -91,6 +92,31 @@ KFX_HD inline Mat4f orthonormalized(const Mat4f& a) {
     r.m[i][2] = static_cast<float>(c2[i]);
   }
   return r;
+}
+
+/// Why `a` is not a rigid transform [R t; 0 1], as words that follow "the pose": an entry not
+/// finite, a last row other than 0 0 0 1, or R not orthonormal within 1e-3; "" when it is one.
+/// Host only: for poses a caller or a file hands over.
+inline std::string rigid_transform_problem(const Mat4f& a) {
+  for (const auto& row : a.m) {
+    for (float x : row) {
+      if (!std::isfinite(x)) return "is not finite";
+    }
+  }
+  if (a.m[3][0] != 0 || a.m[3][1] != 0 || a.m[3][2] != 0 || a.m[3][3] != 1) {
+    return "has a last row other than 0 0 0 1";
+  }
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) {
+      float dot = 0;
+      for (int l = 0; l < 3; ++l) dot += a.m[l][i] * a.m[l][j];
+      if (std::fabs(dot - (i == j ? 1.0f : 0.0f)) >= 1e-3f) {
+        return "has a rotation that is not orthonormal (columns " + std::to_string(i) + " and " +
+               std::to_string(j) + " give " + std::to_string(dot) + ")";
+      }
+    }
+  }
+  return "";
 }
 
 }  // namespace kfx

@@ -21,6 +21,7 @@
 
 #include "core/math.hpp"
 #include "core/platform.hpp"
+#include "core/se3.hpp"
 
 namespace kfx::output {
 
@@ -65,22 +66,8 @@ inline MapCamera parse_map_camera(const unsigned char* bytes, const std::string&
   c.cy_px = k[3];
   c.width_px = size[0];
   c.height_px = size[1];
-  for (const auto& row : c.T_map_cam.m) {
-    for (float x : row) {
-      KFX_CHECK(std::isfinite(x), path << ": the saved camera pose is not finite");
-    }
-  }
-  const auto& m = c.T_map_cam.m;
-  KFX_CHECK(m[3][0] == 0 && m[3][1] == 0 && m[3][2] == 0 && m[3][3] == 1,
-            path << ": the saved camera pose's last row is not 0 0 0 1");
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) {
-      float dot = 0;
-      for (int l = 0; l < 3; ++l) dot += m[l][i] * m[l][j];
-      KFX_CHECK(std::fabs(dot - (i == j ? 1.0f : 0.0f)) < 1e-3f,
-                path << ": the saved camera pose's rotation is not orthonormal");
-    }
-  }
+  const std::string pose_problem = rigid_transform_problem(c.T_map_cam);
+  KFX_CHECK(pose_problem.empty(), path << ": the saved camera pose " << pose_problem);
   for (float x : k) KFX_CHECK(std::isfinite(x), path << ": the saved intrinsics are not finite");
   KFX_CHECK(c.fx_px != 0 && c.fy_px != 0, path << ": the saved intrinsics have fx or fy 0");
   KFX_CHECK(c.width_px > 0 && c.height_px > 0 && c.width_px <= 1 << 16 && c.height_px <= 1 << 16,
