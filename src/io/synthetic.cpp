@@ -391,9 +391,10 @@ void SyntheticScene::pose(int frame, double R[3][3], double t[3]) const {
 }
 
 StampedPose SyntheticScene::stamped_pose(int frame) const {
-  if (options_.scene == synth::SceneLayout::kHouse) return house_stamped_pose(frame);
-  if (options_.scene == synth::SceneLayout::kTwins) {
-    LoopState s = twins_state(frame, options_.speed);
+  if (options_.scene != synth::SceneLayout::kRoom) {
+    LoopState s = options_.scene == synth::SceneLayout::kHouse
+                      ? house_state(house_path_, frame, options_.speed)
+                      : twins_state(frame, options_.speed);
     if (options_.jumped(frame)) s.yaw += kJumpYawRad;
     StampedPose out;
     out.stamp_s = stamp_s(frame);
@@ -402,18 +403,9 @@ StampedPose SyntheticScene::stamped_pose(int frame) const {
     return out;
   }
   // NOTE: the room's pose exactly as before the house existed: its ground truth is pinned bit
-  // for bit, and the compiler's multiply-add contraction follows the code's shape.
+  // for bit, and the compiler's multiply-add contraction follows the code's shape (written out
+  // with the other scenes' it moved in the last bits).
   LoopState s = loop_state(loop_phase(frame, options_.speed));
-  if (options_.jumped(frame)) s.yaw += kJumpYawRad;
-  StampedPose out;
-  out.stamp_s = stamp_s(frame);
-  for (int i = 0; i < 3; ++i) out.t[i] = s.p[i];
-  loop_quaternion(s, out.q);
-  return out;
-}
-
-StampedPose SyntheticScene::house_stamped_pose(int frame) const {
-  LoopState s = house_state(house_path_, frame, options_.speed);
   if (options_.jumped(frame)) s.yaw += kJumpYawRad;
   StampedPose out;
   out.stamp_s = stamp_s(frame);

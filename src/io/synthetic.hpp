@@ -173,9 +173,6 @@ class SyntheticScene {
   static constexpr double kInitPoseFactor[3] = {0.5, 0.52, 0.09};
 
  private:
-  /// stamped_pose() of scene=house.
-  StampedPose house_stamped_pose(int frame) const;
-
   SyntheticOptions options_;
   synth::RoomGeometry room_;
   synth::HousePath house_path_;  ///< used by scene=house only
