@@ -95,14 +95,17 @@ DepthSample FrameDiagnostics::sample(ImageView<const uint16_t> depth_mm) const {
     const auto mid = depths_m.begin() + depths_m.size() / 2;
     std::nth_element(depths_m.begin(), mid, depths_m.end());
     s.median_depth_m = *mid;
-    const auto share_nearer = [&](float scale) {
-      const auto n = std::count_if(depths_m.begin(), depths_m.end(),
-                                   [&](float z) { return z * scale < near_m_; });
-      return static_cast<float>(n) / depths_m.size();
-    };
-    s.near_share = share_nearer(1.0f);
-    s.near_share_if_5x_farther = share_nearer(kScaleFactor);
-    s.near_share_if_5x_nearer = share_nearer(1.0f / kScaleFactor);
+    // The shares nearer than the near plane at this scale and at the two others, in one pass.
+    size_t nearer = 0, nearer_if_farther = 0, nearer_if_nearer = 0;
+    for (float z : depths_m) {
+      nearer += z < near_m_;
+      nearer_if_farther += z * kScaleFactor < near_m_;
+      nearer_if_nearer += z * (1.0f / kScaleFactor) < near_m_;
+    }
+    const float n = static_cast<float>(depths_m.size());
+    s.near_share = nearer / n;
+    s.near_share_if_5x_farther = nearer_if_farther / n;
+    s.near_share_if_5x_nearer = nearer_if_nearer / n;
   }
   return s;
 }
