@@ -10,6 +10,7 @@
 #include "count_check.hpp"
 #include "eval/associate.hpp"
 #include "eval/report.hpp"
+#include "eval/rpe.hpp"
 #include "io/synthetic.hpp"
 
 namespace kfx::cli {
@@ -87,14 +88,13 @@ Pose parse_init_pose(const std::string& text) {
   const double norm = std::sqrt(v[3] * v[3] + v[4] * v[4] + v[5] * v[5] + v[6] * v[6]);
   KFX_CHECK(std::fabs(norm - 1.0) < 1e-3,
             "--start-pose: the quaternion qx,qy,qz,qw has norm " << norm << ", not 1");
-  const double x = v[3] / norm, y = v[4] / norm, z = v[5] / norm, w = v[6] / norm;
-  const double r[3][3] = {{1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)},
-                          {2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)},
-                          {2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)}};
+  io::StampedPose stamped;
+  for (int i = 0; i < 3; ++i) stamped.t[i] = v[i];
+  for (int i = 0; i < 4; ++i) stamped.q[i] = v[3 + i];
+  const Eigen::Matrix4d m = eval::to_isometry(stamped).matrix();  // normalises the quaternion
   Pose pose{};
   for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) pose[i * 4 + j] = static_cast<float>(r[i][j]);
-    pose[i * 4 + 3] = static_cast<float>(v[i]);
+    for (int j = 0; j < 4; ++j) pose[i * 4 + j] = static_cast<float>(m(i, j));
   }
   pose[15] = 1.0f;
   return pose;
