@@ -1,18 +1,22 @@
 """Issue 46's live figures, measured in one go (prints JSON; nothing here is a stored figure):
 
-1. a RealSense recording of icl_office_kt0 made at 30 Hz (pyrealsense2's recorder) played at
-   real time as the camera: frames received, processed and dropped on ``--backend`` and on the
-   CPU (``kfx.live.run``);
-2. what the Rerun view costs the frame loop: the folder's frames through a Reconstruction with
-   and without ``kfx.viewer.Viewer`` (to an .rrd file), alternated ``--repeat`` times, median
-   loop time of each.
+1. a RealSense recording of INPUT made at 30 Hz by pyrealsense2's recorder (on the spot, so a
+   machine without the datasets can run it) played at real time as the camera
+   (``set_real_time(True)``): frames received, processed and dropped on ``--backend``, with
+   and without the Rerun view, and on the CPU (``kfx.live.run``);
+2. what the Rerun view costs the frame loop: INPUT's frames through a Reconstruction with and
+   without ``kfx.viewer.Viewer`` (to an .rrd file), the two alternated ``--repeat`` times;
+   median loop time of each, and the overhead of the medians.
 
-    build/venv/bin/python bench/live_bench.py --backend cuda [--frames 300] [--repeat 3]
+    build/venv/bin/python bench/live_bench.py --backend cuda \\
+        [--input synthetic:width=640,height=480,frames=300] [--repeat 3] [--no-real-time]
 """
 
 import argparse
 import json
+import os
 import pathlib
+import platform
 import statistics
 import tempfile
 import time
@@ -22,19 +26,21 @@ import kfx.live
 import kfx.recordings
 from kfx.viewer import Viewer
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
+
+def live(recording, backend, out, view=None):
+    viewer = Viewer(str(view)) if view else None
+    stats = kfx.live.run(str(out), str(recording), backend=backend, mesh=False, viewer=viewer)
+    figures = {k: getattr(stats, k) for k in ("frames_received", "frames_processed",
+                                              "frames_dropped", "frames_missed",
+                                              "max_queue_depth", "processed_per_s")}
+    if viewer is not None:
+        figures["viewer"] = stats.viewer
+    return figures
 
 
-def live(recording, backend, out):
-    stats = kfx.live.run(str(out), str(recording), backend=backend, mesh=False)
-    return {k: getattr(stats, k) for k in ("frames_received", "frames_processed",
-                                           "frames_dropped", "frames_missed", "max_queue_depth",
-                                           "processed_per_s")}
-
-
-def loop_seconds(folder, frames, backend, view, rrd):
-    sequence = kfx.open(str(folder))
-    r = kfx.Reconstruction(sequence, backend=backend)
+def loop_seconds(source, frames, backend, view, rrd, settings):
+    sequence = kfx.open(source)
+    r = kfx.Reconstruction(sequence, backend=backend, **settings)
     viewer = Viewer(str(rrd)) if view else None
     started = time.perf_counter()
     for n, frame in enumerate(sequence):
@@ -43,36 +49,55 @@ def loop_seconds(folder, frames, backend, view, rrd):
         result = r.process(frame)
         if viewer is not None:
             viewer.submit(r, frame, result)
+    r.collect()
     seconds = time.perf_counter() - started
     return seconds, (viewer.close() if viewer is not None else {})
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    parser.add_argument("--folder", default=str(ROOT.parent / "shared/data/icl_office_kt0"))
+    parser.add_argument("--input", default="synthetic:width=640,height=480,frames=300")
     parser.add_argument("--backend", default="auto")
     parser.add_argument("--frames", type=int, default=300)
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="settings for the loop's reconstructions (repeatable)")
+    parser.add_argument("--no-real-time", action="store_true",
+                        help="only the view's cost (no pyrealsense2 recording and playback)")
+    parser.add_argument("--json", default="", help="also write the result here")
     args = parser.parse_args()
+    settings = dict(pair.split("=", 1) for pair in args.set)
     work = pathlib.Path(tempfile.mkdtemp(prefix="kfx_live_bench_"))
-    recording = work / "camera.db3"
-    kfx.recordings.write_realsense_bag(args.folder, str(recording), args.frames, fps=30,
-                                       paced=True)
-    result = {"frames": args.frames, "backend": args.backend,
-              "real_time": live(recording, args.backend, work / "live"),
-              "real_time_cpu": live(recording, "cpu", work / "live_cpu")}
+    result = {"input": args.input, "frames": args.frames, "backend": args.backend,
+              "settings": settings, "machine": platform.node(), "cpus": os.cpu_count(),
+              "commit": os.environ.get("KFX_COMMIT", "")}
+    if not args.no_real_time:
+        recording = work / "camera.db3"
+        started = time.monotonic()
+        kfx.recordings.write_realsense_bag(args.input, str(recording), args.frames, fps=30,
+                                           paced=True)
+        result["recorded_s"] = round(time.monotonic() - started, 2)
+        result["real_time"] = live(recording, args.backend, work / "live")
+        result["real_time_with_view"] = live(recording, args.backend, work / "live_view",
+                                             work / "live.rrd")
+        result["real_time_cpu"] = live(recording, "cpu", work / "live_cpu")
     without, with_view, views = [], [], []
     for _ in range(args.repeat):
-        without.append(loop_seconds(args.folder, args.frames, args.backend, False, None)[0])
-        seconds, view = loop_seconds(args.folder, args.frames, args.backend, True,
-                                     work / "view.rrd")
+        without.append(loop_seconds(args.input, args.frames, args.backend, False, None,
+                                    settings)[0])
+        seconds, view = loop_seconds(args.input, args.frames, args.backend, True,
+                                     work / "view.rrd", settings)
         with_view.append(seconds)
         views.append(view)
     base, viewed = statistics.median(without), statistics.median(with_view)
-    result["view"] = {"loop_s_without": without, "loop_s_with": with_view,
+    result["view"] = {"loop_s_without": [round(s, 3) for s in without],
+                      "loop_s_with": [round(s, 3) for s in with_view],
                       "overhead_percent": round(100 * (viewed - base) / base, 2),
                       "viewer": views[-1]}
-    print(json.dumps(result, indent=2))
+    text = json.dumps(result, indent=2)
+    print(text, flush=True)
+    if args.json:
+        pathlib.Path(args.json).write_text(text + "\n")
 
 
 if __name__ == "__main__":

@@ -47,6 +47,7 @@ class LiveFrame:
     colour: Optional[np.ndarray]  # uint8 (H, W, 3) RGB registered to the depth, or None
     stamp: float                 # the camera's timestamp, seconds
     number: int                  # the camera's frame number
+    depth_units_per_m: float = 1000.0  # what `depth` counts in a metre
 
 
 @dataclass
@@ -148,7 +149,8 @@ class Camera:
             if colour_frame.get_profile().format() == self._rs.format.bgr8:
                 colour = np.ascontiguousarray(colour[..., ::-1])
         return LiveFrame(np.array(depth.get_data(), copy=True), colour,
-                         depth.get_timestamp() * 1e-3, depth.get_frame_number())
+                         depth.get_timestamp() * 1e-3, depth.get_frame_number(),
+                         1.0 / self.depth_units_m)
 
     def _put(self, frame: Optional[LiveFrame], wait: bool) -> None:
         """Queues `frame`. When the queue is full, `wait` waits for room while the camera runs
