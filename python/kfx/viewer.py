@@ -196,6 +196,8 @@ class Viewer:
         self._answers = Connection(to_us, writable=False)
         self._queue: "queue.Queue[Optional[Dict[str, Any]]]" = queue.Queue(maxsize=1)
         self._sender_error: Optional[BaseException] = None
+        self._handed = 0  # updates put in the queue (by the frame loop's thread only)
+        self._done = 0  # updates the sender finished with (by the sender thread only)
         self._thread = threading.Thread(target=self._send_loop, name="kfx-viewer-send",
                                         daemon=True)
         self._thread.start()
@@ -217,6 +219,8 @@ class Viewer:
             except (OSError, EOFError, ValueError) as error:  # the viewer process is gone
                 self._sender_error = error
                 return
+            finally:
+                self._done += 1
 
     def submit(self, reconstruction: Any, frame: Any, result: Any) -> None:
         """Hands one processed frame to the view (`frame` has ``depth``, ``colour``; `result` is
@@ -265,7 +269,14 @@ class Viewer:
         if not item["view"]:
             self.between += 1  # no image or model due: only its pose
         self._queue.put_nowait(item)  # room: checked above, and only this thread puts
+        self._handed += 1
         self.submit_seconds += time.perf_counter() - started
+
+    def flush(self) -> None:
+        """Waits until every update handed over so far is logged (not for the frame loop: a
+        view that must show every frame, a snapshot, a test)."""
+        while self._done < self._handed and self._thread.is_alive():
+            time.sleep(0.005)
 
     @staticmethod
     def _add_mesh(item: Dict[str, Any], mesh: Any) -> None:
