@@ -13,6 +13,7 @@
 """
 
 import argparse
+import itertools
 import json
 import os
 import pathlib
@@ -40,14 +41,13 @@ def live(recording, backend, out, view=None):
 
 
 def loop_seconds(source, frames, backend, view, rrd, settings):
-    sequence = kfx.open(source)
-    r = kfx.Reconstruction(sequence, backend=backend, **settings)
+    """The loop over `frames` (read beforehand: reading, a synthetic scene's rendering above all,
+    would dilute the view's share) with or without the view."""
+    r = kfx.Reconstruction(kfx.open(source), backend=backend, **settings)
     viewer = Viewer(str(rrd)) if view else None
     cpu = _cpu_seconds()
     started = time.perf_counter()
-    for n, frame in enumerate(sequence):
-        if n == frames:
-            break
+    for frame in frames:
         result = r.process(frame)
         if viewer is not None:
             viewer.submit(r, frame, result)
@@ -95,13 +95,14 @@ def main():
         result["real_time_with_view"] = live(recording, args.backend, work / "live_view",
                                              work / "live.rrd")
         result["real_time_cpu"] = live(recording, "cpu", work / "live_cpu")
+    frames = list(itertools.islice(kfx.open(args.input), args.frames))
     without, with_view, views, plain = [], [], [], []
     for _ in range(args.repeat):
-        seconds, stats = loop_seconds(args.input, args.frames, args.backend, False, None,
+        seconds, stats = loop_seconds(args.input, frames, args.backend, False, None,
                                       settings)
         without.append(seconds)
         plain.append(stats["loop_cpu_s"])
-        seconds, view = loop_seconds(args.input, args.frames, args.backend, True,
+        seconds, view = loop_seconds(args.input, frames, args.backend, True,
                                      work / "view.rrd", settings)
         with_view.append(seconds)
         views.append(view)
