@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import os
 import queue
+import signal
 import subprocess
 import sys
 import threading
@@ -90,6 +91,9 @@ def _shaded(points: np.ndarray, normals: np.ndarray, pose: np.ndarray,
 def _main(argv: List[str]) -> None:
     """The viewer process's entry: its pipes' descriptors, the sink, the application id."""
     receive_fd, answer_fd, sink, application_id, log_delay_s = argv
+    # Ctrl-C in a terminal reaches the whole process group: the frame loop's process stops on
+    # it and then closes the view, which must still be there to log the last mesh and flush.
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
     _serve(Connection(int(receive_fd), writable=False), Connection(int(answer_fd), readable=False),
            sink, application_id, float(log_delay_s))
 
@@ -111,18 +115,28 @@ def _serve(connection: Any, answers: Any, sink: str, application_id: str,
     else:
         recording.connect_grpc(f"rerun+http://{sink}/proxy")
     counts = {"frames_logged": 0, "poses_logged": 0, "meshes": 0}
+    parent_gone = False
     while True:
-        item = _receive(connection)
+        try:
+            item = _receive(connection)
+        except (EOFError, OSError):  # the frame loop's process ended without close()
+            parent_gone = True
+            break
         if item is None:
             break
         if log_delay_s:
             time.sleep(log_delay_s)  # a view slower than the loop (tests)
         _log(rr, recording, item, counts)
-        answers.send_bytes(b"logged")
-    recording.flush()
+        try:
+            answers.send_bytes(b"logged")
+        except OSError:
+            parent_gone = True
+            break
+    recording.flush()  # what was logged stays readable, however the loop ended
     if sink.endswith(".rrd"):
         recording.disconnect()
-    answers.send(counts)
+    if not parent_gone:
+        answers.send(counts)
 
 
 def _log(rr: Any, rec: Any, item: Dict[str, Any], counts: Dict[str, int]) -> None:
@@ -168,6 +182,8 @@ class Viewer:
         self._last_images = -float("inf")
         self._first_submit = 0.0
         self._model_seconds = 0.0
+        self._cloud_cost_s = 0.0  # what the last point cloud and mesh cost the loop
+        self._mesh_cost_s = 0.0
         self._reconstruction: Any = None
         self._indices: List[int] = []
         self._tracked: List[bool] = []
@@ -249,8 +265,10 @@ class Viewer:
                 item["depth_units_per_m"] = float(getattr(frame, "depth_units_per_m", 1000.0))
             if frame.colour is not None:
                 item["colour"] = frame.colour
-        within_budget = self._model_seconds <= self.budget * (now - self._first_submit)
-        if within_budget and now - self._last_model >= self.model_every_s:
+        # Each extraction only if, at what the last one of its kind cost, the model stays within
+        # `budget` of the loop's time since the first frame.
+        allowed = self.budget * (now - self._first_submit) - self._model_seconds
+        if self._cloud_cost_s <= allowed and now - self._last_model >= self.model_every_s:
             self._last_model = now
             item["view"] = True
             points, normals, colours = reconstruction.cloud_arrays()
@@ -261,10 +279,14 @@ class Viewer:
             sx, sy = width / camera.width, height / camera.height
             item["camera"] = (width, height, camera.fx * sx, camera.fy * sy,
                               (camera.cx + 0.5) * sx - 0.5, (camera.cy + 0.5) * sy - 0.5)
-        if (within_budget and self.mesh_every_s > 0 and
+            self._cloud_cost_s = time.monotonic() - now
+            allowed -= self._cloud_cost_s
+        if (self._mesh_cost_s <= allowed and self.mesh_every_s > 0 and
                 now - self._last_mesh >= self.mesh_every_s):
             self._last_mesh = now
+            mesh_started = time.monotonic()
             self._add_mesh(item, reconstruction.mesh_arrays())
+            self._mesh_cost_s = time.monotonic() - mesh_started
         self._model_seconds += time.monotonic() - now
         if not item["view"]:
             self.between += 1  # no image or model due: only its pose
