@@ -29,6 +29,10 @@ std::unique_ptr<Reader> open_icl_png_folder(const std::string& folder,
 std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
                                                const ReaderOptions& options);
 
+/// Opens an OpenNI 2 recording (.oni) through OpenNI 2's player; throws kfx::Error naming the
+/// file when kfx was built without OpenNI2 or the file is not a readable recording.
+std::unique_ptr<Reader> open_oni_recording(const std::string& path);
+
 /// True when `folder` holds ICL-NUIM native depth files (scene_00_NNNN.depth).
 bool has_icl_native_files(const std::string& folder);
 

@@ -159,9 +159,10 @@ std::unique_ptr<Reader> open_recording(const std::string& input, const std::stri
              << input
              << "': mcap recordings are not read by kfx yet; convert it to "
                 "a ROS 2 sqlite3 bag (`ros2 bag convert` or rosbags-convert)");
-  } else if (!folder && ends_with(input, ".oni")) {
-    KFX_FAIL("cannot open input '" << input
-                                   << "': OpenNI2 .oni recordings are not read by kfx yet");
+  } else if (!folder && (ends_with(input, ".oni") || start.rfind("NI10", 0) == 0)) {
+    KFX_CHECK(query.empty(), "input '" << input << "?" << query
+                                       << "': an OpenNI2 recording takes no topic choice");
+    return with_ground_truth_override(open_oni_recording(input), options);
   } else {
     return nullptr;
   }

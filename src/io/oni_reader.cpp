@@ -1,0 +1,231 @@
+/// OpenNI 2 recordings (.oni) through OpenNI 2's own player (Debian's libopenni2: its OniFile
+/// driver reads the file and decodes its codecs, the compressed depth and JPEG colour of a
+/// camera's recording included). Built only where libopenni2-dev was found; elsewhere an .oni
+/// input says kfx was built without it.
+
+#include <cmath>
+#include <filesystem>
+#include <memory>
+#include <sstream>
+#include <string>
+
+#include "core/platform.hpp"
+#include "io/formats.hpp"
+
+#if KFX_HAVE_OPENNI2
+#include <OpenNI.h>
+#endif
+
+namespace kfx::io {
+
+#if KFX_HAVE_OPENNI2
+namespace {
+
+/// OpenNI's last error, for messages.
+std::string openni_error() {
+  const char* text = openni::OpenNI::getExtendedError();
+  std::string error = text ? text : "";
+  while (!error.empty() && (error.back() == '\n' || error.back() == ' ')) error.pop_back();
+  while (!error.empty() && (error.front() == '\t' || error.front() == ' ')) error.erase(0, 1);
+  return error.empty() ? "no reason given" : error;
+}
+
+/// How long a frame the file says it has may take to come: the player reads it from disk and
+/// decodes it; longer means the file ends before it (the player then never delivers it).
+constexpr int kFrameTimeoutMs = 2000;
+
+class OniReader : public Reader {
+ public:
+  explicit OniReader(std::string path) : path_(std::move(path)) {
+    std::error_code error;
+    KFX_CHECK(std::filesystem::is_regular_file(path_, error),
+              "cannot open input '" << path_ << "': no such file");
+    KFX_CHECK(openni::OpenNI::initialize() == openni::STATUS_OK,
+              "cannot open OpenNI2 recording '" << path_ << "': OpenNI2 did not start ("
+                                                << openni_error() << ")");
+    KFX_CHECK(device_.open(path_.c_str()) == openni::STATUS_OK,
+              "cannot open OpenNI2 recording '" << path_ << "': " << openni_error());
+    playback_ = device_.getPlaybackControl();
+    KFX_CHECK(playback_ != nullptr,
+              "cannot open OpenNI2 recording '" << path_ << "': OpenNI2 opened it as a device");
+    KFX_CHECK(device_.hasSensor(openni::SENSOR_DEPTH) &&
+                  depth_.create(device_, openni::SENSOR_DEPTH) == openni::STATUS_OK,
+              "OpenNI2 recording '" << path_ << "' has no depth stream");
+    const openni::VideoMode mode = depth_.getVideoMode();
+    width_ = mode.getResolutionX();
+    height_ = mode.getResolutionY();
+    depth_format_ = mode.getPixelFormat();
+    KFX_CHECK(width_ > 0 && height_ > 0,
+              "OpenNI2 recording '" << path_ << "': its depth stream has no image size");
+    KFX_CHECK(depth_format_ == openni::PIXEL_FORMAT_DEPTH_1_MM ||
+                  depth_format_ == openni::PIXEL_FORMAT_DEPTH_100_UM,
+              "OpenNI2 recording '" << path_ << "': depth in pixel format "
+                                    << static_cast<int>(depth_format_)
+                                    << " is not read (millimetres and 100 µm are)");
+    // The camera from the recorded field of view, as OpenNI's own CoordinateConverter maps
+    // pixels to points: the optical centre at the image's centre, no distortion.
+    const float hfov = depth_.getHorizontalFieldOfView(), vfov = depth_.getVerticalFieldOfView();
+    KFX_CHECK(std::isfinite(hfov) && std::isfinite(vfov) && hfov > 0.0f && vfov > 0.0f &&
+                  hfov < 3.1f && vfov < 3.1f,
+              "OpenNI2 recording '" << path_ << "': intrinsics missing: its depth stream "
+                                    << "records no field of view (" << hfov << " x " << vfov
+                                    << " rad)");
+    intrinsics_ = Intrinsics{static_cast<float>(width_ / (2.0 * std::tan(hfov / 2.0))),
+                             static_cast<float>(height_ / (2.0 * std::tan(vfov / 2.0))),
+                             width_ / 2.0f, height_ / 2.0f};
+    hfov_ = hfov;
+    vfov_ = vfov;
+    frames_ = playback_->getNumberOfFrames(depth_);
+    KFX_CHECK(frames_ > 0, "OpenNI2 recording '" << path_ << "' holds no depth frame");
+    if (device_.hasSensor(openni::SENSOR_COLOR) &&
+        colour_.create(device_, openni::SENSOR_COLOR) == openni::STATUS_OK) {
+      const openni::VideoMode colour_mode = colour_.getVideoMode();
+      KFX_CHECK(colour_mode.getPixelFormat() == openni::PIXEL_FORMAT_RGB888,
+                "OpenNI2 recording '" << path_ << "': colour in pixel format "
+                                      << static_cast<int>(colour_mode.getPixelFormat())
+                                      << " is not read (RGB888 and JPEG are)");
+      KFX_CHECK(colour_mode.getResolutionX() == width_ && colour_mode.getResolutionY() == height_,
+                "OpenNI2 recording '" << path_ << "': colour " << colour_mode.getResolutionX()
+                                      << "x" << colour_mode.getResolutionY()
+                                      << " is not the depth's size " << width_ << "x" << height_
+                                      << "; kfx reads registered colour only");
+      has_colour_ = playback_->getNumberOfFrames(colour_) > 0;
+      if (!has_colour_) colour_.destroy();
+    }
+    // Frame by frame, each when it is asked for (no frame is dropped, whatever the pace), once.
+    playback_->setSpeed(-1.0f);
+    playback_->setRepeatEnabled(false);
+    KFX_CHECK(depth_.start() == openni::STATUS_OK,
+              "OpenNI2 recording '" << path_ << "': its depth stream does not start ("
+                                    << openni_error() << ")");
+    if (has_colour_) {
+      KFX_CHECK(colour_.start() == openni::STATUS_OK,
+                "OpenNI2 recording '" << path_ << "': its colour stream does not start ("
+                                      << openni_error() << ")");
+    }
+  }
+
+  ~OniReader() override {
+    depth_.stop();
+    depth_.destroy();
+    if (has_colour_) {
+      colour_.stop();
+      colour_.destroy();
+    }
+    device_.close();
+  }
+
+  ReadResult next(Frame& frame) override {
+    if (index_ >= frames_) return {ReadStatus::kEnd, ""};
+    const int index = index_++;
+    std::ostringstream where;
+    where << path_ << " frame " << index;
+    openni::VideoFrameRef depth;
+    read(depth_, depth, "depth", index);
+    const int expected = width_ * height_ * 2;
+    if (depth.getWidth() != width_ || depth.getHeight() != height_ ||
+        depth.getDataSize() < expected) {
+      std::ostringstream message;
+      message << "bad frame in OpenNI2 recording '" << path_ << "', depth frame " << index << ": "
+              << depth.getDataSize() << " bytes of " << depth.getWidth() << "x" << depth.getHeight()
+              << " where " << expected << " bytes of " << width_ << "x" << height_
+              << " were expected";
+      return {ReadStatus::kBadFrame, message.str()};
+    }
+    frame.depth_mm = HostImage<uint16_t>(width_, height_);
+    const auto* pixels = static_cast<const uint16_t*>(depth.getData());
+    const int stride = depth.getStrideInBytes() / 2;
+    for (int y = 0; y < height_; ++y) {
+      for (int x = 0; x < width_; ++x) {
+        const uint16_t value = pixels[y * stride + x];
+        // 100 µm units: to the nearest millimetre.
+        frame.depth_mm(x, y) = depth_format_ == openni::PIXEL_FORMAT_DEPTH_100_UM
+                                   ? static_cast<uint16_t>((value + 5) / 10)
+                                   : value;
+      }
+    }
+    frame.rgb = HostImage<Rgb8>();
+    if (has_colour_ && index < playback_->getNumberOfFrames(colour_)) {
+      openni::VideoFrameRef colour;
+      read(colour_, colour, "colour", index);
+      if (colour.getWidth() != width_ || colour.getHeight() != height_ ||
+          colour.getDataSize() < width_ * height_ * 3) {
+        std::ostringstream message;
+        message << "bad frame in OpenNI2 recording '" << path_ << "', colour frame " << index
+                << ": " << colour.getDataSize() << " bytes of " << colour.getWidth() << "x"
+                << colour.getHeight();
+        return {ReadStatus::kBadFrame, message.str()};
+      }
+      frame.rgb = HostImage<Rgb8>(width_, height_);
+      const auto* rgb = static_cast<const uint8_t*>(colour.getData());
+      const int colour_stride = colour.getStrideInBytes();
+      for (int y = 0; y < height_; ++y) {
+        for (int x = 0; x < width_; ++x) {
+          const uint8_t* p = rgb + y * colour_stride + 3 * x;
+          frame.rgb(x, y) = Rgb8{p[0], p[1], p[2]};
+        }
+      }
+    }
+    frame.stamp_s = static_cast<double>(depth.getTimestamp()) * 1e-6;
+    frame.index = index;
+    frame.source = where.str();
+    return {};
+  }
+
+  int width_px() const override { return width_; }
+  int height_px() const override { return height_; }
+  int frame_count() const override { return frames_; }
+  std::optional<Intrinsics> default_intrinsics() const override { return intrinsics_; }
+  std::string intrinsics_source() const override {
+    std::ostringstream text;
+    text << "the recording's field of view (" << hfov_ << " x " << vfov_ << " rad)";
+    return text.str();
+  }
+  bool has_colour() const override { return has_colour_; }
+  std::vector<StampedPose> ground_truth() const override { return {}; }
+  std::string description() const override {
+    std::ostringstream text;
+    text << "OpenNI2 recording " << path_ << " (" << frames_ << " frames, " << width_ << "x"
+         << height_ << (has_colour_ ? ", colour" : ", depth only") << ")";
+    return text.str();
+  }
+
+ private:
+  /// The stream's next frame; a recording that ends before the frames it announces is
+  /// truncated.
+  void read(openni::VideoStream& stream, openni::VideoFrameRef& out, const char* what, int index) {
+    openni::VideoStream* streams[] = {&stream};
+    int ready = -1;
+    KFX_CHECK(openni::OpenNI::waitForAnyStream(streams, 1, &ready, kFrameTimeoutMs) ==
+                      openni::STATUS_OK &&
+                  stream.readFrame(&out) == openni::STATUS_OK && out.isValid(),
+              "OpenNI2 recording '" << path_ << "', " << what << " frame " << index << " of "
+                                    << frames_ << ": not delivered (a truncated or corrupt "
+                                    << "recording?): " << openni_error());
+  }
+
+  std::string path_;
+  openni::Device device_;
+  openni::PlaybackControl* playback_ = nullptr;
+  openni::VideoStream depth_, colour_;
+  openni::PixelFormat depth_format_ = openni::PIXEL_FORMAT_DEPTH_1_MM;
+  Intrinsics intrinsics_;
+  float hfov_ = 0.0f, vfov_ = 0.0f;
+  int width_ = 0, height_ = 0, frames_ = 0, index_ = 0;
+  bool has_colour_ = false;
+};
+
+}  // namespace
+#endif
+
+std::unique_ptr<Reader> open_oni_recording(const std::string& path) {
+#if KFX_HAVE_OPENNI2
+  return std::make_unique<OniReader>(path);
+#else
+  KFX_FAIL("cannot open input '" << path
+                                 << "': this kfx was built without OpenNI2, which reads .oni "
+                                    "recordings; install Debian's libopenni2-dev and rebuild");
+#endif
+}
+
+}  // namespace kfx::io
