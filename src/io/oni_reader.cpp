@@ -106,13 +106,14 @@ class OniReader : public Reader {
   }
 
   ~OniReader() override {
+    // Streams stopped, then the device closed (which ends its player thread), then the streams
+    // destroyed: the player thread walks its list of streams unlocked, so destroying one while
+    // it runs is a use after free (seen as a crash in libOniFile).
     depth_.stop();
-    depth_.destroy();
-    if (has_colour_) {
-      colour_.stop();
-      colour_.destroy();
-    }
+    if (has_colour_) colour_.stop();
     device_.close();
+    depth_.destroy();
+    if (has_colour_) colour_.destroy();
   }
 
   ReadResult next(Frame& frame) override {
@@ -205,9 +206,11 @@ class OniReader : public Reader {
   }
 
   std::string path_;
+  // Declared before the device, so destroyed after it also when the constructor throws (see
+  // the destructor).
+  openni::VideoStream depth_, colour_;
   openni::Device device_;
   openni::PlaybackControl* playback_ = nullptr;
-  openni::VideoStream depth_, colour_;
   openni::PixelFormat depth_format_ = openni::PIXEL_FORMAT_DEPTH_1_MM;
   Intrinsics intrinsics_;
   float hfov_ = 0.0f, vfov_ = 0.0f;

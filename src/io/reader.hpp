@@ -90,7 +90,8 @@ class Reader {
 };
 
 /// Opens `input`: a TUM RGB-D folder, an ICL-NUIM PNG folder, an ICL-NUIM native (POV-Ray)
-/// folder, a SLAMBench `.raw` file, a recording (RealSense `.bag`/`.db3`, ROS 1 bag, ROS 2 bag;
+/// folder, a SLAMBench `.raw` file, a recording (RealSense `.bag`/`.db3`, ROS 1 bag, ROS 2 bag,
+/// OpenNI2 `.oni`;
 /// topics chosen by `input?depth=/topic&colour=/topic`: docs/cameras.md), or
 /// `synthetic[:key=value,...]`. Throws kfx::Error naming the
 /// path and what is wrong when it cannot be opened or recognised.
