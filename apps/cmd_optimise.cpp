@@ -185,18 +185,21 @@ void optimise(const OptimiseOptions& opt) {
       {"pose_graph_solve_s", result.solve_time_s},
       {"gnc_steps", result.gnc_steps},
       {"loops", loops}};
-  if (stats.contains("ate_rmse_m")) closure_json["odometry_ate_rmse_m"] = stats["ate_rmse_m"];
-  outputs.extra_stats["loop_closure"] = closure_json;
-  // The raw trajectory is kept before anything is replaced.
-  fs::create_directories(out_dir);
-  const std::string kept = out_dir + "/odometry.txt";
-  if (fs::absolute(kept).lexically_normal() != fs::absolute(odometry_path).lexically_normal()) {
-    io::write_tum_trajectory(kept, stamped,
-                             {"odometry of " + options.input +
-                                  " (kfx run's trajectory, before "
-                                  "loop closure)",
-                              "stamp tx ty tz qx qy qz qw"});
+  // Optimised before: the odometry's ATE is the one that run recorded.
+  if (stats.contains("loop_closure") && stats["loop_closure"].contains("odometry_ate_rmse_m")) {
+    closure_json["odometry_ate_rmse_m"] = stats["loop_closure"]["odometry_ate_rmse_m"];
+  } else if (stats.contains("ate_rmse_m") && !stats.contains("loop_closure")) {
+    closure_json["odometry_ate_rmse_m"] = stats["ate_rmse_m"];
   }
+  outputs.extra_stats["loop_closure"] = closure_json;
+  // The raw trajectory joins the run's outputs (written with them, before stats.json).
+  const std::string input = options.input;
+  outputs.write_extra_files = [stamped, input](const std::string& dir) {
+    io::write_tum_trajectory(
+        dir + "/odometry.txt", stamped,
+        {"odometry of " + input + " (kfx run's trajectory, before loop closure)",
+         "stamp tx ty tz qx qy qz qw"});
+  };
   run_sequence(options, outputs);
 }
 #else

@@ -464,6 +464,7 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
                               "stamp tx ty tz qx qy qz qw"});
     written += " groundtruth.txt";
   }
+  if (outputs.write_extra_files) outputs.write_extra_files(out_dir);
   output::write_json_document(out_dir + "/stats.json", stats);
   if (outputs.report) {
     try {

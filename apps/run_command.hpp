@@ -2,6 +2,7 @@
 /// The run behind `kfx run`, shared with the commands that fuse a sequence at poses known
 /// beforehand (`kfx fuse`, `kfx optimise`): the same frame loop, outputs and statistics.
 
+#include <functional>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
@@ -30,6 +31,9 @@ struct RunOutputs {
   /// Merged into stats.json's top level (what the command that gave the poses found).
   nlohmann::json extra_stats = nlohmann::json::object();
   std::string command_name = "kfx run";  ///< prefix of the terminal lines
+  /// Writes the caller's own files into the output folder after the run's, before stats.json
+  /// (which marks a complete run); empty: none.
+  std::function<void(const std::string& dir)> write_extra_files;
 };
 
 /// How far a frame's stamp may lie from a given pose's: trajectory.txt writes microseconds.

@@ -194,7 +194,9 @@ TEST(LoopClosure, OptimiseAShortRunKeepsItsOdometry) {
   const io::test::TempDir dir("kfx_optimise_run");
   const std::string run = dir.folder("run");
   test::CommandResult r = test::run_kfx(
-      "run \"synthetic:frames=30,width=160,height=120\" --backend cpu -q --overwrite -o " + run);
+      "run \"synthetic:frames=30,width=160,height=120\" --backend cpu -q --overwrite "
+      "--set volume_resolution=96 -o " +
+      run);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   std::ifstream before_file(run + "/trajectory.txt");
   const std::string before((std::istreambuf_iterator<char>(before_file)), {});
@@ -208,6 +210,7 @@ TEST(LoopClosure, OptimiseAShortRunKeepsItsOdometry) {
   EXPECT_EQ(stats["loop_closure"]["loops_proposed"], 0);
   EXPECT_EQ(stats["frames"], 30);
   EXPECT_EQ(stats["frames_without_given_pose"], 0);
+  EXPECT_EQ(stats["config"]["volume"]["volume_resolution"], "96");  // the run's settings kept
   EXPECT_TRUE(std::filesystem::exists(run + "/mesh.ply"));
   // Fused at the run's own poses, the trajectory is the odometry again.
   const auto odometry = io::read_tum_trajectory(run + "/odometry.txt");
