@@ -9,6 +9,7 @@
 #include <map>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <set>
 
 #include "commands.hpp"
 #include "eval/rpe.hpp"
@@ -170,13 +171,31 @@ void optimise(const OptimiseOptions& opt) {
       fs::exists(opt.run_dir + "/map.kfxblocks") || fs::exists(opt.run_dir + "/volume.kfxtsdf");
   outputs.renders = fs::exists(opt.run_dir + "/renders");
   outputs.command_name = "kfx optimise";
+  // A frame the run lost kept the pose before it, which is not where it was taken: it is left
+  // out of the fusion, as the run left it out. Without skipped bad frames the trajectory's
+  // lines are the frames in order, so the run's lost frame numbers name its lines.
+  // (An optimised run's own lost_frames are empty: it tracked nothing; its odometry's are kept.)
+  const nlohmann::json run_lost =
+      stats.contains("loop_closure")
+          ? stats["loop_closure"].value("run_lost_frames", nlohmann::json::array())
+          : stats.value("lost_frames", nlohmann::json::array());
+  std::set<int> lost;
+  if (stats.value("skipped_bad_frames", 0) == 0) {
+    for (const auto& f : run_lost) lost.insert(f.get<int>());
+  } else if (!run_lost.empty()) {
+    std::cerr << "kfx optimise: warning: the run skipped bad frames, so its lost frames cannot "
+                 "be matched to trajectory lines: they are fused at the poses they kept\n";
+  }
   for (size_t i = 0; i < stamped.size(); ++i) {
+    if (lost.count(static_cast<int>(i)) > 0) continue;
     outputs.given_poses.push_back(to_stamped(stamped[i].stamp_s, result.poses[i]));
   }
   outputs.given_poses_label = "the loop closure of " + odometry_path;
   nlohmann::json closure_json = {
       {"odometry", "odometry.txt"},
       {"keyframes", result.keyframes.size()},
+      {"run_lost_frames", run_lost},
+      {"lost_frames_left_out", lost.size()},
       {"loops_proposed", result.proposed},
       {"loops_accepted", result.accepted},
       {"loops_rejected", result.rejected_by_verification + result.rejected_by_graph},
