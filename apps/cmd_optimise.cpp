@@ -13,6 +13,7 @@
 
 #include "commands.hpp"
 #include "eval/rpe.hpp"
+#include "io/reader.hpp"
 #include "io/trajectory.hpp"
 #include "pipeline/config.hpp"
 #include "run_command.hpp"
@@ -29,6 +30,7 @@ struct OptimiseOptions {
   std::string backend;  ///< "" = the run's
   bool quiet = false;
   int keyframe_gap = 0;  ///< 0 = KeyframeOptions' default
+  int loop_min_gap = 0;  ///< 0 = ProximityOptions' default
 };
 
 #ifdef KFX_HAVE_LOOP
@@ -75,11 +77,25 @@ RunOptions options_of_run(const nlohmann::json& stats, const std::string& stats_
   o.backend = backend.empty() ? stats["backend"].get<std::string>() : backend;
   o.quiet = quiet;
   o.skip_bad_frames = stats.value("skipped_bad_frames", 0) > 0;
+  // A setting is passed when it differs from the preset's value, or when the input recommends
+  // a value for it (the run may have overridden the recommendation back to the preset's):
+  // passing every setting would reproduce the run too, but warn about each one that does
+  // nothing with this map kind.
+  const PipelineConfig preset = make_preset(o.preset);
+  std::set<std::string> recommended;
+  for (const auto& [key, value] : io::open_reader(o.input)->recommended_settings()) {
+    recommended.insert(key);
+  }
   for (const auto& [section, keys] : stats["config"].items()) {
     KFX_CHECK(keys.is_object(),
               stats_path << ": config section \"" << section << "\" is not an object");
     for (const auto& [key, value] : keys.items()) {
-      o.assignments.push_back(key + "=" + value.get<std::string>());
+      const std::string text = value.get<std::string>();
+      bool differs = true;
+      for (const auto& field : config_fields()) {
+        if (field.key == key) differs = field.format(preset) != text;
+      }
+      if (differs || recommended.count(key) > 0) o.assignments.push_back(key + "=" + text);
     }
   }
   return o;
@@ -104,6 +120,7 @@ void optimise(const OptimiseOptions& opt) {
   for (const auto& p : stamped) odometry.push_back(to_pose3d(p));
   loop::OfflineClosureOptions closure;
   if (opt.keyframe_gap > 0) closure.keyframes.max_gap_frames = opt.keyframe_gap;
+  if (opt.loop_min_gap > 0) closure.proximity.min_frame_gap = opt.loop_min_gap;
   const loop::ClosurePlan plan = loop::plan_closure(odometry, closure);
   std::cerr << "kfx optimise: " << odometry.size() << " poses, " << plan.keyframes.size()
             << " keyframes, " << plan.candidates.size() << " loop candidate(s)\n";
@@ -241,6 +258,8 @@ void add_optimise_command(CLI::App& app) {
   command->add_option("--backend", opt->backend, "cpu, cuda or auto (default: the run's)");
   command->add_option("--keyframe-gap", opt->keyframe_gap,
                       "at most this many poses between keyframes (default 30)");
+  command->add_option("--loop-min-gap", opt->loop_min_gap,
+                      "a loop joins poses at least this many apart in time (default 200)");
   command->add_flag("-q,--quiet", opt->quiet, "no progress lines");
   command->callback([opt] { optimise(*opt); });
 }
