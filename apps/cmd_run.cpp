@@ -20,6 +20,7 @@
 #include "commands.hpp"
 #include "energy/run_energy.hpp"
 #include "eval/report.hpp"
+#include "eval/rpe.hpp"
 #include "interrupt.hpp"
 #include "io/trajectory.hpp"
 #include "kfx/reconstruction.hpp"
@@ -38,6 +39,7 @@
 #include "output/stats_json.hpp"
 #include "pipeline/frame_diagnostics.hpp"
 #include "pipeline/pipeline.hpp"
+#include "run_command.hpp"
 #include "run_options.hpp"
 #include "run_summary.hpp"
 #include "warning_stretches.hpp"
@@ -56,19 +58,6 @@ int count_valid_pixels(const HostImage<uint16_t>& depth_mm) {
   return static_cast<int>(std::count_if(depth_mm.pixels().begin(), depth_mm.pixels().end(),
                                         [](uint16_t d) { return d != 0; }));
 }
-
-/// The outputs beyond the four every run writes.
-struct RunOutputs {
-  std::string dir;
-  bool mesh = true;          ///< mesh.ply
-  bool cloud = false;        ///< cloud.ply
-  bool save_volume = false;  ///< volume.kfxtsdf
-  std::string load_map;      ///< a saved map to continue (or localise in), "" = none
-  bool renders = false;      ///< PNG renders every render_rate frames under renders/
-  bool report = true;        ///< report.html
-  bool overwrite = false;    ///< replace an earlier run's outputs in dir
-  double idle_seconds = 0;   ///< idle power measured first, subtracted in the energy figures
-};
 
 /// The energy meters of a run (GPU board on the CUDA backend, CPU packages), with the idle
 /// power measured for `idle_seconds` first where a meter is available.
@@ -98,7 +87,37 @@ class CreatedFolderCleanup {
   bool existed_;
 };
 
-void run(const RunOptions& options, const RunOutputs& outputs) {
+/// A trajectory line's pose as the pipeline's matrix (the quaternion normalised).
+Mat4f pose_matrix(const io::StampedPose& pose) {
+  const Eigen::Matrix4d m = eval::to_isometry(pose).matrix();
+  Mat4f out = Mat4f::identity();
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 4; ++j) out.m[i][j] = static_cast<float>(m(i, j));
+  }
+  return out;
+}
+
+/// The given pose of the frame stamped `stamp_s`, or null (poses sorted by stamp).
+const io::StampedPose* given_pose_at(const std::vector<io::StampedPose>& poses, double stamp_s) {
+  const auto it =
+      std::lower_bound(poses.begin(), poses.end(), stamp_s - kGivenPoseStampToleranceS,
+                       [](const io::StampedPose& p, double s) { return p.stamp_s < s; });
+  if (it == poses.end() || it->stamp_s > stamp_s + kGivenPoseStampToleranceS) return nullptr;
+  return &*it;
+}
+
+}  // namespace
+
+void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
+  const std::string& name = outputs.command_name;
+  const bool given = !outputs.given_poses.empty();
+  KFX_CHECK(!given || std::is_sorted(outputs.given_poses.begin(), outputs.given_poses.end(),
+                                     [](const io::StampedPose& a, const io::StampedPose& b) {
+                                       return a.stamp_s < b.stamp_s;
+                                     }),
+            outputs.given_poses_label << ": the poses' stamps are not in increasing order");
+  KFX_CHECK(!given || outputs.load_map.empty(),
+            "poses given with " << outputs.given_poses_label << " fuse a fresh map: no --load-map");
   const std::string& out_dir = outputs.dir;
   // Ctrl-C from here on keeps the frames done (a second one stops at once).
   const InterruptRequests interrupt_requests;
@@ -121,9 +140,9 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // Before anything reads the first pose (slambench.log's origin, trajectory.txt's header).
   if (!outputs.load_map.empty()) {
     const LoadedMap loaded = reconstruction.load_map(outputs.load_map);
-    std::cerr << "kfx run: loaded " << outputs.load_map
+    std::cerr << name << ": loaded " << outputs.load_map
               << (loaded.pose_restored ? " (the camera at its saved pose)" : "") << "\n";
-    if (!loaded.note.empty()) std::cerr << "kfx run: warning: " << loaded.note << "\n";
+    if (!loaded.note.empty()) std::cerr << name << ": warning: " << loaded.note << "\n";
   }
   if (init_pose) reconstruction.set_pose(*init_pose);
   Pipeline& pipeline = ReconstructionAccess::pipeline(reconstruction);
@@ -142,12 +161,12 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                                ? std::min(options.max_frames, reader.frame_count())
                                : reader.frame_count();
   if (!options.quiet) {
-    std::cerr << "kfx run: " << reader.description() << "\n"
-              << "kfx run: backend " << pipeline.backend().name() << " ("
+    std::cerr << name << ": " << reader.description() << "\n"
+              << name << ": backend " << pipeline.backend().name() << " ("
               << pipeline.backend().device_name() << "), preset " << options.preset << "\n";
   }
   // Always said, even with -q: wrong intrinsics silently spoil a whole run.
-  std::cerr << "kfx run: " << prepared.intrinsics_note << "\n";
+  std::cerr << name << ": " << prepared.intrinsics_note << "\n";
 
   const auto energy = open_energy(pipeline.backend(), outputs.idle_seconds);
 
@@ -155,6 +174,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   RunSummary summary;
   std::vector<io::StampedPose> trajectory;  ///< for the evaluation; trajectory.txt is the API's
   int frames_with_depth = 0, skipped = 0;
+  int frames_without_pose = 0;      ///< frames read that the given poses do not cover
   std::vector<int> skipped_frames;  ///< input numbers of the bad frames skipped
   io::Frame frame;
   auto last_progress = Clock::now();
@@ -172,7 +192,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // report): the input's assumptions and settings that do nothing come with the first frame.
   nlohmann::json warning_lines = nlohmann::json::array();
   auto said = [&](const nlohmann::json& frame, const std::string& line) {
-    std::cerr << "kfx run: warning: " << line << "\n";
+    std::cerr << name << ": warning: " << line << "\n";
     warning_lines.push_back({{"frame", frame}, {"text", line}});
   };
   // Writes one finished frame's log line and pose (frames finish in order).
@@ -206,10 +226,10 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     const bool lost = report.tracking_ran && !report.tracked;
     if (lost && lost_since < 0) {
       lost_since = report.index;
-      std::cerr << "kfx run: frame " << report.index
+      std::cerr << name << ": frame " << report.index
                 << ": tracking lost (pose kept, frame not integrated)\n";
     } else if (report.tracked && lost_since >= 0) {
-      std::cerr << "kfx run: frame " << report.index << ": tracking recovered after "
+      std::cerr << name << ": frame " << report.index << ": tracking recovered after "
                 << report.index - lost_since << " lost frame(s) (" << lost_since << "-"
                 << report.index - 1 << ")\n";
       lost_since = -1;
@@ -234,7 +254,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
     if (!options.quiet && (seconds_since(last_progress) > 5.0 || summary.frames == 1)) {
       last_progress = Clock::now();
       // Frames are numbered from 0 everywhere (errors, slambench.log); counts say "done".
-      std::cerr << "kfx run: frame " << report.index << " done (" << summary.frames;
+      std::cerr << name << ": frame " << report.index << " done (" << summary.frames;
       const double wall_s = seconds_since(run_start);
       const double wall_fps = wall_s > 0 ? summary.frames / wall_s : 0.0;
       if (total_frames > 0) {
@@ -277,14 +297,29 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
       skipped_frames.push_back(frame.index);
       continue;
     }
+    const io::StampedPose* pose = nullptr;
+    if (given) {
+      // Past the last given pose nothing more would be fused: stop reading.
+      if (frame.stamp_s > outputs.given_poses.back().stamp_s + kGivenPoseStampToleranceS) break;
+      pose = given_pose_at(outputs.given_poses, frame.stamp_s);
+      if (pose == nullptr) {
+        ++frames_without_pose;
+        continue;
+      }
+    }
     if (count_valid_pixels(frame.depth_mm) > 0) ++frames_with_depth;
     // One frame in flight: the next frame is read while the device computes this one, and its
     // pose comes back asynchronously.
     acquisition_s_in_flight.push_back(acquisition_s);
     const bool renders_now = pipeline.renders(pipeline.frame_count());
-    ReconstructionAccess::submit(reconstruction, frame);
-    // A rendering frame is collected at once: its renders are read before the next submit.
-    while (reconstruction.frames_in_flight() > (renders_now ? 0 : 1)) {
+    if (pose != nullptr) {
+      ReconstructionAccess::submit_at_pose(reconstruction, frame, pose_matrix(*pose));
+    } else {
+      ReconstructionAccess::submit(reconstruction, frame);
+    }
+    // A rendering frame is collected at once: its renders are read before the next submit; a
+    // frame at a given pose too, as the next is placed with nothing in flight.
+    while (reconstruction.frames_in_flight() > (renders_now || given ? 0 : 1)) {
       finish(reconstruction.collect());
     }
   }
@@ -292,7 +327,8 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // is written for the frames done, marked as interrupted.
   const bool interrupted = InterruptRequests::requested();
   if (interrupted) {
-    std::cerr << "kfx run: interrupted (Ctrl-C): finishing the frame in hand and writing the "
+    std::cerr << name
+              << ": interrupted (Ctrl-C): finishing the frame in hand and writing the "
                  "outputs of the frames done; Ctrl-C again stops at once, writing nothing\n";
   }
   while (reconstruction.frames_in_flight() > 0) finish(reconstruction.collect());
@@ -302,7 +338,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   energy->stop(summary.frames);
   if (!options.quiet) {
     for (const auto& line : energy->summary_lines())
-      std::cerr << "kfx run: energy " << line << "\n";
+      std::cerr << name << ": energy " << line << "\n";
   }
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
   KFX_CHECK(frames_with_depth > 0, options.input << ": no frame of the " << pipeline.frame_count()
@@ -314,6 +350,11 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   stats["skipped_bad_frames"] = skipped;
   stats["skipped_frames"] = skipped_frames;
   stats["interrupted"] = interrupted;
+  if (given) {
+    stats["poses_given"] = outputs.given_poses_label;
+    stats["frames_without_given_pose"] = frames_without_pose;
+  }
+  for (const auto& [key, value] : outputs.extra_stats.items()) stats[key] = value;
   stats["frames_in_input"] =
       total_frames > 0 ? nlohmann::json(total_frames) : nlohmann::json(nullptr);
   for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
@@ -377,7 +418,7 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
   // The whole run's warnings once more, every stretch counted (the live warnings stop after a
   // few per cause): the terminal says what stats.json and the report say.
   for (const auto& line : warning_summary_lines(stretches.stretches())) {
-    std::cerr << "kfx run: warnings over the run: " << line << "\n";
+    std::cerr << name << ": warnings over the run: " << line << "\n";
   }
 
   // Outputs become visible only now, stats.json last: it marks a complete run.
@@ -423,13 +464,14 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                               "stamp tx ty tz qx qy qz qw"});
     written += " groundtruth.txt";
   }
+  if (outputs.write_extra_files) outputs.write_extra_files(out_dir);
   output::write_json_document(out_dir + "/stats.json", stats);
   if (outputs.report) {
     try {
       output::write_report(out_dir);
       written += " report.html";
     } catch (const Error& e) {
-      std::cerr << "kfx run: warning: no report.html: " << e.what() << "\n";
+      std::cerr << name << ": warning: no report.html: " << e.what() << "\n";
     }
   }
   if (outputs.renders) written += " renders/";
@@ -440,8 +482,6 @@ void run(const RunOptions& options, const RunOutputs& outputs) {
                       " frame(s): the outputs in " + out_dir + " cover the frames done");
   }
 }
-
-}  // namespace
 
 void add_run_command(CLI::App& app) {
   auto* command = app.add_subcommand("run", "run KinectFusion over a sequence");
@@ -476,7 +516,7 @@ void add_run_command(CLI::App& app) {
                    "energy figures of stats.json (0 = do not)")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  command->callback([options, outputs] { run(*options, *outputs); });
+  command->callback([options, outputs] { run_sequence(*options, *outputs); });
 }
 
 }  // namespace kfx::cli

@@ -9,6 +9,10 @@ namespace kfx::cli {
 
 /// `kfx run INPUT --out DIR ...`: the SLAM pipeline over a sequence.
 void add_run_command(CLI::App& app);
+/// `kfx fuse INPUT --trajectory T.txt --out DIR`: the frames integrated at given poses.
+void add_fuse_command(CLI::App& app);
+/// `kfx optimise RUN_DIR`: loop closure over a finished run, its map fused again.
+void add_optimise_command(CLI::App& app);
 /// `kfx eval EST GT ...`: ATE (aligned and checkPos-style) and RPE of a trajectory.
 void add_eval_command(CLI::App& app);
 /// `kfx bench INPUT ...`: per-stage time and frames/s of the pipeline on a sequence.

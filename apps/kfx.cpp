@@ -17,6 +17,8 @@ int main(int argc, char** argv) {
   app.require_subcommand(1);
   app.set_version_flag("--version", std::string("kfx ") + KFX_VERSION);
   kfx::cli::add_run_command(app);
+  kfx::cli::add_fuse_command(app);
+  kfx::cli::add_optimise_command(app);
   kfx::cli::add_eval_command(app);
   kfx::cli::add_convert_command(app);
   kfx::cli::add_bench_command(app);

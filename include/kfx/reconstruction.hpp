@@ -83,6 +83,13 @@ class Reconstruction {
   void submit(const SequenceFrame& frame);
   /// Waits for the oldest submitted frame and returns its result; throws when none is pending.
   FrameResult collect();
+  /// Integrates the next frame at a pose given by the caller (camera to map frame, metres)
+  /// instead of tracking it: the map becomes the fusion of the frames at those poses (a
+  /// trajectory optimised after the run, ground truth). Waits for the frames in flight first.
+  /// Checked as process(), and throws kfx::Error naming the frame when the pose is not a rigid
+  /// transform. The result's pose is the one given.
+  FrameResult integrate_at(const FrameView& frame, const Pose& T_world_cam);
+  FrameResult integrate_at(const SequenceFrame& frame, const Pose& T_world_cam);
   /// Frames submitted and not yet collected.
   int frames_in_flight() const;
 

@@ -151,7 +151,7 @@ struct Reconstruction::Impl {
 
   /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame. `colour_given`:
   /// as colour_view().
-  void submit(const FrameView& frame, bool colour_given) {
+  void submit(const FrameView& frame, bool colour_given, const Mat4f* given_pose = nullptr) {
     const std::string label = "frame " + std::to_string(frame_number(frame));
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
@@ -167,8 +167,17 @@ struct Reconstruction::Impl {
               label << ": time stamp " << frame.stamp_s << " s is earlier than the previous "
                     << "frame's (" << *last_stamp_s
                     << " s); stamps must not decrease (reset() starts over)");
+    if (given_pose != nullptr) {
+      const std::string problem = rigid_transform_problem(*given_pose);
+      KFX_CHECK(problem.empty(), label << ": the given pose " << problem);
+      drain();  // the pose is set before the frame, with nothing in flight
+    }
     samples_in_flight.push_back(diagnostics->sample(mm));
-    pipeline->submit(mm, rgb);
+    if (given_pose != nullptr) {
+      pipeline->submit_at_pose(*given_pose, mm, rgb);
+    } else {
+      pipeline->submit(mm, rgb);
+    }
     last_stamp_s = frame.stamp_s;
     stamps_in_flight.push_back(frame.stamp_s);
     input_indices_in_flight.push_back(frame.input_index);
@@ -317,6 +326,16 @@ FrameResult Reconstruction::process(const SequenceFrame& frame) {
 void Reconstruction::submit(const FrameView& frame) { impl_->submit(frame, true); }
 void Reconstruction::submit(const SequenceFrame& frame) { impl_->submit(frame.view(), false); }
 FrameResult Reconstruction::collect() { return impl_->collect(); }
+FrameResult Reconstruction::integrate_at(const FrameView& frame, const Pose& T_world_cam) {
+  const Mat4f pose = api::to_mat4f(T_world_cam);
+  impl_->submit(frame, true, &pose);
+  return impl_->collect();
+}
+FrameResult Reconstruction::integrate_at(const SequenceFrame& frame, const Pose& T_world_cam) {
+  const Mat4f pose = api::to_mat4f(T_world_cam);
+  impl_->submit(frame.view(), false, &pose);
+  return impl_->collect();
+}
 int Reconstruction::frames_in_flight() const { return impl_->pipeline->frames_in_flight(); }
 
 void Reconstruction::reset() {
@@ -505,6 +524,10 @@ const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
 }
 void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
   r.impl_->submit(api::frame_view(frame), false);
+}
+void ReconstructionAccess::submit_at_pose(Reconstruction& r, const io::Frame& frame,
+                                          const Mat4f& T_world_cam) {
+  r.impl_->submit(api::frame_view(frame), false, &T_world_cam);
 }
 const FrameDiagnostics& ReconstructionAccess::diagnostics(const Reconstruction& r) {
   return *r.impl_->diagnostics;

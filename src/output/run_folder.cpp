@@ -12,8 +12,9 @@ namespace fs = std::filesystem;
 
 const std::vector<std::string>& run_output_names() {
   static const std::vector<std::string> names = {
-      "trajectory.txt", "slambench.log", "stats.json",  "config.txt", "mesh.ply",       "cloud.ply",
-      "volume.kfxtsdf", "map.kfxblocks", "report.html", "renders",    "groundtruth.txt"};
+      "trajectory.txt", "slambench.log", "stats.json",      "config.txt",
+      "mesh.ply",       "cloud.ply",     "volume.kfxtsdf",  "map.kfxblocks",
+      "report.html",    "renders",       "groundtruth.txt", "odometry.txt"};
   return names;
 }
 

@@ -177,8 +177,24 @@ FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostIma
   return collect();
 }
 
+void Pipeline::submit_at_pose(const Mat4f& T_world_cam, ImageView<const uint16_t> depth_mm,
+                              ImageView<const Rgb8> rgb) {
+  KFX_CHECK(in_flight_.empty(),
+            "Pipeline::submit_at_pose() with frames in flight: collect them first");
+  // Placed like set_pose() but without marking the reference view stale: the frame is not
+  // tracked, so it needs no raycast from its pose (the raycast rate keeps the renders going).
+  backend_->set_pose(T_world_cam);
+  camera_m_ = T_world_cam.translation_part();
+  if (frame_ == 0 && !map_loaded_) initial_pose_ = T_world_cam;
+  pose_given_ = true;
+  submit(depth_mm, rgb);
+}
+
 void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
   const int f = frame_;
+  // Only submit_at_pose() sets it, for this one frame.
+  const bool pose_given = pose_given_;
+  pose_given_ = false;
   KFX_CHECK(!config_.integration.localise_only || map_loaded_,
             "frame " << f << ": setting localise_only is on, but no map was loaded to localise "
                      << "in (load one before the first frame, or set localise_only=off)");
@@ -204,10 +220,11 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   // The reference view exists only after the first raycast (end of frame 3 when exact: the
   // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).
   const int bootstrap = config_.quality.bootstrap_frames;
-  const bool track = have_reference_ && f % config_.tracking.rate == 0;
+  const bool track = !pose_given && have_reference_ && f % config_.tracking.rate == 0;
   // A loaded map is not bootstrapped: integrating untracked frames would fuse them at a pose
-  // nobody checked against it.
-  const bool always = f < bootstrap && !map_loaded_;
+  // nobody checked against it. A frame at a given pose is fused as a bootstrap frame is: every
+  // slice, whatever the tracking state.
+  const bool always = pose_given || (f < bootstrap && !map_loaded_);
   const int holdout = config_.integration.holdout;
   const bool held_out = !always && holdout > 0 && f % holdout == 0;
   const bool may_integrate = !config_.integration.localise_only &&

@@ -83,6 +83,12 @@ class Pipeline {
   /// The same from pixels someone else owns (rows packed), read during the call only; `rgb`
   /// without data when the frame has no colour image.
   void submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb = {});
+  /// Submits the next frame at a pose given by the caller (camera to volume frame): it is not
+  /// tracked, and it is integrated there whatever the tracking state (a map fused at poses
+  /// known from elsewhere: a finished run's optimised trajectory, ground truth). No frame may
+  /// be in flight (the pose is set before the frame, as set_pose() does). `rgb` as in submit().
+  void submit_at_pose(const Mat4f& T_world_cam, ImageView<const uint16_t> depth_mm,
+                      ImageView<const Rgb8> rgb = {});
   /// Waits for the oldest submitted frame and returns its report.
   FrameReport collect();
   /// Turns the renders on or off: when on, every frame f with f % render.rate == 0 renders
@@ -158,6 +164,8 @@ class Pipeline {
   /// The camera was moved (set_pose) or the map replaced: the next frame raycasts whatever the
   /// raycast rate says, as the old reference view belongs to another pose or map.
   bool reference_stale_ = false;
+  /// The frame being submitted was placed by submit_at_pose(): not tracked, always integrated.
+  bool pose_given_ = false;
 
   /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
   /// next frame; decided in collect() (swap_due_).

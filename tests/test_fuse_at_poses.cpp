@@ -1,0 +1,79 @@
+/// Fusion at given poses: Reconstruction::integrate_at fuses a frame where it is told (no
+/// tracking) and refuses a pose that is not rigid, naming the frame; `kfx fuse` fuses an input
+/// at a run's own trajectory and gives that trajectory back.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+
+#include "cli_runner.hpp"
+#include "io/trajectory.hpp"
+#include "kfx/kfx.hpp"
+#include "test_dir.hpp"
+
+namespace kfx {
+namespace {
+
+const char* kInput = "synthetic:frames=12,width=160,height=120";
+
+Settings cpu_settings() { return Settings().backend("cpu").set("volume_resolution", "64"); }
+
+TEST(FuseAtPoses, ApiIntegratesAtTheGivenPoseAndRefusesOneThatIsNotRigid) {
+  std::vector<SequenceFrame> frames;
+  std::vector<Pose> tracked;
+  {
+    Sequence sequence(kInput);
+    Reconstruction reconstruction(cpu_settings(), sequence);
+    SequenceFrame frame;
+    while (sequence.next(frame) == ReadStatus::kOk) {
+      frames.push_back(frame);
+      tracked.push_back(reconstruction.process(frame).T_world_cam);
+    }
+  }
+  ASSERT_EQ(frames.size(), 12u);
+  Sequence sequence(kInput);
+  Reconstruction fused(cpu_settings(), sequence);
+  Pose stretched = tracked[0];
+  stretched[0] = 2.0f;  // a scale, not a rotation
+  try {
+    fused.integrate_at(frames[0], stretched);
+    FAIL() << "a pose that is not rigid was accepted";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("frame 0"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("pose"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(fused.frame_count(), 0);  // nothing changed
+  for (size_t i = 0; i < frames.size(); ++i) {
+    const FrameResult r = fused.integrate_at(frames[i], tracked[i]);
+    EXPECT_TRUE(r.integrated) << "frame " << i;
+    EXPECT_FALSE(r.tracking_ran) << "frame " << i;
+    for (int c = 0; c < 16; ++c) EXPECT_FLOAT_EQ(r.T_world_cam[c], tracked[i][c]);
+  }
+  EXPECT_GT(fused.mesh().vertex_count(), 1000u);
+}
+
+TEST(FuseAtPoses, CliFusesAtARunsTrajectory) {
+  const auto dir = test::fresh_test_dir("kfx_fuse_");
+  const std::string run = (dir / "run").string(), fused = (dir / "fused").string();
+  auto r = test::run_kfx(std::string("run '") + kInput +
+                         "' --backend cpu -q --no-report --set volume_resolution=64 -o " + run);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::run_kfx(std::string("fuse '") + kInput + "' --trajectory " + run +
+                    "/trajectory.txt --backend cpu -q --no-report --set volume_resolution=64 -o " +
+                    fused);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto given = io::read_tum_trajectory(run + "/trajectory.txt");
+  const auto out = io::read_tum_trajectory(fused + "/trajectory.txt");
+  ASSERT_EQ(given.size(), out.size());
+  for (size_t i = 0; i < given.size(); ++i) {
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(given[i].t[c], out[i].t[c], 2e-6);
+  }
+  r = test::run_kfx(std::string("fuse '") + kInput + "' --trajectory " + run + "/missing.txt -o " +
+                    fused + "2");
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("missing.txt"), std::string::npos) << r.output;
+}
+
+}  // namespace
+}  // namespace kfx
