@@ -142,7 +142,7 @@ class CudaBackend final : public Backend {
     if (blocks()) {
       block_map_ = DeviceBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
                                   setup.colour, new_key_capacity_for(w * h));
-      block_map_.clear(stream_.get());
+      block_map_.clear(DeviceMemory{stream_.get()});
       map_grid_ = std::max(1, properties_.multiProcessorCount * kMapBlocksPerSm);
     }
     for (auto& parity : stage_events_) {
@@ -175,7 +175,7 @@ class CudaBackend final : public Backend {
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     if (blocks()) {
-      block_map_.clear(stream_.get());
+      block_map_.clear(DeviceMemory{stream_.get()});
     } else {
       const long long voxels = static_cast<long long>(buffers_.volume.size());
       launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
