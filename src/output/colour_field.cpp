@@ -1,7 +1,6 @@
 #include "output/colour_field.hpp"
 
 #include "map/block_map.hpp"
-#include "map/block_map_index.hpp"
 #include "pipeline/pipeline.hpp"
 
 namespace kfx::output {
@@ -17,7 +16,9 @@ ColourField::ColourField(BlockMapContents contents) {
   blocks_ = std::make_shared<Blocks>();
   blocks_->contents = std::move(contents);
   const BlockMapContents& c = blocks_->contents;
-  blocks_->index = index_of_contents(c);
+  blocks_->index =
+      HostBlockMap(static_cast<uint32_t>(c.keys.size()) + 1, c.grid_res, c.grid_size_m, true);
+  blocks_->index.load_index(c);
   blocks_->view = blocks_->index.view_of_contents(c);
 }
 
