@@ -1,9 +1,8 @@
 #include "api/render_view.hpp"
 
-#include <algorithm>
-
 #include "kernels/raycast.hpp"
 #include "kernels/tracking_state.hpp"
+#include "map/block_map_index.hpp"
 
 namespace kfx::api {
 namespace {
@@ -63,9 +62,7 @@ ViewImages render_view(std::vector<Voxel>& voxels, int res, float size_m,
 ViewImages render_view(const BlockMapContents& blocks, const RenderParams& params, int width_px,
                        int height_px, const Mat4f& T_world_cam, bool want_depth) {
   // The index only: the rays read the contents' own voxels (no second copy of the map).
-  HostBlockMap index(static_cast<uint32_t>(std::max<size_t>(1, blocks.keys.size())),
-                     blocks.grid_res, blocks.grid_size_m, !blocks.colours.empty());
-  index.load_index(blocks);
+  HostBlockMap index = index_of_contents(blocks);
   return render_map(index.view_of_contents(blocks), params, width_px, height_px, T_world_cam,
                     want_depth);
 }

@@ -76,11 +76,14 @@ void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup) {
                                << " (the depth image's size)");
 }
 
-void check_colour_volume_upload(const std::vector<ColourVoxel>& colours, size_t field_size,
+void check_colour_volume_upload(const std::vector<ColourVoxel>& /*colours*/,
                                 const BackendSetup& setup) {
   KFX_CHECK(setup.colour, "a colour field was given but the pipeline was set up without colour");
   KFX_CHECK(setup.map_kind == MapKind::kDense,
             "a dense colour field cannot be loaded into a block map (its blocks carry colour)");
+}
+
+void check_colour_field_size(const std::vector<ColourVoxel>& colours, size_t field_size) {
   KFX_CHECK(colours.size() == field_size, "colour field of " << colours.size()
                                                              << " voxels given, the backend holds "
                                                              << field_size);

@@ -25,6 +25,7 @@
 #include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
 #include "map/host_block_map.hpp"
+#include "map/voxel_map.hpp"
 
 namespace kfx {
 
@@ -36,12 +37,6 @@ struct CudaTuning {
   int z_chunks = 0;              ///< z-ranges per integration column; 0 = 4096 / resolution
   bool icp_persistent = true;    ///< one cooperative launch per pyramid level, not per iteration
   bool fused_preprocess = true;  ///< preprocess, then the pyramid, in one launch each
-};
-
-/// Which kind of map a backend keeps (setting `volume`).
-enum class MapKind : int {
-  kDense = 0,   ///< one cube of res³ voxels (SLAMBench's)
-  kBlocks = 1,  ///< 8³ voxel blocks allocated where depth lands, found through a hash table
 };
 
 /// Sizes fixed for a backend's lifetime; every buffer is allocated once from these.

@@ -6,6 +6,7 @@
 #include <cstdint>
 
 #include "kernels/marching_cubes_blocks.hpp"
+#include "map/block_map_index.hpp"
 
 namespace kfx {
 namespace {
@@ -73,9 +74,7 @@ MeshView extract_block_map_mesh(const BlockMapView& map, std::vector<MeshVertex>
 MeshView extract_block_map_mesh(const BlockMapContents& contents, std::vector<MeshVertex>& vertices,
                                 std::vector<MeshTriangle>& triangles) {
   // The index only: the mesh reads the contents' own voxels (no second copy of the map).
-  HostBlockMap index(static_cast<uint32_t>(std::max<size_t>(1, contents.keys.size())),
-                     contents.grid_res, contents.grid_size_m, !contents.colours.empty());
-  index.load_index(contents);
+  HostBlockMap index = index_of_contents(contents);
   return extract_block_map_mesh(index.view_of_contents(contents), vertices, triangles);
 }
 

@@ -2,11 +2,10 @@
 /// The buffers of one pipeline, listed once for both backends: the CPU backend holds them in
 /// host memory (HostImage, std::vector), the CUDA backend in device memory (DeviceImage,
 /// DeviceBuffer). Every buffer is allocated here, once, from the BackendSetup; what differs per
-/// backend (input staging, reduction partials, streams) stays in the backend.
+/// backend (input staging, reduction partials, streams) stays in the backend, and the map is
+/// an object of its own (map/voxel_map.hpp).
 ///
-/// A reset (Backend::reset) returns them to: an empty volume (every voxel tsdf +1, weight 0,
-/// and with colour every colour voxel 0 with weight 0),
-/// no brick or super-brick touched, reference vertices 0, and the state
+/// A reset (Backend::reset) returns them to: reference vertices 0, and the state
 /// initial_tracking_state(pose).
 
 #include <array>
@@ -14,8 +13,6 @@
 #include <cstdint>
 
 #include "backend/backend.hpp"
-#include "core/colour_volume.hpp"
-#include "core/volume.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/ray_range.hpp"
 #include "kernels/track.hpp"
@@ -34,19 +31,12 @@ struct FrameBuffers {
         render_depth(setup.compute_width_px(), setup.compute_height_px()),
         render_track(setup.compute_width_px(), setup.compute_height_px()),
         render_volume(setup.compute_width_px(), setup.compute_height_px()),
-        volume(voxel_count(setup)),
-        brick_touched(brick_count(setup)),
-        super_brick_touched(super_brick_count(setup)),
-        colour_volume(setup.colour ? voxel_count(setup) : 0),
         render_colour(setup.colour ? setup.compute_width_px() : 0,
                       setup.colour ? setup.compute_height_px() : 0),
         ray_near_bits(ray_range_tile_count(setup)),
         ray_far_bits(ray_range_tile_count(setup)),
         ray_tiles_x(ray_range_tiles_for(setup.compute_width_px())),
-        ray_tiles_y(ray_range_tiles_for(setup.compute_height_px())),
-        colour(setup.colour),
-        volume_res_vox(setup.volume_res_vox),
-        volume_size_m(setup.volume_size_m) {
+        ray_tiles_y(ray_range_tiles_for(setup.compute_height_px())) {
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     for (int l = 0; l < setup.pyramid_levels; ++l) {
       level_depth[l] = Image<float>(w >> l, h >> l);
@@ -59,23 +49,6 @@ struct FrameBuffers {
     }
   }
 
-  // A block map (MapKind::kBlocks) has no cube: no voxels or brick flags here.
-  static size_t voxel_count(const BackendSetup& setup) {
-    if (setup.map_kind == MapKind::kBlocks) return 0;
-    const size_t res = static_cast<size_t>(setup.volume_res_vox);
-    return res * res * res;
-  }
-  static size_t brick_count(const BackendSetup& setup) {
-    if (setup.map_kind == MapKind::kBlocks) return 0;
-    const size_t bricks = static_cast<size_t>(bricks_per_side(setup.volume_res_vox));
-    return bricks * bricks * bricks;
-  }
-  static size_t super_brick_count(const BackendSetup& setup) {
-    if (setup.map_kind == MapKind::kBlocks) return 0;
-    const size_t supers = static_cast<size_t>(super_bricks_per_side(setup.volume_res_vox));
-    return supers * supers * supers;
-  }
-
   /// The raycast's per-tile depth ranges (kernels/ray_range.hpp): a block map's only.
   static size_t ray_range_tile_count(const BackendSetup& setup) {
     if (setup.map_kind != MapKind::kBlocks) return 0;
@@ -84,17 +57,6 @@ struct FrameBuffers {
   }
   RayRangeTiles ray_range_tiles() {
     return RayRangeTiles{ray_near_bits.data(), ray_far_bits.data(), ray_tiles_x, ray_tiles_y};
-  }
-
-  /// The volume and its brick flags as the kernels see them.
-  VolumeView volume_view() {
-    return VolumeView{volume.data(), volume_res_vox, volume_size_m, brick_touched.data(),
-                      super_brick_touched.data()};
-  }
-
-  /// The colour field as the kernels see it; null data when colour is off.
-  ColourVolumeView colour_volume_view() {
-    return ColourVolumeView{colour ? colour_volume.data() : nullptr, volume_res_vox, volume_size_m};
   }
 
   /// The arguments of one ICP iteration at pyramid `level` against the raycast reference; only
@@ -127,21 +89,12 @@ struct FrameBuffers {
   Image<Rgba8> render_depth;    ///< the renders (Backend::render), opaque RGBA
   Image<Rgba8> render_track;
   Image<Rgba8> render_volume;
-  Array<Voxel> volume;                 ///< res³ voxels, x fastest
-  Array<uint8_t> brick_touched;        ///< one flag per 8³ brick (VolumeView::brick_touched)
-  Array<uint8_t> super_brick_touched;  ///< one flag per 16³ (VolumeView::super_brick_touched)
-  /// Colour (BackendSetup::colour): res³ colour voxels beside the TSDF and the colour render;
-  /// empty when off.
-  Array<ColourVoxel> colour_volume;
-  Image<Rgba8> render_colour;
+  Image<Rgba8> render_colour;  ///< colour (BackendSetup::colour) only
   /// Block map only: the raycast's per-tile depth ranges (smallest, largest; float bits).
   Array<uint32_t> ray_near_bits;
   Array<uint32_t> ray_far_bits;
   int ray_tiles_x = 0;
   int ray_tiles_y = 0;
-  bool colour = false;
-  int volume_res_vox = 0;
-  float volume_size_m = 0.0f;
 };
 
 /// Throws kfx::Error unless `depth_mm` has the input size the backend was set up for.
@@ -149,9 +102,9 @@ void check_depth_frame(ImageView<const uint16_t> depth_mm, const BackendSetup& s
 
 /// Throws kfx::Error unless colour is on and `rgb` has the input size.
 void check_colour_frame(ImageView<const Rgb8> rgb, const BackendSetup& setup);
-/// Throws kfx::Error unless `colours` can replace a colour field of `field_size` voxels: colour
-/// on, the dense cube, and the same size.
-void check_colour_volume_upload(const std::vector<ColourVoxel>& colours, size_t field_size,
-                                const BackendSetup& setup);
+/// Throws kfx::Error unless a colour field can be loaded: colour on and the dense cube.
+void check_colour_volume_upload(const std::vector<ColourVoxel>& colours, const BackendSetup& setup);
+/// Throws kfx::Error unless `colours` has the `field_size` voxels of the map's colour field.
+void check_colour_field_size(const std::vector<ColourVoxel>& colours, size_t field_size);
 
 }  // namespace kfx

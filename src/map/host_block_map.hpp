@@ -4,10 +4,10 @@
 /// deterministic order.
 
 #include <cstdint>
-#include <memory>
 #include <vector>
 
 #include "map/block_map.hpp"
+#include "map/block_map_store.hpp"
 
 namespace kfx {
 
@@ -46,7 +46,8 @@ struct BlockMapContents {
 /// in place, moving each block once: no second copy of the map is needed.
 void sort_blocks_by_key(BlockMapContents& c);
 
-/// An owning block map in host memory.
+/// An owning block map in host memory: the shared storage (BlockMapStore, no direct-mapped
+/// tables: the host's raycast is not bound by its lookups) and its counts on the host.
 class HostBlockMap {
  public:
   HostBlockMap() = default;
@@ -56,6 +57,7 @@ class HostBlockMap {
 
   /// Removes every block (the arrays are kept).
   void clear();
+  void clear(const HostMemory&) { clear(); }
   /// Allocates the blocks of `candidates` (packed keys, any order, duplicates allowed; the
   /// vector is sorted and deduplicated in place) that are not in the map yet: in increasing key
   /// order, so the same candidates give the same block indices whatever order they came in.
@@ -80,24 +82,26 @@ class HostBlockMap {
   /// untouched (for a reader of `contents` itself: view_of_contents, the CUDA upload).
   void load_index(const BlockMapContents& contents);
   /// True when the map carries a colour field.
-  bool has_colour() const { return colours_ != nullptr; }
+  bool has_colour() const { return store_.has_colour(); }
 
-  BlockMapView view();
+  BlockMapView view() { return store_.view(block_count_); }
   /// A view of this map's index (load_index(contents) done last) over `contents`' own voxels and
   /// colours: a block map read without a second copy of its voxels. For reading only, while
   /// `contents` lives.
   BlockMapView view_of_contents(const BlockMapContents& contents);
   /// Blocks allocated.
   int block_count() const { return block_count_; }
-  uint32_t block_capacity() const { return static_cast<uint32_t>(block_keys_.size()); }
+  uint32_t block_capacity() const { return store_.capacity; }
   /// Bytes the allocated blocks take (block_bytes each).
   uint64_t used_bytes() const {
     return block_bytes(has_colour()) * static_cast<uint64_t>(block_count_);
   }
   /// Bytes the map holds allocated for its capacity.
-  uint64_t reserved_bytes() const;
-  int grid_res() const { return grid_res_; }
-  float grid_size_m() const { return grid_size_m_; }
+  uint64_t reserved_bytes() const { return store_.reserved_bytes(); }
+  int grid_res() const { return store_.grid_res; }
+  float grid_size_m() const { return store_.grid_size_m; }
+  /// The arrays (for copying an index built here to another location).
+  const BlockMapStore<HostMemory>& store() const { return store_; }
 
  private:
   /// Stores a key absent from the map as block block_count_ (in its coarse cell, which is added
@@ -107,22 +111,9 @@ class HostBlockMap {
   /// map already, else stores it (insert_new_block), marks it and its coarse cell touched and
   /// returns its index. The caller checked the capacity and places the voxels.
   int insert_loaded_block(uint64_t key);
-  std::vector<uint64_t> hash_keys_;
-  std::vector<int32_t> hash_values_;
-  /// capacity × kBlockVoxels voxels, left uninitialised until a block is allocated (so a large
-  /// budget costs address space, not memory, until blocks are used).
-  std::unique_ptr<Voxel[]> voxels_;
-  std::unique_ptr<ColourVoxel[]> colours_;  ///< as voxels_, when the map carries colour
-  std::vector<uint64_t> block_keys_;
-  std::vector<uint8_t> block_touched_;
-  std::vector<int32_t> block_coarse_;
-  std::vector<uint64_t> coarse_keys_;
-  std::vector<int32_t> coarse_values_;
-  std::vector<uint8_t> coarse_touched_;
+  BlockMapStore<HostMemory> store_;
   int coarse_count_ = 0;
   int block_count_ = 0;
-  int grid_res_ = 1;
-  float grid_size_m_ = 0.01f;
 };
 
 }  // namespace kfx

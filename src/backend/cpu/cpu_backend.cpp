@@ -69,17 +69,26 @@ std::string cpu_model_name() {
   return "unknown CPU";
 }
 
+/// The CPU backend's map: host memory, the host block map.
+using HostMap = VoxelMap<HostMemory, HostBlockMap>;
+
+/// The map `setup` asks for (BackendSetup::map_kind), not yet cleared.
+HostMap make_host_map(const BackendSetup& setup) {
+  if (setup.map_kind == MapKind::kBlocks) {
+    return HostMap(HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
+                                setup.colour));
+  }
+  return HostMap(HostMap::Cube(setup.volume_res_vox, setup.volume_size_m, setup.colour));
+}
+
 class CpuBackend final : public Backend {
  public:
   explicit CpuBackend(const BackendSetup& setup)
       : setup_(setup),
         input_mm_(setup.input_width_px, setup.input_height_px),
         buffers_(setup),
+        map_(make_host_map(setup)),
         row_partials_(static_cast<size_t>(setup.compute_height_px()) * kAccumulatorSize) {
-    if (blocks()) {
-      blocks_ = HostBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
-                             setup.colour);
-    }
     auto& normals = buffers_.ref_normal.pixels();
     std::fill(normals.begin(), normals.end(), Vec3f{kInvalidNormal, 0, 0});
   }
@@ -90,13 +99,7 @@ class CpuBackend final : public Backend {
   }
 
   void reset(const Mat4f& T_world_cam) override {
-    const Voxel empty{static_cast<int16_t>(kTsdfScale), 0};
-    std::fill(buffers_.volume.begin(), buffers_.volume.end(), empty);
-    std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 0);
-    std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 0);
-    if (blocks()) blocks_.clear();
-    std::fill(buffers_.colour_volume.begin(), buffers_.colour_volume.end(),
-              ColourVoxel{0, 0, 0, 0});
+    map_.clear(HostMemory{});
     auto& vertices = buffers_.ref_vertex.pixels();
     std::fill(vertices.begin(), vertices.end(), Vec3f{0, 0, 0});
     state_ = initial_tracking_state(T_world_cam);
@@ -197,11 +200,19 @@ class CpuBackend final : public Backend {
   void skip_tracking() override { state_.tracked = 0; }
 
   void allocate_blocks(const IntegrateParams& p, bool always) override {
-    if (!blocks()) return;
+    map_.visit([&](auto& storage) { allocate_in(storage, p, always); });
+  }
+
+  /// The dense cube holds every voxel already.
+  void allocate_in(HostMap::Cube&, const IntegrateParams&, bool) {}
+
+  /// The blocks this frame's band reaches that the map lacks, gathered by the threads and
+  /// allocated by the map in key order.
+  void allocate_in(HostBlockMap& blocks, const IntegrateParams& p, bool always) {
     prepare_integration(state_, always);
     state_.map_blocks_dropped = 0;
     if (!state_.integrate_now) return;
-    const BlockAllocArgs a{p.k, p.mu_m, blocks_.view(), buffers_.depth_m.view(), &state_};
+    const BlockAllocArgs a{p.k, p.mu_m, blocks.view(), buffers_.depth_m.view(), &state_};
     const int w = buffers_.depth_m.width(), h = buffers_.depth_m.height();
     // Each thread gathers the keys its rows reach that the map lacks; the map sorts them, so
     // which thread found a key first does not matter.
@@ -228,24 +239,25 @@ class CpuBackend final : public Backend {
     }
     std::vector<uint64_t> candidates;
     for (const auto& keys : found) candidates.insert(candidates.end(), keys.begin(), keys.end());
-    const BlockAllocation allocation = blocks_.allocate(candidates);
-    state_.map_blocks = blocks_.block_count();
+    const BlockAllocation allocation = blocks.allocate(candidates);
+    state_.map_blocks = blocks.block_count();
     state_.map_blocks_dropped = allocation.dropped;
   }
 
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    if (blocks()) {
-      integrate_blocks(p);
-      return;
-    }
+    map_.visit([&](auto& storage) { integrate_into(storage, p); });
+  }
+
+  /// Integration into the dense cube: every voxel column.
+  void integrate_into(HostMap::Cube& cube, const IntegrateParams& p) {
     const IntegrateArgs a{p,
-                          buffers_.volume_view(),
+                          cube.view(),
                           buffers_.depth_m.view(),
                           &state_,
                           buffers_.level_normal[0].view(),
-                          buffers_.colour_volume_view(),
+                          cube.colour_view(),
                           input_rgb_.view()};
     // x-lines: each thread walks contiguous voxels (the GPU takes z-lines instead). Threads
     // take whole brick layers, so no two write the same brick flag (super-brick flags are shared:
@@ -262,11 +274,7 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
-    if (blocks()) {
-      raycast_map(p, blocks_.view());
-    } else {
-      raycast_map(p, buffers_.volume_view());
-    }
+    map_.visit([&](auto& storage) { raycast_map(p, storage.view()); });
     neighbour_normals(p);
   }
 
@@ -287,21 +295,13 @@ class CpuBackend final : public Backend {
     const RenderTrackArgs t =
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     for_each_pixel(w, h, [&](int x, int y) { render_track_pixel(x, y, t); });
-    if (blocks()) {
-      render_volume(
-          make_render_volume_args(blocks_.view(), buffers_.render_volume.view(), &state_, p));
-    } else {
-      render_volume(make_render_volume_args(buffers_.volume_view(), buffers_.render_volume.view(),
-                                            &state_, p));
-    }
-    if (!setup_.colour) return;
-    if (blocks()) {
-      render_colour(make_render_colour_args(blocks_.view(), ColourVolumeView{},
+    map_.visit([&](auto& storage) {
+      const auto map = storage.view();
+      render_volume(make_render_volume_args(map, buffers_.render_volume.view(), &state_, p));
+      if (!setup_.colour) return;
+      render_colour(make_render_colour_args(map, dense_colour_view(storage),
                                             buffers_.render_colour.view(), &state_, p));
-    } else {
-      render_colour(make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
-                                            buffers_.render_colour.view(), &state_, p));
-    }
+    });
   }
 
   TrackingState read_state() override {
@@ -344,13 +344,19 @@ class CpuBackend final : public Backend {
                    buffers_.render_colour};
   }
   std::vector<Voxel> read_volume() override {
-    KFX_CHECK(!blocks(), "volume=blocks: the map has no dense cube to read (read_blocks())");
-    return buffers_.volume;
+    const HostMap::Cube& cube = map_.cube("read_volume()");
+    return std::vector<Voxel>(cube.voxels.data(), cube.voxels.data() + cube.voxels.size());
   }
-  std::vector<ColourVoxel> read_colour_volume() override { return buffers_.colour_volume; }
+  std::vector<ColourVoxel> read_colour_volume() override {
+    return map_.visit([](auto& storage) { return dense_colours(storage); });
+  }
 
   void reserve_mesh_extraction() override {
-    if (blocks()) return;  // sized per call by the blocks in the map
+    map_.visit([&](auto& storage) { reserve_mesh_extraction_for(storage); });
+  }
+  /// A block map's mesh is sized per call by the blocks in the map.
+  void reserve_mesh_extraction_for(HostBlockMap&) {}
+  void reserve_mesh_extraction_for(HostMap::Cube&) {
     if (!mesh_run_offset_.empty()) return;
     const size_t r = static_cast<size_t>(setup_.volume_res_vox);
     const size_t runs = static_cast<size_t>(mc_run_count(setup_.volume_res_vox));
@@ -372,10 +378,19 @@ class CpuBackend final : public Backend {
   }
 
   MeshView extract_mesh() override {
-    if (blocks()) return extract_block_mesh();
-    reserve_mesh_extraction();
-    const int res = setup_.volume_res_vox;
-    const VolumeView volume = buffers_.volume_view();
+    return map_.visit([&](auto& storage) { return extract_mesh_of(storage); });
+  }
+
+  /// Marching cubes over the block map (kernels/marching_cubes_blocks.hpp).
+  MeshView extract_mesh_of(HostBlockMap& blocks) {
+    return extract_block_map_mesh(blocks.view(), mesh_vertices_, mesh_triangles_);
+  }
+
+  /// Marching cubes over the dense cube (kernels/marching_cubes.hpp).
+  MeshView extract_mesh_of(HostMap::Cube& cube) {
+    reserve_mesh_extraction_for(cube);
+    const int res = cube.res;
+    const VolumeView volume = cube.view();
     // Pass 0: which bricks can hold any of the mesh.
     const int b = bricks_per_side(res);
 #pragma omp parallel for collapse(2) schedule(static)
@@ -432,36 +447,42 @@ class CpuBackend final : public Backend {
   }
 
   void read_blocks_into(BlockMapContents& out) override {
-    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
-    blocks_.contents_into(out);
+    map_.blocks("read_blocks()").contents_into(out);
   }
   void upload_blocks(const BlockMapContents& contents) override {
-    KFX_CHECK(blocks(), "upload_blocks(): the map is the dense cube (volume=dense)");
-    blocks_.load(contents);
-    state_.map_blocks = blocks_.block_count();
+    HostBlockMap& blocks = map_.blocks("upload_blocks()");
+    blocks.load(contents);
+    state_.map_blocks = blocks.block_count();
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
-    KFX_CHECK(!blocks(), "volume=blocks: a dense volume cannot be loaded into a block map");
-    KFX_CHECK(voxels.size() == buffers_.volume.size(),
-              "volume of " << voxels.size() << " voxels given, the backend holds "
-                           << buffers_.volume.size());
-    std::copy(voxels.begin(), voxels.end(), buffers_.volume.begin());
-    std::fill(buffers_.brick_touched.begin(), buffers_.brick_touched.end(), 1);
-    std::fill(buffers_.super_brick_touched.begin(), buffers_.super_brick_touched.end(), 1);
+    const HostMap::Cube& cube = map_.cube("upload_volume()");
+    KFX_CHECK(
+        voxels.size() == cube.voxels.size(),
+        "volume of " << voxels.size() << " voxels given, the backend holds " << cube.voxels.size());
+    std::copy(voxels.begin(), voxels.end(), cube.voxels.data());
+    HostMemory{}.fill_bytes(cube.brick_touched, 1);
+    HostMemory{}.fill_bytes(cube.super_brick_touched, 1);
   }
 
   void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
-    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
-    std::copy(colours.begin(), colours.end(), buffers_.colour_volume.begin());
+    check_colour_volume_upload(colours, setup_);
+    const HostMap::Cube& cube = map_.cube("upload_colour_volume()");
+    check_colour_field_size(colours, cube.colours.size());
+    std::copy(colours.begin(), colours.end(), cube.colours.data());
   }
 
  private:
-  bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
+  /// A host copy of the dense cube's colour field; empty for a block map (its colours are in
+  /// its blocks) or without colour.
+  static std::vector<ColourVoxel> dense_colours(const HostMap::Cube& cube) {
+    return std::vector<ColourVoxel>(cube.colours.data(), cube.colours.data() + cube.colours.size());
+  }
+  static std::vector<ColourVoxel> dense_colours(const HostBlockMap&) { return {}; }
 
-  /// Integration over the block map: every allocated block in view, one block per task.
-  void integrate_blocks(const IntegrateParams& p) {
-    const BlockMapView map = blocks_.view();
+  /// Integration into the block map: every allocated block in view, one block per task.
+  void integrate_into(HostBlockMap& blocks, const IntegrateParams& p) {
+    const BlockMapView map = blocks.view();
     // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
     IntegrateArgsT<OneBlockView> a{p,
                                    OneBlockView{},
@@ -539,11 +560,6 @@ class CpuBackend final : public Backend {
     }
   }
 
-  /// Marching cubes over the block map (kernels/marching_cubes_blocks.hpp).
-  MeshView extract_block_mesh() {
-    return extract_block_map_mesh(blocks_.view(), mesh_vertices_, mesh_triangles_);
-  }
-
   /// This frame's intensity pyramid (photometric term) from its colour image.
   void build_intensity() {
     KFX_CHECK(input_rgb_.width() == setup_.input_width_px,
@@ -588,8 +604,8 @@ class CpuBackend final : public Backend {
   HostImage<uint16_t> input_mm_;
   HostImage<Rgb8> input_rgb_;  ///< this frame's colour image (colour or photometric), input size
   FrameBuffers<HostImage, HostArray> buffers_;
+  HostMap map_;  ///< the map: the dense cube or the block map (BackendSetup::map_kind)
   std::vector<double> row_partials_;
-  HostBlockMap blocks_;  ///< the block map (MapKind::kBlocks), else empty
   // Mesh extraction (MarchingCubesArgs), allocated on first use.
   std::vector<uint8_t> mesh_brick_signs_;       ///< mc_brick_sign_bits per brick
   std::vector<uint8_t> mesh_brick_active_;      ///< mc_brick_active per brick

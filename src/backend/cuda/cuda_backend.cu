@@ -73,6 +73,19 @@ dim3 grid_for(int width, int height, dim3 block) {
   return dim3((width + block.x - 1) / block.x, (height + block.y - 1) / block.y);
 }
 
+/// The CUDA backend's map: device memory, the device block map.
+using DeviceMap = VoxelMap<DeviceMemory, DeviceBlockMap>;
+
+/// The map `setup` asks for (BackendSetup::map_kind), not yet cleared; a block map's per-frame
+/// key list is sized for `compute_pixels` (new_key_capacity_for).
+DeviceMap make_device_map(const BackendSetup& setup, int compute_pixels) {
+  if (setup.map_kind == MapKind::kBlocks) {
+    return DeviceMap(DeviceBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
+                                    setup.colour, new_key_capacity_for(compute_pixels)));
+  }
+  return DeviceMap(DeviceMap::Cube(setup.volume_res_vox, setup.volume_size_m, setup.colour));
+}
+
 class CudaBackend final : public Backend {
  public:
   explicit CudaBackend(const BackendSetup& setup) : setup_(setup), buffers_(setup) {
@@ -139,12 +152,9 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0, buffers_.track_outcome.bytes(),
                                    stream_.get()));
     state_ = DeviceBuffer<TrackingState>(1);
-    if (blocks()) {
-      block_map_ = DeviceBlockMap(setup.block_capacity, setup.volume_res_vox, setup.volume_size_m,
-                                  setup.colour, new_key_capacity_for(w * h));
-      block_map_.clear(stream_.get());
-      map_grid_ = std::max(1, properties_.multiProcessorCount * kMapBlocksPerSm);
-    }
+    map_ = make_device_map(setup, w * h);
+    map_.clear(DeviceMemory{stream_.get()});
+    map_grid_ = std::max(1, properties_.multiProcessorCount * kMapBlocksPerSm);
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
         stage[0] = std::make_unique<Event>();
@@ -174,21 +184,7 @@ class CudaBackend final : public Backend {
 
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    if (blocks()) {
-      block_map_.clear(stream_.get());
-    } else {
-      const long long voxels = static_cast<long long>(buffers_.volume.size());
-      launch(init_volume_kernel, dim3(static_cast<unsigned>((voxels + 255) / 256)), dim3(256),
-             buffers_.volume.data(), voxels);
-      KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.brick_touched.data(), 0,
-                                     buffers_.brick_touched.bytes(), stream_.get()));
-      KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.super_brick_touched.data(), 0,
-                                     buffers_.super_brick_touched.bytes(), stream_.get()));
-    }
-    if (setup_.colour) {  // all zero bytes: colour 0, weight 0
-      KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.colour_volume.data(), 0,
-                                     buffers_.colour_volume.bytes(), stream_.get()));
-    }
+    map_.clear(DeviceMemory{stream_.get()});
     *state_readback_[0].data() = initial_tracking_state(T_world_cam);
     KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(), sizeof(TrackingState),
                                    cudaMemcpyHostToDevice, stream_.get()));
@@ -393,8 +389,17 @@ class CudaBackend final : public Backend {
   }
 
   void allocate_blocks(const IntegrateParams& p, bool always) override {
-    if (replaying_ || !blocks()) return;
-    const DeviceBlockMapArgs m = block_map_.args();
+    if (replaying_) return;
+    map_.visit([&](auto& storage) { allocate_in(storage, p, always); });
+  }
+
+  /// The dense cube holds every voxel already.
+  void allocate_in(DeviceMap::Cube&, const IntegrateParams&, bool) {}
+
+  /// The blocks this frame's band reaches that the map lacks (cuda_block_map.cuh), five
+  /// launches whose counts stay on the device.
+  void allocate_in(DeviceBlockMap& blocks, const IntegrateParams& p, bool always) {
+    const DeviceBlockMapArgs m = blocks.args();
     launch(begin_block_allocation_kernel, dim3(1), dim3(1), state_.data(), always, m.counts);
     const BlockAllocArgs a{p.k, p.mu_m, m.map, buffers_.depth_m.view(), state_.data()};
     const dim3 block(32, 8);
@@ -411,29 +416,37 @@ class CudaBackend final : public Backend {
     const ImageView<const Rgb8> colour_image{
         input_rgb_[parity_].data(), setup_.colour ? setup_.input_width_px : 0,
         setup_.colour ? setup_.input_height_px : 0, setup_.input_width_px};
-    if (blocks()) {
-      // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
-      const DeviceBlockMapArgs m = block_map_.args();
-      const IntegrateArgsT<OneBlockView> a{p,
-                                           OneBlockView{},
-                                           buffers_.depth_m.view(),
-                                           state_.data(),
-                                           buffers_.level_normal[0].view(),
-                                           ColourVolumeView{},
-                                           colour_image};
-      launch(find_visible_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), m, a);
-      const dim3 rows(kBlockSide * kBlockSide, kMapThreads / (kBlockSide * kBlockSide));
-      launch(integrate_blocks_kernel, dim3(map_grid_), rows, m, a);
-      return;
-    }
+    map_.visit([&](auto& storage) { integrate_into(storage, p, colour_image); });
+  }
+
+  /// Integration into the block map: the visible blocks, 64 threads each.
+  void integrate_into(DeviceBlockMap& blocks, const IntegrateParams& p,
+                      ImageView<const Rgb8> colour_image) {
+    // Colour goes into each block's own colours (OneBlockView::colour), not a dense field.
+    const DeviceBlockMapArgs m = blocks.args();
+    const IntegrateArgsT<OneBlockView> a{p,
+                                         OneBlockView{},
+                                         buffers_.depth_m.view(),
+                                         state_.data(),
+                                         buffers_.level_normal[0].view(),
+                                         ColourVolumeView{},
+                                         colour_image};
+    launch(find_visible_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), m, a);
+    const dim3 rows(kBlockSide * kBlockSide, kMapThreads / (kBlockSide * kBlockSide));
+    launch(integrate_blocks_kernel, dim3(map_grid_), rows, m, a);
+  }
+
+  /// Integration into the dense cube: a thread per voxel column and z-range.
+  void integrate_into(DeviceMap::Cube& cube, const IntegrateParams& p,
+                      ImageView<const Rgb8> colour_image) {
     const IntegrateArgs a{p,
-                          buffers_.volume_view(),
+                          cube.view(),
                           buffers_.depth_m.view(),
                           state_.data(),
                           buffers_.level_normal[0].view(),
-                          buffers_.colour_volume_view(),
+                          cube.colour_view(),
                           colour_image};
-    const int res = setup_.volume_res_vox;
+    const int res = cube.res;
     const dim3 block(32, 4);
     dim3 grid = grid_for(res, res, block);
     grid.z = z_chunks_;
@@ -443,15 +456,15 @@ class CudaBackend final : public Backend {
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
     launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
-    if (blocks()) return raycast_map(p, block_map_.view());
-    raycast_map(p, buffers_.volume_view());
+    map_.visit([&](auto& storage) { raycast_map(p, storage); });
   }
 
-  template <class Map>
-  void raycast_map(const RaycastParams& p, const Map& map) {
-    RaycastArgsT<Map> a{p, map, buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
+  template <class Storage>
+  void raycast_map(const RaycastParams& p, Storage& storage) {
+    using Map = decltype(storage.view());
+    RaycastArgsT<Map> a{p, storage.view(), buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
                         state_.data()};
-    if (blocks() && p.tile_bounds) a.ranges = ray_ranges(p);
+    if (p.tile_bounds) a.ranges = ray_ranges(p, storage);
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
@@ -468,16 +481,18 @@ class CudaBackend final : public Backend {
 
   /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp),
   /// computed on the device in the frame's stream (two launches).
-  RayRangeTiles ray_ranges(const RaycastParams& p) {
+  RayRangeTiles ray_ranges(const RaycastParams& p, DeviceBlockMap& blocks) {
     const RayRangeArgs r = ray_range_args(p, setup_.compute_width_px(), setup_.compute_height_px(),
                                           buffers_.ray_range_tiles());
     const int tiles = r.tiles.tiles_x * r.tiles.tiles_y;
     launch(clear_ray_ranges_kernel, dim3((tiles + kMapThreads - 1) / kMapThreads),
            dim3(kMapThreads), r.tiles);
-    launch(ray_ranges_of_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), block_map_.args(), r,
+    launch(ray_ranges_of_blocks_kernel, dim3(map_grid_), dim3(kMapThreads), blocks.args(), r,
            static_cast<const TrackingState*>(state_.data()));
     return r.tiles;
   }
+  /// The dense cube keeps no ranges.
+  RayRangeTiles ray_ranges(const RaycastParams&, DeviceMap::Cube&) { return {}; }
 
   void render(const RenderParams& p) override {
     if (replaying_) return;
@@ -490,30 +505,19 @@ class CudaBackend final : public Backend {
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     launch(pixel_kernel<RenderTrackBody, RenderTrackArgs>, grid_for(w, h, block), block, t, w, h);
     const dim3 ray_block(16, 8);
-    if (blocks()) {
-      const auto v = make_render_volume_args(block_map_.view(), buffers_.render_volume.view(),
-                                             state_.data(), p);
-      launch(pixel_kernel<RenderVolumeBodyT<BlockMapView>, RenderVolumeArgsT<BlockMapView>>,
+    map_.visit([&](auto& storage) {
+      using Map = decltype(storage.view());
+      const Map map = storage.view();
+      const RenderVolumeArgsT<Map> v =
+          make_render_volume_args(map, buffers_.render_volume.view(), state_.data(), p);
+      launch(pixel_kernel<RenderVolumeBodyT<Map>, RenderVolumeArgsT<Map>>,
              grid_for(w, h, ray_block), ray_block, v, w, h);
-    } else {
-      const RenderVolumeArgs v = make_render_volume_args(
-          buffers_.volume_view(), buffers_.render_volume.view(), state_.data(), p);
-      launch(pixel_kernel<RenderVolumeBody, RenderVolumeArgs>, grid_for(w, h, ray_block), ray_block,
-             v, w, h);
-    }
-    if (!setup_.colour) return;
-    if (blocks()) {
-      const auto c = make_render_colour_args(block_map_.view(), ColourVolumeView{},
-                                             buffers_.render_colour.view(), state_.data(), p);
-      launch(pixel_kernel<RenderColourBodyT<BlockMapView>, RenderColourArgsT<BlockMapView>>,
+      if (!setup_.colour) return;
+      const RenderColourArgsT<Map> c = make_render_colour_args(
+          map, dense_colour_view(storage), buffers_.render_colour.view(), state_.data(), p);
+      launch(pixel_kernel<RenderColourBodyT<Map>, RenderColourArgsT<Map>>,
              grid_for(w, h, ray_block), ray_block, c, w, h);
-      return;
-    }
-    const RenderColourArgs c =
-        make_render_colour_args(buffers_.volume_view(), buffers_.colour_volume_view(),
-                                buffers_.render_colour.view(), state_.data(), p);
-    launch(pixel_kernel<RenderColourBody, RenderColourArgs>, grid_for(w, h, ray_block), ray_block,
-           c, w, h);
+    });
   }
 
   TrackingState read_state() override {
@@ -564,73 +568,85 @@ class CudaBackend final : public Backend {
 
   std::vector<ColourVoxel> read_colour_volume() override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    std::vector<ColourVoxel> voxels(buffers_.colour_volume.size());
-    if (!voxels.empty()) {
-      KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), buffers_.colour_volume.data(),
-                                buffers_.colour_volume.bytes(), cudaMemcpyDeviceToHost));
-    }
-    return voxels;
+    return map_.visit([&](auto& storage) { return dense_colours(storage); });
   }
 
   std::vector<Voxel> read_volume() override {
-    KFX_CHECK(!blocks(), "volume=blocks: the map has no dense cube to read (read_blocks())");
+    const DeviceMap::Cube& cube = map_.cube("read_volume()");
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    std::vector<Voxel> voxels(buffers_.volume.size());
-    KFX_CUDA_CHECK(cudaMemcpy(voxels.data(), buffers_.volume.data(), buffers_.volume.bytes(),
-                              cudaMemcpyDeviceToHost));
+    std::vector<Voxel> voxels(cube.voxels.size());
+    KFX_CUDA_CHECK(
+        cudaMemcpy(voxels.data(), cube.voxels.data(), cube.voxels.bytes(), cudaMemcpyDeviceToHost));
     return voxels;
   }
 
   void reserve_mesh_extraction() override {
-    if (blocks()) return;  // meshed on the host, sized per call by the blocks in the map
-    mesh_.reserve(setup_.volume_res_vox, stream_.get());
+    map_.visit([&](auto& storage) { reserve_mesh_extraction_for(storage); });
+  }
+  /// A block map is meshed on the host, sized per call by the blocks in the map.
+  void reserve_mesh_extraction_for(DeviceBlockMap&) {}
+  void reserve_mesh_extraction_for(DeviceMap::Cube& cube) {
+    mesh_.reserve(cube.res, stream_.get());
   }
 
   MeshView extract_mesh() override {
-    if (blocks()) {
-      // The host's marching cubes over a host copy of the blocks (block_map_mesh.hpp): the
-      // CPU's bodies and order, so both backends give the same bytes for the same map.
-      return extract_block_map_mesh(block_map_.download(stream_.get()), block_mesh_vertices_,
-                                    block_mesh_triangles_);
-    }
-    // In stream order after any submitted frame.
-    return mesh_.extract(buffers_.volume_view(), stream_.get(), debug_sync_);
+    return map_.visit([&](auto& storage) { return extract_mesh_of(storage); });
+  }
+  /// The host's marching cubes over a host copy of the blocks (block_map_mesh.hpp): the CPU's
+  /// bodies and order, so both backends give the same bytes for the same map.
+  MeshView extract_mesh_of(DeviceBlockMap& blocks) {
+    return extract_block_map_mesh(blocks.download(stream_.get()), block_mesh_vertices_,
+                                  block_mesh_triangles_);
+  }
+  /// The GPU's marching cubes over the cube, in stream order after any submitted frame.
+  MeshView extract_mesh_of(DeviceMap::Cube& cube) {
+    return mesh_.extract(cube.view(), stream_.get(), debug_sync_);
   }
 
   void read_blocks_into(BlockMapContents& out) override {
-    KFX_CHECK(blocks(), "read_blocks(): the map is the dense cube (volume=dense)");
-    block_map_.download_into(out, stream_.get());
+    map_.blocks("read_blocks()").download_into(out, stream_.get());
   }
 
   void upload_blocks(const BlockMapContents& contents) override {
-    KFX_CHECK(blocks(), "upload_blocks(): the map is the dense cube (volume=dense)");
-    const int count = block_map_.upload(contents, stream_.get());
+    const int count = map_.blocks("upload_blocks()").upload(contents, stream_.get());
     KFX_CUDA_CHECK(
         cudaMemcpy(&state_.data()->map_blocks, &count, sizeof(int), cudaMemcpyHostToDevice));
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
-    KFX_CHECK(!blocks(), "volume=blocks: a dense volume cannot be loaded into a block map");
-    KFX_CHECK(voxels.size() == buffers_.volume.size(),
-              "volume of " << voxels.size() << " voxels given, the backend holds "
-                           << buffers_.volume.size());
+    const DeviceMap::Cube& cube = map_.cube("upload_volume()");
+    KFX_CHECK(
+        voxels.size() == cube.voxels.size(),
+        "volume of " << voxels.size() << " voxels given, the backend holds " << cube.voxels.size());
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    KFX_CUDA_CHECK(cudaMemcpy(buffers_.volume.data(), voxels.data(), buffers_.volume.bytes(),
-                              cudaMemcpyHostToDevice));
-    KFX_CUDA_CHECK(cudaMemset(buffers_.brick_touched.data(), 1, buffers_.brick_touched.bytes()));
     KFX_CUDA_CHECK(
-        cudaMemset(buffers_.super_brick_touched.data(), 1, buffers_.super_brick_touched.bytes()));
+        cudaMemcpy(cube.voxels.data(), voxels.data(), cube.voxels.bytes(), cudaMemcpyHostToDevice));
+    KFX_CUDA_CHECK(cudaMemset(cube.brick_touched.data(), 1, cube.brick_touched.bytes()));
+    KFX_CUDA_CHECK(
+        cudaMemset(cube.super_brick_touched.data(), 1, cube.super_brick_touched.bytes()));
   }
 
   void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
-    check_colour_volume_upload(colours, buffers_.colour_volume.size(), setup_);
+    check_colour_volume_upload(colours, setup_);
+    const DeviceMap::Cube& cube = map_.cube("upload_colour_volume()");
+    check_colour_field_size(colours, cube.colours.size());
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    KFX_CUDA_CHECK(cudaMemcpy(buffers_.colour_volume.data(), colours.data(),
-                              buffers_.colour_volume.bytes(), cudaMemcpyHostToDevice));
+    KFX_CUDA_CHECK(cudaMemcpy(cube.colours.data(), colours.data(), cube.colours.bytes(),
+                              cudaMemcpyHostToDevice));
   }
 
  private:
-  bool blocks() const { return setup_.map_kind == MapKind::kBlocks; }
+  /// A host copy of the dense cube's colour field (after the stream is idle); empty for a block
+  /// map (its colours are in its blocks) or without colour.
+  static std::vector<ColourVoxel> dense_colours(const DeviceMap::Cube& cube) {
+    std::vector<ColourVoxel> colours(cube.colours.size());
+    if (!colours.empty()) {
+      KFX_CUDA_CHECK(cudaMemcpy(colours.data(), cube.colours.data(), cube.colours.bytes(),
+                                cudaMemcpyDeviceToHost));
+    }
+    return colours;
+  }
+  static std::vector<ColourVoxel> dense_colours(const DeviceBlockMap&) { return {}; }
 
   /// Blocks of one ICP iteration's reduction: one per kReduceBlock samples, at most
   /// reduce_blocks_. Both ICP paths use it: it fixes the order of the float sums.
@@ -713,9 +729,9 @@ class CudaBackend final : public Backend {
   DeviceBuffer<unsigned int> level_barrier_;
   DeviceBuffer<TrackingState> state_;
   MeshExtractor mesh_;  ///< its buffers are allocated on first use
-  /// The block map (MapKind::kBlocks), else unallocated; its grid-stride kernels' grid, and
-  /// the host mesh of its blocks (grows to the largest so far).
-  DeviceBlockMap block_map_;
+  /// The map: the dense cube or the block map (BackendSetup::map_kind); the block map's
+  /// grid-stride kernels' grid, and the host mesh of its blocks (grows to the largest so far).
+  DeviceMap map_;
   int map_grid_ = 1;
   std::vector<MeshVertex> block_mesh_vertices_;
   std::vector<MeshTriangle> block_mesh_triangles_;

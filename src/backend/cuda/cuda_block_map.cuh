@@ -19,10 +19,12 @@
 #include <vector>
 
 #include "backend/cuda/cuda_kernels.cuh"
+#include "backend/cuda/cuda_map_memory.cuh"
 #include "backend/cuda/cuda_memory.hpp"
 #include "kernels/block_allocation.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/ray_range.hpp"
+#include "map/block_map_store.hpp"
 #include "map/host_block_map.hpp"
 
 namespace kfx::cuda {
@@ -100,26 +102,6 @@ __global__ void gather_new_blocks_kernel(BlockAllocArgs alloc, DeviceBlockMapArg
   });
 }
 
-/// Stores new block `key` as block index b (one thread per key; keys distinct): the hash entry,
-/// its key, an untouched flag, and its coarse cell when that is new.
-__device__ inline void add_new_block(const DeviceBlockMapArgs& m, uint64_t key, int32_t b) {
-  m.map.hash.insert(key, b);
-  m.map.block_keys[b] = key;
-  m.map.block_touched[b] = 0;
-  const Vec3i c = unpack_block_key(key);
-  m.map.table.insert(c.x, c.y, c.z, b);
-  const uint64_t coarse =
-      pack_block_key(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift);
-  uint32_t slot = 0;
-  if (m.map.coarse_hash.find(coarse) < 0 &&
-      m.map.coarse_hash.insert(coarse, -1, &slot) == BlockInsert::kInserted) {
-    const int cell = atomicAdd(&m.counts->coarse, 1);
-    m.map.coarse_touched[cell] = 0;
-    m.map.coarse_hash.values[slot] = cell;  // read by later launches only
-    m.map.coarse_table.insert(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift, cell);
-  }
-}
-
 /// Enters blocks 0 .. block_count − 1 and every coarse cell of the coarse hash into the
 /// (emptied) direct-mapped tables, after an upload.
 __global__ void fill_block_tables_kernel(BlockMapView map, int block_count) {
@@ -169,7 +151,7 @@ __global__ void __launch_bounds__(kMapThreads) allocate_new_blocks_kernel(Device
       const int n = min(kMapThreads, listed - t);
       for (int k = 0; k < n; ++k) rank += tile[k] < key ? 1 : 0;
     }
-    if (i < listed && rank < room) add_new_block(m, key, blocks + rank);
+    if (i < listed && rank < room) insert_block_index(m.map, key, blocks + rank, &m.counts->coarse);
   }
 }
 
@@ -190,11 +172,7 @@ __global__ void init_new_blocks_kernel(DeviceBlockMapArgs m) {
     m.map.voxels[static_cast<long long>(first) * kBlockVoxels + v] = empty_voxel();
     if (m.map.colours)
       m.map.colours[static_cast<long long>(first) * kBlockVoxels + v] = {0, 0, 0, 0};
-    if (v % kBlockVoxels == 0) {
-      const Vec3i c = unpack_block_key(m.map.block_keys[b]);
-      m.map.block_coarse[b] = m.map.coarse_hash.find(
-          pack_block_key(c.x >> kCoarseShift, c.y >> kCoarseShift, c.z >> kCoarseShift));
-    }
+    if (v % kBlockVoxels == 0) link_block_to_coarse(m.map, b);
   }
 }
 
@@ -259,53 +237,30 @@ __global__ void ray_ranges_of_blocks_kernel(DeviceBlockMapArgs m, RayRangeArgs r
   }
 }
 
-/// The device block map's storage: every array allocated once, for `block_capacity` blocks.
+/// The device block map: the shared storage (BlockMapStore, with the direct-mapped tables),
+/// its counts in device memory, and the per-frame allocation buffers; every array allocated
+/// once, for `block_capacity` blocks.
 class DeviceBlockMap {
  public:
   DeviceBlockMap() = default;
   /// With `colour`, each block carries kBlockVoxels colours beside its voxels.
   DeviceBlockMap(uint32_t block_capacity, int grid_res, float grid_size_m, bool colour,
                  int new_key_capacity)
-      : hash_keys_(block_hash_slot_count(block_capacity)),
-        hash_values_(hash_keys_.size()),
-        voxels_(static_cast<size_t>(block_capacity) * kBlockVoxels),
-        colours_(colour ? static_cast<size_t>(block_capacity) * kBlockVoxels : 0),
-        block_keys_(block_capacity),
-        block_touched_(block_capacity),
-        block_coarse_(block_capacity),
-        coarse_keys_(block_hash_slot_count(block_capacity)),
-        coarse_values_(coarse_keys_.size()),
-        coarse_touched_(block_capacity),
-        table_(static_cast<size_t>(kBlockTableEntries)),
-        coarse_table_(static_cast<size_t>(kBlockTableEntries)),
+      : store_(block_capacity, grid_res, grid_size_m, colour, /*tables=*/true),
         counts_(1),
         frame_keys_(block_hash_slot_count(static_cast<uint32_t>(new_key_capacity))),
         frame_values_(frame_keys_.size()),
         new_keys_(static_cast<size_t>(new_key_capacity)),
         new_key_slots_(static_cast<size_t>(new_key_capacity)),
         visible_(block_capacity),
-        capacity_(block_capacity),
-        new_key_capacity_(new_key_capacity),
-        grid_res_(grid_res),
-        grid_size_m_(grid_size_m) {}
+        new_key_capacity_(new_key_capacity) {}
 
   /// Empties the map (in stream order): every hash slot free, every count 0.
-  void clear(cudaStream_t stream) {
-    for (const auto* keys : {&hash_keys_, &coarse_keys_, &frame_keys_}) {
-      KFX_CUDA_CHECK(cudaMemsetAsync(keys->data(), 0xff, keys->bytes(), stream));  // kEmptyBlockKey
-    }
-    for (const auto* values : {&hash_values_, &coarse_values_, &frame_values_}) {
-      KFX_CUDA_CHECK(cudaMemsetAsync(values->data(), 0xff, values->bytes(), stream));  // −1
-    }
-    empty_tables(stream);
-    KFX_CUDA_CHECK(cudaMemsetAsync(counts_.data(), 0, counts_.bytes(), stream));
-  }
-
-  /// Every entry of both direct-mapped tables empty (in stream order).
-  void empty_tables(cudaStream_t stream) {
-    for (const auto* table : {&table_, &coarse_table_}) {
-      KFX_CUDA_CHECK(cudaMemsetAsync(table->data(), 0xff, table->bytes(), stream));  // all empty
-    }
+  void clear(const DeviceMemory& memory) {
+    store_.clear(memory);
+    memory.fill_bytes(frame_keys_, 0xff);    // kEmptyBlockKey
+    memory.fill_bytes(frame_values_, 0xff);  // −1
+    memory.fill_bytes(counts_, 0);
   }
 
   /// The map as the kernels see it.
@@ -321,26 +276,8 @@ class DeviceBlockMap {
     a.visible_blocks = visible_.data();
     return a;
   }
-  BlockMapView view() const {
-    BlockMapView v;
-    v.hash = BlockHashView{hash_keys_.data(), hash_values_.data(),
-                           static_cast<uint32_t>(hash_keys_.size() - 1)};
-    v.voxels = voxels_.data();
-    v.block_keys = block_keys_.data();
-    v.block_touched = block_touched_.data();
-    v.coarse_hash = BlockHashView{coarse_keys_.data(), coarse_values_.data(),
-                                  static_cast<uint32_t>(coarse_keys_.size() - 1)};
-    v.coarse_touched = coarse_touched_.data();
-    v.block_coarse = block_coarse_.data();
-    v.table = BlockTableView{table_.data()};
-    v.coarse_table = BlockTableView{coarse_table_.data()};
-    v.block_capacity = static_cast<int>(capacity_);
-    v.block_count = 0;  // on the device only: counts->blocks
-    v.grid_res = grid_res_;
-    v.grid_size_m = grid_size_m_;
-    v.colours = colours_.size() > 0 ? colours_.data() : nullptr;
-    return v;
-  }
+  /// Its block_count is 0: on the device only counts->blocks holds the count.
+  BlockMapView view() const { return store_.view(0); }
 
   /// A host copy of the blocks in increasing key order (HostBlockMap::contents_into's form). Waits
   /// for `stream`.
@@ -358,21 +295,14 @@ class DeviceBlockMap {
     BlockMapCounts counts{};
     KFX_CUDA_CHECK(cudaMemcpy(&counts, counts_.data(), sizeof(counts), cudaMemcpyDeviceToHost));
     const size_t n = static_cast<size_t>(counts.blocks);
-    c.grid_res = grid_res_;
-    c.grid_size_m = grid_size_m_;
+    c.grid_res = store_.grid_res;
+    c.grid_size_m = store_.grid_size_m;
     c.keys.resize(n);
     c.voxels.resize(n * kBlockVoxels);
-    c.colours.resize(colours_.size() > 0 ? n * kBlockVoxels : 0);
-    if (n > 0) {
-      KFX_CUDA_CHECK(cudaMemcpy(c.keys.data(), block_keys_.data(), n * sizeof(uint64_t),
-                                cudaMemcpyDeviceToHost));
-      KFX_CUDA_CHECK(cudaMemcpy(c.voxels.data(), voxels_.data(), c.voxels.size() * sizeof(Voxel),
-                                cudaMemcpyDeviceToHost));
-      if (!c.colours.empty()) {
-        KFX_CUDA_CHECK(cudaMemcpy(c.colours.data(), colours_.data(),
-                                  c.colours.size() * sizeof(ColourVoxel), cudaMemcpyDeviceToHost));
-      }
-    }
+    c.colours.resize(store_.has_colour() ? n * kBlockVoxels : 0);
+    copy_down(c.keys.data(), store_.block_keys.data(), n);
+    copy_down(c.voxels.data(), store_.voxels.data(), c.voxels.size());
+    copy_down(c.colours.data(), store_.colours.data(), c.colours.size());
     sort_blocks_by_key(c);
   }
 
@@ -382,34 +312,35 @@ class DeviceBlockMap {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
     // The index is built on the host; the voxels go up from `contents` itself (block i at
     // index i), so the host holds no second copy of the map.
-    HostBlockMap host(capacity_, grid_res_, grid_size_m_, colours_.size() > 0);
+    HostBlockMap host(store_.capacity, store_.grid_res, store_.grid_size_m, store_.has_colour());
     host.load_index(contents);
-    const BlockMapView h = host.view_of_contents(contents);
+    const BlockMapStore<HostMemory>& h = host.store();
     const size_t n = static_cast<size_t>(host.block_count());
-    copy_up(hash_keys_.data(), h.hash.keys, hash_keys_.size());
-    copy_up(hash_values_.data(), h.hash.values, hash_values_.size());
-    copy_up(coarse_keys_.data(), h.coarse_hash.keys, coarse_keys_.size());
-    copy_up(coarse_values_.data(), h.coarse_hash.values, coarse_values_.size());
-    copy_up(block_keys_.data(), h.block_keys, n);
-    copy_up(block_touched_.data(), h.block_touched, n);
-    copy_up(block_coarse_.data(), h.block_coarse, n);
-    copy_up(coarse_touched_.data(), h.coarse_touched, static_cast<size_t>(host.coarse_count()));
-    copy_up(voxels_.data(), h.voxels, n * kBlockVoxels);
-    if (h.colours) {
-      copy_up(colours_.data(), h.colours, n * kBlockVoxels);
-    } else if (colours_.size() > 0 && n > 0) {  // colours the contents lack read as none yet
-      KFX_CUDA_CHECK(cudaMemset(colours_.data(), 0, n * kBlockVoxels * sizeof(ColourVoxel)));
+    copy_up(store_.hash_keys.data(), h.hash_keys.data(), store_.hash_keys.size());
+    copy_up(store_.hash_values.data(), h.hash_values.data(), store_.hash_values.size());
+    copy_up(store_.coarse_keys.data(), h.coarse_keys.data(), store_.coarse_keys.size());
+    copy_up(store_.coarse_values.data(), h.coarse_values.data(), store_.coarse_values.size());
+    copy_up(store_.block_keys.data(), h.block_keys.data(), n);
+    copy_up(store_.block_touched.data(), h.block_touched.data(), n);
+    copy_up(store_.block_coarse.data(), h.block_coarse.data(), n);
+    copy_up(store_.coarse_touched.data(), h.coarse_touched.data(),
+            static_cast<size_t>(host.coarse_count()));
+    copy_up(store_.voxels.data(), contents.voxels.data(), n * kBlockVoxels);
+    if (store_.has_colour() && !contents.colours.empty()) {
+      copy_up(store_.colours.data(), contents.colours.data(), n * kBlockVoxels);
+    } else if (store_.has_colour() && n > 0) {  // colours the contents lack read as none yet
+      KFX_CUDA_CHECK(cudaMemset(store_.colours.data(), 0, n * kBlockVoxels * sizeof(ColourVoxel)));
     }
     const BlockMapCounts counts{host.block_count(), host.coarse_count(), 0, 0, 0};
     copy_up(counts_.data(), &counts, 1);
-    empty_tables(stream);
+    store_.empty_tables(DeviceMemory{stream});
     fill_block_tables_kernel<<<4096, kMapThreads, 0, stream>>>(view(), host.block_count());
     KFX_CUDA_CHECK(cudaGetLastError());
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream));
     return host.block_count();
   }
 
-  uint32_t capacity() const { return capacity_; }
+  uint32_t capacity() const { return store_.capacity; }
 
  private:
   template <class T>
@@ -417,29 +348,20 @@ class DeviceBlockMap {
     if (count == 0) return;
     KFX_CUDA_CHECK(cudaMemcpy(device, host, count * sizeof(T), cudaMemcpyHostToDevice));
   }
+  template <class T>
+  static void copy_down(T* host, const T* device, size_t count) {
+    if (count == 0) return;
+    KFX_CUDA_CHECK(cudaMemcpy(host, device, count * sizeof(T), cudaMemcpyDeviceToHost));
+  }
 
-  DeviceBuffer<uint64_t> hash_keys_;
-  DeviceBuffer<int32_t> hash_values_;
-  DeviceBuffer<Voxel> voxels_;
-  DeviceBuffer<ColourVoxel> colours_;  ///< empty without colour
-  DeviceBuffer<uint64_t> block_keys_;
-  DeviceBuffer<uint8_t> block_touched_;
-  DeviceBuffer<int32_t> block_coarse_;
-  DeviceBuffer<uint64_t> coarse_keys_;
-  DeviceBuffer<int32_t> coarse_values_;
-  DeviceBuffer<uint8_t> coarse_touched_;
-  DeviceBuffer<BlockTableEntry> table_;         ///< map/block_table.hpp
-  DeviceBuffer<BlockTableEntry> coarse_table_;  ///< the same for the coarse cells
+  BlockMapStore<DeviceMemory> store_;
   DeviceBuffer<BlockMapCounts> counts_;
   DeviceBuffer<uint64_t> frame_keys_;
   DeviceBuffer<int32_t> frame_values_;
   DeviceBuffer<uint64_t> new_keys_;
   DeviceBuffer<uint32_t> new_key_slots_;
   DeviceBuffer<int32_t> visible_;
-  uint32_t capacity_ = 0;
   int new_key_capacity_ = 0;
-  int grid_res_ = 1;
-  float grid_size_m_ = 0.01f;
 };
 
 }  // namespace kfx::cuda

@@ -234,13 +234,6 @@ __global__ void __launch_bounds__(kTileWidthPx* kTileHeightPx)
   }
 }
 
-/// Fills the volume with empty voxels (tsdf +1, weight 0).
-__global__ void init_volume_kernel(Voxel* voxels, long long count) {
-  wait_for_previous_kernel();
-  const long long i = blockIdx.x * static_cast<long long>(blockDim.x) + threadIdx.x;
-  if (i < count) voxels[i] = Voxel{static_cast<int16_t>(kTsdfScale), 0};
-}
-
 __global__ void begin_tracking_kernel(TrackingState* state, IcpGuessParams params) {
   wait_for_previous_kernel();
   begin_tracking(*state, params);
