@@ -1,6 +1,6 @@
 /// The public API (include/kfx/): the same trajectory as `kfx run` byte for byte, frames in any
 /// layout the API accepts give the same result, bad frames and settings are errors that change
-/// nothing, the map round-trips through save_map/load_map, renders from any pose.
+/// nothing. Each call on every backend and map kind: test_api_calls.cpp.
 
 #include <gtest/gtest.h>
 
@@ -277,69 +277,6 @@ TEST(Api, FrameResultsCarryTheVolumeAndDepthWarnings) {
   EXPECT_EQ(numbered.input_index, 41);
   ASSERT_FALSE(numbered.warnings.empty());
   EXPECT_EQ(numbered.warnings[0].rfind("frame 41: ", 0), 0u) << numbered.warnings[0];
-}
-
-TEST(Api, ResetRepeatsTheRun) {
-  Sequence sequence(kInput);
-  const auto frames = read_all(sequence);
-  Reconstruction r(cpu_settings(), sequence);
-  for (const auto& f : frames) r.process(f);
-  const auto first = r.trajectory();
-  r.reset();
-  EXPECT_TRUE(r.trajectory().empty());
-  EXPECT_EQ(r.pose(), r.initial_pose());
-  for (const auto& f : frames) r.process(f);
-  ASSERT_EQ(r.trajectory().size(), first.size());
-  for (size_t i = 0; i < first.size(); ++i)
-    EXPECT_EQ(r.trajectory()[i].T_world_cam, first[i].T_world_cam);
-}
-
-TEST(Api, MapSavesLoadsAndRenders) {
-  const auto dir = test::fresh_test_dir("kfx_api_");
-  Sequence sequence(kInput);
-  const auto frames = read_all(sequence);
-  Reconstruction r(cpu_settings(), sequence);
-  for (const auto& f : frames) r.process(f);
-  const TriangleMesh mesh = r.mesh();
-  ASSERT_GT(mesh.triangle_count(), 100u);
-  EXPECT_EQ(mesh.normals.size(), mesh.vertices_m.size());
-  EXPECT_EQ(mesh.colours.size(), mesh.vertices_m.size());  // the synthetic room has colour
-  const PointCloud cloud = r.point_cloud();
-  EXPECT_GT(cloud.point_count(), 1000u);
-  ASSERT_TRUE(r.map_saveable());
-  r.save_map((dir / "map.kfxtsdf").string());
-
-  Reconstruction loaded(cpu_settings(), sequence);
-  loaded.load_map((dir / "map.kfxtsdf").string());
-  const TriangleMesh again = loaded.mesh();
-  EXPECT_EQ(again.vertices_m, mesh.vertices_m);
-  EXPECT_EQ(again.triangles, mesh.triangles);
-  EXPECT_EQ(again.colours, mesh.colours);  // the map file carries the colour field
-  EXPECT_THROW(Reconstruction(Settings(cpu_settings()).set("volume_resolution", "32"), sequence)
-                   .load_map((dir / "map.kfxtsdf").string()),
-               Error);
-
-  // From the last pose the surface fills most of the picture; the depth agrees with the
-  // cloud's (points seen from that same pose).
-  const RgbaImage shaded = r.render();
-  EXPECT_EQ(shaded.width_px, r.compute_width_px());
-  size_t lit = 0;
-  for (size_t i = 0; i < shaded.rgba.size(); i += 4) lit += shaded.rgba[i] > 0;
-  EXPECT_GT(lit, shaded.rgba.size() / 4 / 2);
-  const FloatImage depth = r.render_depth(r.pose());
-  size_t seen = 0;
-  for (float d : depth.values) {
-    EXPECT_GE(d, 0.0f);
-    seen += d > 0.0f;
-  }
-  EXPECT_GT(seen, depth.values.size() / 2);
-  // From a pose looking out of the volume (turned around), nothing is seen.
-  Pose away = r.pose();
-  for (int i : {0, 2, 4, 6, 8, 10}) away[i] = -away[i];
-  const FloatImage none = r.render_depth(away);
-  size_t seen_away = 0;
-  for (float d : none.values) seen_away += d > 0.0f;
-  EXPECT_LT(seen_away, seen);
 }
 
 }  // namespace

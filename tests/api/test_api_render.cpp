@@ -8,35 +8,17 @@
 #include <string>
 #include <vector>
 
-#include "backend/backend.hpp"
 #include "kfx/kfx.hpp"
+#include "support/backend_map_params.hpp"
 
 namespace kfx {
 namespace {
 
 const char* kInput = "synthetic:frames=8,width=160,height=120,noise=0";
 
-struct RenderCase {
-  std::string backend;
-  std::string volume;
-};
-
-std::string case_name(const testing::TestParamInfo<RenderCase>& info) {
-  return info.param.backend + "_" + info.param.volume;
-}
-
-class ApiRender : public testing::TestWithParam<RenderCase> {
+class ApiRender : public test::BackendMapTest {
  protected:
-  void SetUp() override {
-    std::string why_not;
-    if (GetParam().backend == "cuda" && !cuda_available(&why_not)) GTEST_SKIP() << why_not;
-  }
-  Settings settings() const {
-    return Settings()
-        .backend(GetParam().backend)
-        .set("volume_resolution", "128")
-        .set("volume", GetParam().volume);
-  }
+  Settings settings() const { return BackendMapTest::settings(128); }
 };
 
 /// Fraction of the pixels where both images have depth whose depths differ by less than
@@ -122,10 +104,7 @@ TEST_P(ApiRender, ShadedViewLightsTheSurfaceAndLooksAwayToNothing) {
   EXPECT_LT(lit_away, lit);
 }
 
-INSTANTIATE_TEST_SUITE_P(MapsAndBackends, ApiRender,
-                         testing::Values(RenderCase{"cpu", "dense"}, RenderCase{"cpu", "blocks"},
-                                         RenderCase{"cuda", "dense"}, RenderCase{"cuda", "blocks"}),
-                         case_name);
+KFX_INSTANTIATE_BACKEND_MAP_TESTS(ApiRender);
 
 /// The block map and the dense cube of the same frames give the same depth from a pose
 /// neither raycast from (both hold the same TSDF values where the blocks are allocated).

@@ -15,6 +15,7 @@
 #include "kfx/kfx.hpp"
 #include "output/block_map_file.hpp"
 #include "output/volume_file.hpp"
+#include "support/backend_map_params.hpp"
 #include "support/cli_runner.hpp"
 #include "support/io_test_support.hpp"
 #include "support/test_dir.hpp"
@@ -46,23 +47,25 @@ float distance_m(const Pose& a, const Pose& b) {
   return std::hypot(a[3] - b[3], a[7] - b[7], a[11] - b[11]);
 }
 
-class MapPose : public ::testing::TestWithParam<bool> {};
+class MapPose : public test::BackendMapTest {};
 
 TEST_P(MapPose, ALoadedMapContinuesFromTheSavedCameraAndIntegratesOnlyOnceTracked) {
-  const bool blocks = GetParam();
-  const auto dir = test::fresh_test_dir(blocks ? "kfx_map_pose_blocks_" : "kfx_map_pose_dense_");
+  const bool blocks = GetParam().blocks();
+  const Settings settings = Settings(map_settings(blocks)).backend(GetParam().backend);
+  const auto dir =
+      test::fresh_test_dir("kfx_map_pose_" + GetParam().backend + "_" + GetParam().map + "_");
   const std::string path = (dir / (blocks ? "map.kfxblocks" : "map.kfxtsdf")).string();
   const auto frames = read_all();
   Sequence sequence(kInput);
 
-  Reconstruction whole(map_settings(blocks), sequence);
+  Reconstruction whole(settings, sequence);
   for (const auto& f : frames) whole.process(f);
 
-  Reconstruction first(map_settings(blocks), sequence);
+  Reconstruction first(settings, sequence);
   for (int i = 0; i < kSaveAfter; ++i) first.process(frames[i]);
   first.save_map(path);
 
-  Reconstruction loaded(map_settings(blocks), sequence);
+  Reconstruction loaded(settings, sequence);
   const LoadedMap info = loaded.load_map(path);
   EXPECT_TRUE(info.pose_restored);
   EXPECT_EQ(info.note, "");
@@ -84,8 +87,7 @@ TEST_P(MapPose, ALoadedMapContinuesFromTheSavedCameraAndIntegratesOnlyOnceTracke
   EXPECT_LT(distance_m(loaded.pose(), whole.pose()), kSamePlaceM);
 }
 
-INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, MapPose, ::testing::Values(false, true),
-                         [](const auto& info) { return info.param ? "blocks" : "dense"; });
+KFX_INSTANTIATE_BACKEND_MAP_TESTS(MapPose);
 
 // localise_only: frames are tracked against the loaded map, nothing is integrated, so the map
 // comes out as it went in.
@@ -198,24 +200,6 @@ TEST(MapPose, ACorruptOrTruncatedCameraSectionIsAnErrorNamingTheFile) {
     io::test::expect_error([&] { loader.load_map(corrupt); }, {corrupt, "camera section"});
     io::test::expect_error([&] { loader.load_map(skewed); }, {skewed, "not orthonormal"});
   }
-}
-
-TEST(MapPose, SetPosePlacesTheFirstCameraAndRefusesWhatIsNotRigid) {
-  Sequence sequence(kInput);
-  const auto frames = read_all();
-  Reconstruction r(map_settings(false), sequence);
-  Pose p = r.initial_pose();
-  p[3] += 0.1f;
-  r.set_pose(p);
-  EXPECT_EQ(r.pose(), p);
-  EXPECT_EQ(r.initial_pose(), p);  // before the first frame: the map starts there
-  EXPECT_EQ(r.process(frames[0]).T_world_cam, p);
-  Pose scaled = p;
-  scaled[0] = 2.0f;
-  io::test::expect_error([&] { r.set_pose(scaled); }, {"set_pose", "orthonormal"});
-  Pose nan = p;
-  nan[7] = std::nanf("");
-  io::test::expect_error([&] { r.set_pose(nan); }, {"set_pose", "not finite"});
 }
 
 TEST(MapPose, StartPoseOnTheCommandLine) {

@@ -1,21 +1,20 @@
 /// The block map on the CUDA backend (src/backend/cuda/cuda_block_map.cuh) against the CPU's:
 /// the same blocks for the same frames, trajectories within the backends' float-order bounds,
-/// the dense cube's answers within the 0.1 mm, the same full-budget report, repeatable
-/// bit for bit, and a map that reloads and meshes to the same bytes on either backend. Every
-/// test but the selection one without a GPU skips where no CUDA device is present.
+/// the dense cube's answers within the 0.1 mm, the same full-budget report. Every test
+/// but the selection one without a GPU skips where no CUDA device is present. What every backend
+/// and map kind share (repeating bit for bit, a map file that loads on either backend, every API
+/// call) is tests/api/test_api_calls.cpp's, over backend × map kind.
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
-#include <cstring>
 #include <vector>
 
 #include "backend/backend.hpp"
 #include "io/reader.hpp"
 #include "map/host_block_map.hpp"
 #include "pipeline/pipeline.hpp"
-#include "support/mesh_test_support.hpp"
 #include "support/sequence_runner.hpp"
 
 namespace kfx {
@@ -31,11 +30,10 @@ namespace {
 // within a median of 0.1 mm of the dense cube's (on the same backend).
 constexpr double kSameAsDenseMedian_m = 1e-4;
 
-/// A run's per-frame reports and trajectory, its final mesh and its blocks.
+/// A run's per-frame reports and trajectory, and its blocks.
 struct BlockRun {
   std::vector<FrameReport> reports;
   std::vector<io::StampedPose> trajectory;
-  Mesh mesh;
   BlockMapContents contents;  ///< empty for a dense run
 };
 
@@ -53,7 +51,6 @@ BlockRun run(const std::string& input, const PipelineConfig& config, BackendKind
         pipeline.process(frame.depth_mm, config.colour.fuse ? &frame.rgb : nullptr));
     r.trajectory.push_back(io::to_stamped_pose(frame.stamp_s, r.reports.back().T_world_cam));
   }
-  r.mesh = Mesh(pipeline.backend().extract_mesh());
   if (config.volume.kind == MapKind::kBlocks) r.contents = pipeline.backend().read_blocks();
   return r;
 }
@@ -238,51 +235,6 @@ TEST(BlockMapCuda, AgreesWithCpuBlocksAndCudaDenseOnTumFr1Xyz) {
   set_config_value(c, "volume_size_m", "4");
   set_config_value(c, "integration_rate", "1");
   expect_cuda_blocks_agree(test::shared_path("data/tum_fr1_xyz"), c, 60);
-}
-
-TEST(BlockMapCuda, RepeatsBitForBit) {
-  KFX_REQUIRE_CUDA();
-  const std::string input = "synthetic:frames=20,width=160,height=120";
-  const PipelineConfig c = with_blocks(synthetic_config(input));
-  const BlockRun a = run(input, c, BackendKind::kCuda, 20);
-  const BlockRun b = run(input, c, BackendKind::kCuda, 20);
-  ASSERT_EQ(a.trajectory.size(), b.trajectory.size());
-  for (size_t i = 0; i < a.trajectory.size(); ++i) {
-    for (int j = 0; j < 3; ++j) EXPECT_EQ(a.trajectory[i].t[j], b.trajectory[i].t[j]);
-  }
-  EXPECT_EQ(a.contents.keys, b.contents.keys);
-  ASSERT_EQ(a.contents.voxels.size(), b.contents.voxels.size());
-  EXPECT_EQ(0, std::memcmp(a.contents.voxels.data(), b.contents.voxels.data(),
-                           a.contents.voxels.size() * sizeof(Voxel)));
-  EXPECT_TRUE(test::same_mesh_bytes(a.mesh, b.mesh));
-}
-
-// --- A map is a file ---------------------------------------------------------------------------
-
-TEST(BlockMapCuda, AReloadedMapMeshesToTheSameBytesOnEitherBackend) {
-  KFX_REQUIRE_CUDA();
-  const std::string input = "synthetic:frames=12,width=160,height=120";
-  const BlockRun live = run(input, with_blocks(synthetic_config(input)), BackendKind::kCuda, 12);
-  ASSERT_GT(live.mesh.triangles.size(), 1000u);
-  EXPECT_TRUE(std::is_sorted(live.contents.keys.begin(), live.contents.keys.end()));
-  BackendSetup setup;
-  setup.input_width_px = setup.input_height_px = 8;
-  setup.compute_ratio = setup.pyramid_levels = 1;
-  setup.map_kind = MapKind::kBlocks;
-  setup.volume_res_vox = live.contents.grid_res;
-  setup.volume_size_m = live.contents.grid_size_m;
-  setup.block_capacity = static_cast<uint32_t>(live.contents.keys.size()) + 777;
-  for (BackendKind kind : {BackendKind::kCuda, BackendKind::kCpu}) {
-    auto backend = make_backend(kind, setup);
-    backend->upload_blocks(live.contents);
-    const Mesh again(backend->extract_mesh());
-    EXPECT_TRUE(test::same_mesh_bytes(again, live.mesh)) << backend->name();
-    const BlockMapContents back = backend->read_blocks();
-    EXPECT_EQ(back.keys, live.contents.keys) << backend->name();
-    EXPECT_EQ(0, std::memcmp(back.voxels.data(), live.contents.voxels.data(),
-                             live.contents.voxels.size() * sizeof(Voxel)))
-        << backend->name();
-  }
 }
 
 // --- Selection ---------------------------------------------------------------------------------
