@@ -68,7 +68,7 @@ class BackendMapTest : public ::testing::TestWithParam<BackendMap> {
 }  // namespace kfx::test
 
 /// Instantiates `fixture`'s TEST_Ps over every backend × map kind.
-#define KFX_INSTANTIATE_BACKEND_MAP_TESTS(fixture)                                       \
-  INSTANTIATE_TEST_SUITE_P(BackendsAndMaps, fixture,                                     \
-                           ::testing::ValuesIn(::kfx::test::all_backend_maps()),         \
+#define KFX_INSTANTIATE_BACKEND_MAP_TESTS(fixture)                               \
+  INSTANTIATE_TEST_SUITE_P(BackendsAndMaps, fixture,                             \
+                           ::testing::ValuesIn(::kfx::test::all_backend_maps()), \
                            ::kfx::test::backend_map_name)
