@@ -343,6 +343,8 @@ void Reconstruction::reset() {
   impl_->pipeline->reset();
   impl_->trajectory.clear();
   impl_->last_stamp_s.reset();
+  // The camera starts over at the initial pose, not where set_pose() last put it.
+  impl_->placed_pose.reset();
   const Camera& c = impl_->camera;
   impl_->diagnostics = std::make_unique<FrameDiagnostics>(
       impl_->config, Intrinsics{c.fx_px, c.fy_px, c.cx_px, c.cy_px});
@@ -486,6 +488,11 @@ LoadedMap Reconstruction::load_map(const std::string& path) {
   std::optional<output::MapCamera> camera;
   if (impl_->config.volume.kind == MapKind::kBlocks) {
     const output::SavedBlockMap saved = output::read_block_map_file(path);
+    const auto& vol = impl_->config.volume;
+    KFX_CHECK(saved.map.grid_res == vol.grid_res() && saved.map.grid_size_m == vol.grid_size_m(),
+              path << ": the saved map's voxels are " << saved.map.grid_size_m / saved.map.grid_res
+                   << " m, this reconstruction's " << vol.grid_size_m() / vol.grid_res()
+                   << " m (set voxel_size_m, or volume_size_m and volume_resolution, to match)");
     impl_->check_map_camera(saved.camera, path);
     impl_->drain();
     impl_->pipeline->load_map(saved.map);
