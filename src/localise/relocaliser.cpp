@@ -35,6 +35,9 @@ void Relocaliser::reset() {
   candidates_.clear();
   candidate_ids_.clear();
   failed_ids_.clear();
+  last_code_.clear();
+  view_jumped_ = false;
+  attempt_ids_.clear();
   pending_attempt_id_ = -2;
   attempts_in_flight_ = 0;
   lost_frames_ = 0;
@@ -96,6 +99,7 @@ RelocaliserPlan Relocaliser::plan() {
   p.attempt = true;
   p.T_world_cam = candidates_[pick];
   pending_attempt_id_ = candidate_ids_[pick];
+  attempt_ids_.push_back(pending_attempt_id_);
   failed_ids_.push_back(pending_attempt_id_);
   ++attempts_in_flight_;
   return p;
@@ -103,16 +107,34 @@ RelocaliserPlan Relocaliser::plan() {
 
 bool Relocaliser::observe(const RelocaliserObservation& frame) {
   const auto start = std::chrono::steady_clock::now();
+  int attempt_id = -2;
   if (frame.attempt) {
     --attempts_in_flight_;
     ++attempts_;
+    attempt_id = attempt_ids_.empty() ? -2 : attempt_ids_.front();
+    if (!attempt_ids_.empty()) attempt_ids_.erase(attempt_ids_.begin());
   }
   std::vector<uint8_t> code;
   if (frame.small_mm.data != nullptr) code = db_.encode(frame.small_mm);
   bool found = false;
+  bool view_jump = false;
+  if (!code.empty() && last_code_.size() == code.size()) {
+    int differ = 0;
+    for (size_t i = 0; i < code.size(); ++i) differ += code[i] != last_code_[i];
+    view_jump = differ > settings_.view_jump_dissimilarity * static_cast<float>(code.size());
+  }
+  if (!code.empty()) last_code_ = code;
   switch (mode_) {
     case Mode::kTracking:
-      if (frame.tracking_ran && !frame.tracked) {
+      if (frame.tracked && view_jump) {
+        // Tracked, but the view jumped: the pose may be a wrong minimum that passed the accept
+        // test, and the last good pose is where the camera no longer is.
+        mode_ = Mode::kLost;
+        view_jumped_ = true;
+        lost_frames_ = kLastPoseFirstFrames + 1;
+        failed_ids_.clear();
+        choose_candidates(code);
+      } else if (frame.tracking_ran && !frame.tracked) {
         mode_ = Mode::kLost;
         lost_frames_ = 1;
         failed_ids_.clear();
@@ -123,7 +145,9 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
       }
       break;
     case Mode::kLost:
-      if (frame.tracked) {
+      // After a view jump only an attempt from a keyframe starts a verification: frames that
+      // track on from the suspect pose would verify it.
+      if (frame.tracked && (!view_jumped_ || (frame.attempt && attempt_id >= 0))) {
         mode_ = Mode::kVerifying;
         verified_ = 1;
         verify_pose_ = frame.T_world_cam;
@@ -145,6 +169,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
       verify_pose_ = frame.T_world_cam;
       if (++verified_ >= settings_.verify_frames) {
         mode_ = Mode::kTracking;
+        view_jumped_ = false;
         ++relocalisations_;
         found = true;
         last_good_pose_ = frame.T_world_cam;
@@ -170,7 +195,7 @@ void Relocaliser::choose_candidates(const std::vector<uint8_t>& code) {
   const std::vector<KeyframeMatch> nearest = db_.nearest(code, settings_.candidates);
   std::vector<Mat4f> poses;
   std::vector<int> ids;
-  const bool last_first = lost_frames_ <= kLastPoseFirstFrames;
+  const bool last_first = lost_frames_ <= kLastPoseFirstFrames && !view_jumped_;
   if (last_first) {
     poses.push_back(last_good_pose_);
     ids.push_back(-1);
@@ -179,7 +204,9 @@ void Relocaliser::choose_candidates(const std::vector<uint8_t>& code) {
     poses.push_back(db_.keyframe(m.keyframe).T_world_cam);
     ids.push_back(m.keyframe);
   }
-  if (!last_first) {
+  // Without keyframes to try, a view jump leaves only the last good pose (and tracking on).
+  if (view_jumped_ && poses.empty()) view_jumped_ = false;
+  if (!last_first && !view_jumped_) {
     poses.push_back(last_good_pose_);
     ids.push_back(-1);
   }
