@@ -344,6 +344,7 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
   KFX_CHECK(frames_with_depth > 0, options.input << ": no frame of the " << pipeline.frame_count()
                                                  << " read has any valid depth (all pixels are 0)");
 
+  if (const Relocaliser* r = pipeline.relocaliser()) summary.relocaliser = r->figures();
   nlohmann::json stats = summary.to_json();
   stats["input"] = options.input;
   stats["input_description"] = reader.description();

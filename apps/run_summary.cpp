@@ -33,6 +33,11 @@ void RunSummary::add(const FrameReport& report) {
   }
   integrated += report.integrated ? 1 : 0;
   tracking_states.add(report.index, report.quality);
+  if (report.relocalisation_attempt) {
+    ++relocalisation_attempt_frames;
+    attempt_computation_ms.push_back(report.computation_ms);
+  }
+  if (report.relocalised) relocalised_frames.push_back(report.index);
   for (int s = 0; s < static_cast<int>(Stage::kCount); ++s) {
     stage_ms[s].push_back(report.stage_ms[s]);
   }
@@ -80,6 +85,22 @@ nlohmann::json RunSummary::to_json() const {
   }
   j["computation_ms"] = {{"mean", mean_of(computation_ms)}, {"median", median_of(computation_ms)}};
   output::add_tracking_states(j, tracking_states);
+  if (relocaliser) {
+    j["relocalisation"] = {{"keyframes", relocaliser->keyframes},
+                           {"attempts", relocalisation_attempt_frames},
+                           {"successes", relocalised_frames.size()},
+                           {"relocalised_frames", relocalised_frames},
+                           {"keyframe_database_bytes", relocaliser->memory_bytes},
+                           {"keyframe_database_capacity_bytes", relocaliser->capacity_bytes},
+                           {"host_ms", relocaliser->host_ms},
+                           {"attempt_computation_ms",
+                            {{"median", median_of(attempt_computation_ms)},
+                             {"max", attempt_computation_ms.empty()
+                                         ? 0.0
+                                         : *std::max_element(attempt_computation_ms.begin(),
+                                                             attempt_computation_ms.end())}}},
+                           {"loaded_map_can_relocalise", relocaliser->can_relocalise}};
+  }
   if (!tracking_constraint.empty()) {
     j["tracking_constraint"] = {{"min", tracking_constraint_min},
                                 {"min_frame", tracking_constraint_min_frame},

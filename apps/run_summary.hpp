@@ -3,6 +3,7 @@
 
 #include <array>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -18,7 +19,13 @@ struct RunSummary {
   std::vector<int> lost_frames;  ///< their frame numbers, in order (the report marks them)
   int integrated = 0;
   TrackingTimeline tracking_states;  ///< each frame's tracking state (good / poor / lost)
-  double ate_rmse_m = -1.0;          ///< set when ground truth was evaluated
+  /// Relocalisation (setting relocalise): attempt frames, the frames the camera was found at,
+  /// and the relocaliser's figures after the run (set by the caller; none when off).
+  int relocalisation_attempt_frames = 0;
+  std::vector<double> attempt_computation_ms;  ///< each attempt frame's computation time
+  std::vector<int> relocalised_frames;
+  std::optional<RelocaliserFigures> relocaliser;
+  double ate_rmse_m = -1.0;  ///< set when ground truth was evaluated
   std::array<std::vector<double>, static_cast<int>(Stage::kCount)> stage_ms;
   std::vector<double> computation_ms;
   // The block map (volume=blocks): its size after the last frame, and what did not fit.

@@ -27,6 +27,10 @@ struct FrameResult {
   /// a run of frames whose tracking_constraint is low); lost (tracking failed, or the camera is
   /// not yet located in a loaded map). docs/tracking.md.
   TrackingQuality tracking_quality = TrackingQuality::kGood;
+  /// Setting relocalise: the camera, lost (or not yet located in a loaded map), counted as
+  /// found again at this frame, after a candidate pose passed its verification frames;
+  /// integration resumes from the next frame. docs/tracking.md.
+  bool relocalised = false;
   Pose T_world_cam{};         ///< the camera's pose after the frame, in the map (volume) frame
   double computation_ms = 0;  ///< the frame's computation time (GPU time on CUDA)
   int icp_iterations = 0;     ///< ICP iterations run, all pyramid levels

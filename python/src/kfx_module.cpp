@@ -365,6 +365,9 @@ NB_MODULE(_kfx, m) {
           [](const kfx::FrameResult& r) { return kfx::tracking_quality_name(r.tracking_quality); },
           "'good', 'poor' (tracked, but the view lets the pose slide) or 'lost' (tracking "
           "failed, or not yet located in a loaded map); docs/tracking.md.")
+      .def_ro("relocalised", &kfx::FrameResult::relocalised,
+              "Setting relocalise: the lost camera was found again at this frame (integration "
+              "resumes from the next).")
       .def_ro("computation_ms", &kfx::FrameResult::computation_ms)
       .def_ro("icp_iterations", &kfx::FrameResult::icp_iterations)
       .def_ro("tracking_constraint", &kfx::FrameResult::tracking_constraint,

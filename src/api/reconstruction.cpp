@@ -197,6 +197,7 @@ struct Reconstruction::Impl {
     r.tracked = last_report.tracked;
     r.integrated = last_report.integrated;
     r.tracking_quality = last_report.quality;
+    r.relocalised = last_report.relocalised;
     r.T_world_cam = api::to_pose(last_report.T_world_cam);
     r.computation_ms = last_report.computation_ms;
     r.icp_iterations = last_report.icp_iterations;
@@ -247,7 +248,8 @@ struct Reconstruction::Impl {
 
   /// Reads a dense map file into the cube (colour too where this map fuses it); returns the
   /// camera saved with it. Throws, changing nothing, on a file that does not fit.
-  std::optional<output::MapCamera> load_dense_map(const std::string& path) {
+  std::optional<output::MapCamera> load_dense_map(const std::string& path,
+                                                  std::optional<KeyframeDatabase>& keyframes) {
     output::SavedVolume v = output::read_volume_file(path);
     const auto& vol = config.volume;
     KFX_CHECK(v.res == vol.resolution_vox && v.size_m == vol.size_m,
@@ -261,6 +263,7 @@ struct Reconstruction::Impl {
     if (config.colour.fuse && !v.colours.empty()) {
       pipeline->backend().upload_colour_volume(v.colours);
     }
+    keyframes = std::move(v.keyframes);
     return v.camera;
   }
 
@@ -475,19 +478,22 @@ void Reconstruction::save_map(const std::string& path) {
     output::SavedBlockMap map;
     map.map = impl_->pipeline->read_map();
     map.camera = impl_->map_camera(pose());
+    if (const Relocaliser* r = impl_->pipeline->relocaliser()) map.keyframes = r->keyframes();
     output::write_block_map_file(path, map);
     return;
   }
   output::SavedVolume volume = impl_->volume();
   volume.camera = impl_->map_camera(pose());
+  if (const Relocaliser* r = impl_->pipeline->relocaliser()) volume.keyframes = r->keyframes();
   output::write_volume_file(path, volume);
 }
 
 LoadedMap Reconstruction::load_map(const std::string& path) {
   KFX_CHECK(map_saveable(), path << ": this map kind cannot be loaded");
   std::optional<output::MapCamera> camera;
+  std::optional<KeyframeDatabase> keyframes;
   if (impl_->config.volume.kind == MapKind::kBlocks) {
-    const output::SavedBlockMap saved = output::read_block_map_file(path);
+    output::SavedBlockMap saved = output::read_block_map_file(path);
     const auto& vol = impl_->config.volume;
     KFX_CHECK(saved.map.grid_res == vol.grid_res() && saved.map.grid_size_m == vol.grid_size_m(),
               path << ": the saved map's voxels are " << saved.map.grid_size_m / saved.map.grid_res
@@ -497,19 +503,31 @@ LoadedMap Reconstruction::load_map(const std::string& path) {
     impl_->drain();
     impl_->pipeline->load_map(saved.map);
     camera = saved.camera;
+    keyframes = std::move(saved.keyframes);
   } else {
-    camera = impl_->load_dense_map(path);
+    camera = impl_->load_dense_map(path, keyframes);
   }
-  impl_->pipeline->adopt_loaded_map();
+  impl_->pipeline->adopt_loaded_map(std::move(keyframes));
   LoadedMap loaded;
+  if (const Relocaliser* r = impl_->pipeline->relocaliser(); r && !r->can_relocalise()) {
+    loaded.note = path +
+                  ": saved without a keyframe database (an older format, or relocalise was off, "
+                  "or another compute size or fern count): this reconstruction cannot "
+                  "relocalise in it; it starts from the saved camera, or give the pose with "
+                  "set_pose(). ";
+  }
   if (camera) {
-    set_pose(api::to_pose(camera->T_map_cam));
+    // The saved camera is where the camera was, not where it is: with relocalise on it is the
+    // first candidate the relocaliser verifies before anything is integrated.
+    const Pose saved = api::to_pose(camera->T_map_cam);
+    impl_->pipeline->set_pose(api::to_mat4f(saved), /*trusted=*/false);
+    impl_->placed_pose = saved;
     loaded.pose_restored = true;
   } else {
-    loaded.note = path +
-                  ": saved without the camera's pose (an older format): the camera "
-                  "stays where it was; give the pose with set_pose() if you know it. "
-                  "Nothing is integrated until a frame is tracked against the map.";
+    loaded.note += path +
+                   ": saved without the camera's pose (an older format): the camera "
+                   "stays where it was; give the pose with set_pose() if you know it. "
+                   "Nothing is integrated until a frame is tracked against the map.";
   }
   return loaded;
 }

@@ -22,6 +22,7 @@
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
+#include "kernels/small_depth.hpp"
 #include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
 #include "map/host_block_map.hpp"
@@ -71,6 +72,8 @@ struct BackendSetup {
   /// The undistortion table (pipeline/depth_undistortion.hpp), compute size: the input pixel
   /// each compute pixel reads. Empty: input (x·ratio, y·ratio), as KFusion.
   HostImage<SourcePixel> depth_source_px;
+  /// Relocalisation (setting relocalise): buffers for the small depth image and its read-back.
+  bool small_depth = false;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
 };
@@ -157,6 +160,20 @@ class Backend {
   virtual void accept_or_revert(const AcceptParams& params) = 0;
   /// Marks this frame as not tracked (tracking skipped).
   virtual void skip_tracking() = 0;
+  /// Relocalisation (BackendSetup::small_depth): after preprocess(), this frame's small depth
+  /// image (kernels/small_depth.hpp) from its compute-size depth, kept with the frame for
+  /// read_small_depth(). Its sizes depend on the compute size only.
+  virtual void make_small_depth(const SmallDepthParams& params) = 0;
+  /// After read_state(): the small depth image (mm, 0 = none) of the frame it read; empty when
+  /// that frame made none. A copy of a few kilobytes the frame already brought back.
+  virtual HostImage<uint16_t> read_small_depth() = 0;
+  /// Relocalisation: hands the backend a camera pose for the next frame's adopt_staged_pose(),
+  /// in stream order, so frames may be in flight. Call between upload_depth() and
+  /// begin_frame(), and only for a frame that adopts it.
+  virtual void stage_pose(const Mat4f& T_world_cam) = 0;
+  /// First in a frame (before preprocess()): moves the camera to the staged pose
+  /// (kernels/camera_move.hpp), forgetting the motion history, as set_pose() between frames.
+  virtual void adopt_staged_pose() = 0;
   /// Photometric term only (BackendSetup::photometric): after the frame's tracking, makes this
   /// frame's intensity pyramid and pose the reference of the next frame's photometric rows when
   /// `always` (a bootstrap frame) or the frame was tracked (kernels/photometric.hpp).

@@ -6,6 +6,7 @@
 
 #include "core/platform.hpp"
 #include "io/binary_output_file.hpp"
+#include "output/keyframe_section.hpp"
 
 namespace kfx::output {
 namespace {
@@ -38,9 +39,12 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
             path << ": " << m.keys.size() << " blocks with " << m.colours.size() << " colours");
   io::BinaryOutputFile file(path, "block map");
   unsigned char header[kHeaderBytes];
+  KFX_CHECK(!saved.keyframes || saved.camera, path << ": keyframes without the camera");
   const uint32_t version =
-      saved.camera ? (colour ? kBlockMapFileVersionColourCamera : kBlockMapFileVersionCamera)
-                   : (colour ? kBlockMapFileVersionColour : kBlockMapFileVersion);
+      saved.keyframes
+          ? (colour ? kBlockMapFileVersionColourKeyframes : kBlockMapFileVersionKeyframes)
+      : saved.camera ? (colour ? kBlockMapFileVersionColourCamera : kBlockMapFileVersionCamera)
+                     : (colour ? kBlockMapFileVersionColour : kBlockMapFileVersion);
   const uint32_t res = static_cast<uint32_t>(m.grid_res);
   const uint64_t count = m.keys.size();
   std::memcpy(header, kMagic, 8);
@@ -60,6 +64,7 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved) {
     }
   }
   if (saved.camera) write_map_camera(file.file(), *saved.camera);
+  if (saved.keyframes) write_keyframe_section(file.file(), *saved.keyframes);
   file.commit();
 }
 
@@ -80,11 +85,11 @@ SavedBlockMap read_block_map_file(const std::string& path) {
   std::memcpy(&m.grid_size_m, header + 16, 4);
   std::memcpy(saved.T_trajectory_map.m, header + 20, 64);
   std::memcpy(&count, header + 84, 8);
-  KFX_CHECK(version >= kBlockMapFileVersion && version <= kBlockMapFileVersionColourCamera,
+  KFX_CHECK(version >= kBlockMapFileVersion && version <= kBlockMapFileVersionColourKeyframes,
             path << ": block map format version " << version << ", this kfx reads "
-                 << kBlockMapFileVersion << " to " << kBlockMapFileVersionColourCamera);
-  const bool colour =
-      version == kBlockMapFileVersionColour || version == kBlockMapFileVersionColourCamera;
+                 << kBlockMapFileVersion << " to " << kBlockMapFileVersionColourKeyframes);
+  const bool colour = version % 2 == 0;
+  const bool keyframes = version >= kBlockMapFileVersionKeyframes;
   const uint64_t camera_bytes = version >= kBlockMapFileVersionCamera ? kMapCameraBytes : 0;
   const size_t block_bytes = kBlockBytes + (colour ? kBlockColourBytes : 0);
   KFX_CHECK(res >= 1 && res <= 1 << 20, path << ": grid_res " << res << " outside 1 to 2^20");
@@ -96,12 +101,13 @@ SavedBlockMap read_block_map_file(const std::string& path) {
   m.grid_res = static_cast<int>(res);
   in.seekg(0, std::ios::end);
   const uint64_t size = static_cast<uint64_t>(in.tellg());
-  KFX_CHECK(size >= kHeaderBytes + camera_bytes &&
-                count <= (size - kHeaderBytes - camera_bytes) / block_bytes &&
-                size == kHeaderBytes + count * block_bytes + camera_bytes,
+  const bool fits = size >= kHeaderBytes + camera_bytes &&
+                    count <= (size - kHeaderBytes - camera_bytes) / block_bytes;
+  const uint64_t want = kHeaderBytes + count * block_bytes + camera_bytes;
+  KFX_CHECK(fits && (keyframes ? size >= want : size == want),
             path << ": " << size << " bytes, a map of " << count << " blocks"
                  << (colour ? " with colour" : "") << (camera_bytes ? " and its camera" : "")
-                 << " has " << kHeaderBytes + count * block_bytes + camera_bytes);
+                 << (keyframes ? " has at least " : " has ") << want);
   in.seekg(static_cast<std::streamoff>(kHeaderBytes));
   m.keys.resize(count);
   m.voxels.resize(count * kBlockVoxels);
@@ -128,6 +134,7 @@ SavedBlockMap read_block_map_file(const std::string& path) {
     KFX_CHECK(in, path << ": cannot read the camera section");
     saved.camera = parse_map_camera(bytes, path);
   }
+  if (keyframes) saved.keyframes = read_keyframe_section(in, size - want, path);
   return saved;
 }
 

@@ -6,7 +6,8 @@
 ///        0     8  magic "KFXBLKS\0"
 ///        8     4  uint32 format version: 1 without colour, 2 with colour; 3 and 4 the same
 ///                 followed, after the blocks, by the camera section (output/map_camera.hpp):
-///                 the camera's pose and intrinsics when the map was saved
+///                 the camera's pose and intrinsics when the map was saved; 5 and 6 as 3 and
+///                 4 followed by the keyframe section (output/keyframe_section.hpp)
 ///       12     4  uint32 grid_res   } the voxel size is grid_size_m / grid_res metres; voxel
 ///       16     4  float32 grid_size_m } (x, y, z) is centred at ((x, y, z) + 0.5) · that size
 ///       20    64  float32[4][4] T_trajectory_map, row-major: map-frame points into the frame of
@@ -22,6 +23,7 @@
 #include <string>
 
 #include "core/math.hpp"
+#include "localise/keyframe_database.hpp"
 #include "map/host_block_map.hpp"
 #include "output/map_camera.hpp"
 
@@ -33,6 +35,9 @@ constexpr uint32_t kBlockMapFileVersionColour = 2;
 /// The same with the camera section.
 constexpr uint32_t kBlockMapFileVersionCamera = 3;
 constexpr uint32_t kBlockMapFileVersionColourCamera = 4;
+/// The same with the camera and keyframe sections.
+constexpr uint32_t kBlockMapFileVersionKeyframes = 5;
+constexpr uint32_t kBlockMapFileVersionColourKeyframes = 6;
 
 /// The 8 bytes a block map file starts with.
 bool is_block_map_file(const std::string& path);
@@ -43,6 +48,9 @@ struct SavedBlockMap {
   Mat4f T_trajectory_map = Mat4f::identity();
   /// The camera when the map was saved; none in files of version 1 and 2.
   std::optional<MapCamera> camera;
+  /// The keyframe database (setting relocalise); none in files before version 5. Written only
+  /// with a camera.
+  std::optional<KeyframeDatabase> keyframes;
 };
 
 /// Writes `saved` to `path` (temporary name, renamed when complete).
@@ -50,7 +58,7 @@ void write_block_map_file(const std::string& path, const SavedBlockMap& saved);
 
 /// Reads a block map file; throws kfx::Error naming the file and the problem (magic, version,
 /// voxel size, block count against the file's length, block coordinates out of range, a block
-/// listed twice or out of order, the camera section).
+/// listed twice or out of order, the camera and keyframe sections).
 SavedBlockMap read_block_map_file(const std::string& path);
 
 }  // namespace kfx::output

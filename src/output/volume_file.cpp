@@ -6,6 +6,7 @@
 
 #include "core/platform.hpp"
 #include "io/binary_output_file.hpp"
+#include "output/keyframe_section.hpp"
 
 namespace kfx::output {
 namespace {
@@ -30,9 +31,11 @@ void write_volume_file(const std::string& path, const SavedVolume& v) {
             path << ": " << v.colours.size() << " colours for resolution " << v.res);
   io::BinaryOutputFile file(path, "volume");
   unsigned char header[kVolumeHeaderBytes];
+  KFX_CHECK(!v.keyframes || v.camera, path << ": keyframes without the camera");
   const uint32_t version =
-      v.camera ? (colour ? kVolumeFileVersionColourCamera : kVolumeFileVersionCamera)
-               : (colour ? kVolumeFileVersionColour : kVolumeFileVersion);
+      v.keyframes ? (colour ? kVolumeFileVersionColourKeyframes : kVolumeFileVersionKeyframes)
+      : v.camera  ? (colour ? kVolumeFileVersionColourCamera : kVolumeFileVersionCamera)
+                  : (colour ? kVolumeFileVersionColour : kVolumeFileVersion);
   const uint32_t res = static_cast<uint32_t>(v.res);
   std::memcpy(header, kMagic, 8);
   std::memcpy(header + 8, &version, 4);
@@ -43,6 +46,7 @@ void write_volume_file(const std::string& path, const SavedVolume& v) {
   std::fwrite(v.voxels.data(), sizeof(Voxel), v.voxels.size(), file.file());
   if (colour) std::fwrite(v.colours.data(), sizeof(ColourVoxel), v.colours.size(), file.file());
   if (v.camera) write_map_camera(file.file(), *v.camera);
+  if (v.keyframes) write_keyframe_section(file.file(), *v.keyframes);
   file.commit();
 }
 
@@ -61,12 +65,12 @@ SavedVolume read_volume_file(const std::string& path) {
   std::memcpy(&res, header + 12, 4);
   std::memcpy(&v.size_m, header + 16, 4);
   std::memcpy(v.T_trajectory_volume.m, header + 20, 64);
-  KFX_CHECK(version >= kVolumeFileVersion && version <= kVolumeFileVersionColourCamera,
+  KFX_CHECK(version >= kVolumeFileVersion && version <= kVolumeFileVersionColourKeyframes,
             path << ": volume format version " << version << ", this kfx reads "
-                 << kVolumeFileVersion << " to " << kVolumeFileVersionColourCamera);
-  const bool colour =
-      version == kVolumeFileVersionColour || version == kVolumeFileVersionColourCamera;
+                 << kVolumeFileVersion << " to " << kVolumeFileVersionColourKeyframes);
+  const bool colour = version % 2 == 0;
   const bool camera = version >= kVolumeFileVersionCamera;
+  const bool keyframes = version >= kVolumeFileVersionKeyframes;
   KFX_CHECK(res >= 2 && res <= kMaxResolution,
             path << ": resolution " << res << " outside 2 to " << kMaxResolution);
   KFX_CHECK(std::isfinite(v.size_m) && v.size_m > 0,
@@ -81,9 +85,10 @@ SavedVolume read_volume_file(const std::string& path) {
   const std::streamoff want = static_cast<std::streamoff>(
       kVolumeHeaderBytes + count * (sizeof(Voxel) + (colour ? sizeof(ColourVoxel) : 0)) +
       (camera ? kMapCameraBytes : 0));
-  KFX_CHECK(size == want, path << ": " << size << " bytes, a " << res << "^3 volume"
-                               << (colour ? " with colour" : "")
-                               << (camera ? " and its camera" : "") << " has " << want);
+  KFX_CHECK(keyframes ? size >= want : size == want,
+            path << ": " << size << " bytes, a " << res << "^3 volume"
+                 << (colour ? " with colour" : "") << (camera ? " and its camera" : "")
+                 << (keyframes ? " has at least " : " has ") << want);
   in.seekg(static_cast<std::streamoff>(kVolumeHeaderBytes));
   v.voxels.resize(count);
   in.read(reinterpret_cast<char*>(v.voxels.data()),
@@ -100,6 +105,9 @@ SavedVolume read_volume_file(const std::string& path) {
     in.read(reinterpret_cast<char*>(bytes), sizeof(bytes));
     KFX_CHECK(in, path << ": cannot read the camera section");
     v.camera = parse_map_camera(bytes, path);
+  }
+  if (keyframes) {
+    v.keyframes = read_keyframe_section(in, static_cast<uint64_t>(size - want), path);
   }
   return v;
 }

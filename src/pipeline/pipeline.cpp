@@ -46,6 +46,15 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.pipelines_on_device = pipelines_on_device;
   setup_.colour = config_.colour.fuse;
   setup_.photometric = config_.quality.photometric_weight > 0.0f;
+  relocalise_ = config_.tracking.relocalise;
+  setup_.small_depth = relocalise_;
+  small_params_ = small_depth_params(cw, ch);
+  if (relocalise_) {
+    RelocaliserSettings r;
+    r.fern_count = config_.tracking.relocalise_ferns;
+    r.keyframe_capacity = config_.tracking.relocalise_keyframes;
+    relocaliser_ = Relocaliser(r, small_params_.width_px, small_params_.height_px);
+  }
   const LensDistortion& distortion = config_.input.distortion;
   if (config_.quality.depth_undistortion && !distortion.none()) {
     setup_.depth_source_px =
@@ -95,6 +104,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
 
   backend_ = make_backend(backend_kind, setup_);
   backend_->reset(initial_pose_);
+  last_pose_ = initial_pose_;
 }
 
 uint64_t Pipeline::colour_bytes() const { return kfx::colour_bytes(setup_); }
@@ -105,6 +115,8 @@ void Pipeline::reset() {
   frame_ = 0;
   have_reference_ = false;
   judge_.restart(false);
+  relocaliser_.reset();
+  last_pose_ = initial_pose_;
   map_loaded_ = false;
   reference_stale_ = false;
   swap_store_.clear();
@@ -114,10 +126,18 @@ void Pipeline::reset() {
   blocks_after_pass_ = 0;
 }
 
-void Pipeline::set_pose(const Mat4f& T_world_cam) {
+void Pipeline::set_pose(const Mat4f& T_world_cam, bool trusted) {
   KFX_CHECK(in_flight_.empty(), "Pipeline::set_pose() with frames in flight: collect them first");
   backend_->set_pose(T_world_cam);
   camera_m_ = T_world_cam.translation_part();
+  last_pose_ = T_world_cam;
+  if (relocalise_) {
+    if (trusted) {
+      relocaliser_.trust_pose(T_world_cam);
+    } else {
+      relocaliser_.start_lost(T_world_cam);
+    }
+  }
   if (frame_ == 0 && !map_loaded_) {
     initial_pose_ = T_world_cam;
     return;
@@ -126,12 +146,16 @@ void Pipeline::set_pose(const Mat4f& T_world_cam) {
   reference_stale_ = true;
 }
 
-void Pipeline::adopt_loaded_map() {
+void Pipeline::adopt_loaded_map(std::optional<KeyframeDatabase> keyframes) {
   KFX_CHECK(in_flight_.empty(), "Pipeline::adopt_loaded_map() with frames in flight");
   map_loaded_ = true;
   have_reference_ = false;
   reference_stale_ = true;
   judge_.restart(true);
+  if (relocalise_) {
+    relocaliser_.adopt_keyframes(std::move(keyframes));
+    relocaliser_.start_lost(last_pose_);
+  }
 }
 
 void Pipeline::swap_pass() {
@@ -200,6 +224,12 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
                      << "in (load one before the first frame, or set localise_only=off)");
   FrameReport report;
   report.index = f;
+  // Before anything of the frame: a lost camera's next candidate pose, and whether the frame
+  // may be integrated (not until the relocaliser has found the camera).
+  // A frame at a given pose is placed, never searched for.
+  const RelocaliserPlan plan =
+      relocalise_ && !pose_given ? relocaliser_.plan() : RelocaliserPlan{};
+  report.relocalisation_attempt = plan.attempt;
   if (swap_due_) {
     const auto start = std::chrono::steady_clock::now();
     swap_pass();
@@ -217,17 +247,20 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
                        << " for depth-only input)");
     b.upload_colour(rgb);
   }
+  if (plan.attempt) b.stage_pose(plan.T_world_cam);
   // The reference view exists only after the first raycast (end of frame 3 when exact: the
   // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).
   const int bootstrap = config_.quality.bootstrap_frames;
-  const bool track = !pose_given && have_reference_ && f % config_.tracking.rate == 0;
+  // An attempt raycasts the map from its candidate pose first, then tracks against it.
+  const bool track =
+      !pose_given && ((have_reference_ && f % config_.tracking.rate == 0) || plan.attempt);
   // A loaded map is not bootstrapped: integrating untracked frames would fuse them at a pose
   // nobody checked against it. A frame at a given pose is fused as a bootstrap frame is: every
   // slice, whatever the tracking state.
   const bool always = pose_given || (f < bootstrap && !map_loaded_);
   const int holdout = config_.integration.holdout;
   const bool held_out = !always && holdout > 0 && f % holdout == 0;
-  const bool may_integrate = !config_.integration.localise_only &&
+  const bool may_integrate = !config_.integration.localise_only && plan.integrate &&
                              (always || (f % config_.integration.rate == 0 && !held_out));
   report.raycast = (f >= bootstrap - 1 || map_loaded_) &&
                    (f % config_.approx.raycast_rate == 0 || reference_stale_);
@@ -238,14 +271,21 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   // Which stages run depends on the frame number only: the shape names the sequence.
   report.rendered = renders(f);
   const int shape = (track ? 1 : 0) | (may_integrate ? 2 : 0) | (always ? 4 : 0) |
-                    (report.raycast ? 8 : 0) | (report.rendered ? 16 : 0);
+                    (report.raycast ? 8 : 0) | (report.rendered ? 16 : 0) | (plan.attempt ? 32 : 0);
   b.begin_frame(shape);
+  if (plan.attempt) b.adopt_staged_pose();
 
   b.begin_stage(Stage::kPreprocess);
   b.preprocess(params_.bilateral);
+  // The view's code for the keyframe database: every frame, as any may be harvested or lost.
+  if (relocalise_) b.make_small_depth(small_params_);
   b.end_stage(Stage::kPreprocess);
 
   b.begin_stage(Stage::kTrack);
+  if (plan.attempt) {
+    b.raycast(params_.raycast);
+    have_reference_ = true;
+  }
   if (track) {
     b.build_pyramid(params_.pyramid);
     b.begin_tracking(params_.icp_guess);
@@ -291,7 +331,7 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   b.end_stage(Stage::kRender);
   b.end_frame();
   // What the host knows now; collect() completes it from the backend's state.
-  in_flight_.push_back(PendingFrame{report, track, may_integrate, always});
+  in_flight_.push_back(PendingFrame{report, track, may_integrate, always, plan.attempt});
   ++frame_;
 }
 
@@ -353,6 +393,21 @@ FrameReport Pipeline::collect() {
   evidence.tracked = report.tracked;
   evidence.constraint_min = report.constraint.eigenvalues[0];
   report.quality = judge_.judge(evidence);
+  last_pose_ = state.T_world_cam;
+  if (relocalise_) {
+    const HostImage<uint16_t> small = backend_->read_small_depth();
+    RelocaliserObservation o;
+    o.tracking_ran = track;
+    o.tracked = report.tracked;
+    o.good = report.quality == TrackingQuality::kGood;
+    o.attempt = pending.attempt;
+    o.T_world_cam = state.T_world_cam;
+    o.frame = report.index;
+    o.small_mm = small.view();
+    report.relocalised = relocaliser_.observe(o);
+    // Until it is found, a lost camera stays lost, tracked frames or not (they verify).
+    if (relocaliser_.lost()) report.quality = TrackingQuality::kLost;
+  }
   for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
   }

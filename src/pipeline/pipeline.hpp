@@ -7,11 +7,13 @@
 #include <chrono>
 #include <deque>
 #include <memory>
+#include <optional>
 
 #include "backend/backend.hpp"
 #include "core/camera.hpp"
 #include "core/image.hpp"
 #include "kernels/tracking_constraint.hpp"
+#include "localise/relocaliser.hpp"
 #include "localise/tracking_judge.hpp"
 #include "map/block_swap.hpp"
 #include "pipeline/config.hpp"
@@ -42,6 +44,11 @@ struct FrameReport {
   /// view lets the pose slide) or lost. It only observes: the frame's pose and integration do
   /// not depend on it.
   TrackingQuality quality = TrackingQuality::kGood;
+  /// Relocalisation (setting relocalise): the frame moved the camera to a candidate pose,
+  /// raycast the map from it and was tracked against that; and the frame at which a lost
+  /// camera counted as found again (its verification complete).
+  bool relocalisation_attempt = false;
+  bool relocalised = false;
   /// The block map (volume=blocks; 0 with the dense cube): blocks allocated after the frame,
   /// and blocks its truncation band reached that did not fit the map's budget (that part of
   /// the frame's surface was not stored).
@@ -104,12 +111,19 @@ class Pipeline {
   /// no frame may be in flight. Before the first frame of a map that was not loaded it becomes
   /// the first pose (initial_pose(), used again after reset()); otherwise the next frame
   /// raycasts the map from there and is not tracked (the reference view is new).
-  void set_pose(const Mat4f& T_world_cam);
+  /// `trusted`: the caller vouches for the pose (a pose the user gives); false for the camera a
+  /// map was saved with, which the relocaliser (setting relocalise) verifies before anything is
+  /// integrated.
+  void set_pose(const Mat4f& T_world_cam, bool trusted = true);
   /// Says that the map was replaced by a saved one (load_map(), or the dense cube uploaded):
   /// from now until reset() no frame is integrated untracked (the bootstrap frames included),
   /// the next frame raycasts the map from the current pose, and the tracking state is lost
-  /// until a frame is tracked against it. No frame may be in flight.
-  void adopt_loaded_map();
+  /// until a frame is tracked against it. No frame may be in flight. `keyframes`: the keyframe
+  /// database saved with the map, if any: with setting relocalise on, the camera is then lost
+  /// until the relocaliser finds it in the map (nothing is integrated before).
+  void adopt_loaded_map(std::optional<KeyframeDatabase> keyframes = std::nullopt);
+  /// Relocalisation (setting relocalise): its keyframes and figures; nullptr when off.
+  const Relocaliser* relocaliser() const { return relocalise_ ? &relocaliser_ : nullptr; }
   /// True after adopt_loaded_map(), until reset().
   bool map_loaded() const { return map_loaded_; }
 
@@ -153,13 +167,17 @@ class Pipeline {
   /// A submitted frame and the host-side decisions made for it.
   struct PendingFrame {
     FrameReport report;
-    bool track, may_integrate, always;
+    bool track, may_integrate, always, attempt;
   };
   std::deque<PendingFrame> in_flight_;  ///< submitted, not yet collected
   int frame_ = 0;
   bool have_reference_ = false;  ///< a raycast has run: frames can be tracked
   bool rendering_ = false;
   TrackingJudge judge_;      ///< each collected frame's tracking state
+  bool relocalise_ = false;  ///< setting relocalise
+  SmallDepthParams small_params_;
+  Relocaliser relocaliser_;
+  Mat4f last_pose_;          ///< the camera after the last collected frame, or as set_pose() put it
   bool map_loaded_ = false;  ///< adopt_loaded_map() was called (until reset())
   /// The camera was moved (set_pose) or the map replaced: the next frame raycasts whatever the
   /// raycast rate says, as the old reference view belongs to another pose or map.

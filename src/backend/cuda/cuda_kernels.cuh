@@ -5,12 +5,14 @@
 
 #include <cuda_runtime.h>
 
+#include "kernels/camera_move.hpp"
 #include "kernels/frame_logic.hpp"
 #include "kernels/integrate.hpp"
 #include "kernels/photometric.hpp"
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
+#include "kernels/small_depth.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx::cuda {
@@ -39,6 +41,16 @@ __global__ void pixel_kernel(Args args, int width, int height) {
 struct BilateralBody {
   __device__ void operator()(int x, int y, const BilateralArgs& a) const {
     bilateral_pixel(x, y, a);
+  }
+};
+struct SmallDepthMeanBody {
+  __device__ void operator()(int x, int y, const SmallDepthMeanArgs& a) const {
+    small_depth_mean_pixel(x, y, a);
+  }
+};
+struct SmallDepthBlurBody {
+  __device__ void operator()(int x, int y, const SmallDepthBlurArgs& a) const {
+    small_depth_blur_pixel(x, y, a);
   }
 };
 struct HalfSampleBody {
@@ -253,6 +265,11 @@ __global__ void keep_intensity_pose_kernel(TrackingState* state, int always) {
 __global__ void prepare_integration_kernel(TrackingState* state, bool always) {
   wait_for_previous_kernel();
   prepare_integration(*state, always);
+}
+/// Moves the camera to the pose stage_pose() copied to the device (a relocalisation attempt).
+__global__ void adopt_pose_kernel(TrackingState* state, const Mat4f* T_world_cam) {
+  wait_for_previous_kernel();
+  move_camera(*state, *T_world_cam);
 }
 __global__ void set_reference_kernel(TrackingState* state, Intrinsics k) {
   wait_for_previous_kernel();

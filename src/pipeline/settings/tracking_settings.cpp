@@ -23,6 +23,10 @@ void check_tracking(const PipelineConfig& config) {
   KFX_CHECK(tracking.min_inlier_fraction >= 0 && tracking.min_inlier_fraction <= 1,
             "min_inlier_fraction must be in [0, 1]");
   KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
+  KFX_CHECK(tracking.relocalise_keyframes >= 1 && tracking.relocalise_keyframes <= 1000000,
+            "relocalise_keyframes must be in 1..1000000, got " << tracking.relocalise_keyframes);
+  KFX_CHECK(tracking.relocalise_ferns >= 1 && tracking.relocalise_ferns <= 10000,
+            "relocalise_ferns must be in 1..10000, got " << tracking.relocalise_ferns);
 }
 
 }  // namespace
@@ -60,6 +64,18 @@ SettingsSection tracking_section() {
                             [](C& c) -> float& { return c.tracking.min_inlier_fraction; }));
   rows.push_back(number_row("half_sample_range_m", s, "pyramid half-sample range, metres",
                             [](C& c) -> float& { return c.tracking.half_sample_range_m; }));
+  rows.push_back(on_off_row(
+      "relocalise", s,
+      "keep keyframes while tracking is good and, when tracking is lost or a map is loaded, "
+      "find the camera again from them before integrating anything (on|off; docs/tracking.md)",
+      [](C& c) -> bool& { return c.tracking.relocalise; }));
+  rows.push_back(integer_row(
+      "relocalise_keyframes", s,
+      "relocalisation: keyframes the database holds at most (568 bytes each with 500 ferns)",
+      [](C& c) -> int& { return c.tracking.relocalise_keyframes; }));
+  rows.push_back(integer_row("relocalise_ferns", s,
+                             "relocalisation: random ferns (4 depth tests each) per keyframe code",
+                             [](C& c) -> int& { return c.tracking.relocalise_ferns; }));
   return section;
 }
 

@@ -16,6 +16,11 @@ struct TrackingSettings {
   float max_rms_error_m = 0.02f;                    ///< accept test: residual RMS limit
   float min_inlier_fraction = 0.15f;                ///< accept test: inliers / pixels
   float half_sample_range_m = 0.3f;                 ///< pyramid: robust half-sample range
+  /// Relocalisation (localise/relocaliser.hpp): keyframes harvested while tracking is good,
+  /// and a lost camera found again from them before anything more is integrated.
+  bool relocalise = false;
+  int relocalise_keyframes = 1000;  ///< keyframe database capacity
+  int relocalise_ferns = 500;       ///< random ferns per keyframe code
 };
 
 }  // namespace kfx

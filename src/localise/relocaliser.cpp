@@ -1,0 +1,234 @@
+#include "localise/relocaliser.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include "core/platform.hpp"
+
+namespace kfx {
+namespace {
+
+/// Lost frames during which the last good pose is tried first: a short loss (a fast turn, a
+/// blurred frame) usually leaves the camera near where it was; a long one, not.
+constexpr int kLastPoseFirstFrames = 3;
+
+/// Distance, metres, and angle, degrees, between two poses.
+void pose_step(const Mat4f& a, const Mat4f& b, float& metres, float& degrees) {
+  const Mat4f d = rigid_inverse(a) * b;
+  metres = length(d.translation_part());
+  const float c =
+      std::min(1.0f, std::max(-1.0f, (d.m[0][0] + d.m[1][1] + d.m[2][2] - 1.0f) * 0.5f));
+  degrees = std::acos(c) * 57.29577951f;
+}
+
+}  // namespace
+
+Relocaliser::Relocaliser(const RelocaliserSettings& settings, int small_width_px,
+                         int small_height_px)
+    : settings_(settings),
+      db_(small_width_px, small_height_px, settings.fern_count, settings.keyframe_capacity) {}
+
+void Relocaliser::reset() {
+  db_.clear();
+  mode_ = Mode::kTracking;
+  candidates_.clear();
+  candidate_ids_.clear();
+  failed_ids_.clear();
+  last_code_.clear();
+  view_jumped_ = false;
+  attempt_ids_.clear();
+  pending_attempt_id_ = -2;
+  attempts_in_flight_ = 0;
+  lost_frames_ = 0;
+  verified_ = 0;
+  attempts_ = 0;
+  relocalisations_ = 0;
+  host_ms_ = 0;
+  can_relocalise_ = true;
+}
+
+void Relocaliser::trust_pose(const Mat4f& T_world_cam) {
+  mode_ = Mode::kTracking;
+  last_good_pose_ = T_world_cam;
+  candidates_.clear();
+  candidate_ids_.clear();
+  failed_ids_.clear();
+  verified_ = 0;
+}
+
+void Relocaliser::adopt_keyframes(std::optional<KeyframeDatabase> keyframes) {
+  can_relocalise_ = false;
+  db_.clear();
+  if (keyframes && keyframes->width_px() == db_.width_px() &&
+      keyframes->height_px() == db_.height_px() && keyframes->fern_count() == db_.fern_count() &&
+      keyframes->tests().size() == db_.tests().size()) {
+    // The saved database keeps its ferns (its codes were made with them), with room as set here.
+    const int capacity = db_.capacity();
+    db_ = std::move(*keyframes);
+    db_.set_capacity(capacity);
+    can_relocalise_ = true;
+  }
+}
+
+void Relocaliser::start_lost(const Mat4f& T_world_cam) {
+  mode_ = Mode::kLost;
+  last_good_pose_ = T_world_cam;
+  candidates_.assign(1, T_world_cam);
+  candidate_ids_.assign(1, -1);
+  failed_ids_.clear();
+  lost_frames_ = 0;
+  verified_ = 0;
+}
+
+RelocaliserPlan Relocaliser::plan() {
+  RelocaliserPlan p;
+  p.integrate = mode_ == Mode::kTracking;
+  if (mode_ != Mode::kLost || attempts_in_flight_ > 0 || candidates_.empty()) return p;
+  // The best candidate not tried since the view last changed; all tried: start the round again.
+  size_t pick = candidates_.size();
+  for (size_t i = 0; i < candidates_.size() && pick == candidates_.size(); ++i) {
+    if (std::find(failed_ids_.begin(), failed_ids_.end(), candidate_ids_[i]) == failed_ids_.end()) {
+      pick = i;
+    }
+  }
+  if (pick == candidates_.size()) {
+    failed_ids_.clear();
+    pick = 0;
+  }
+  p.attempt = true;
+  p.T_world_cam = candidates_[pick];
+  pending_attempt_id_ = candidate_ids_[pick];
+  attempt_ids_.push_back(pending_attempt_id_);
+  failed_ids_.push_back(pending_attempt_id_);
+  ++attempts_in_flight_;
+  return p;
+}
+
+bool Relocaliser::observe(const RelocaliserObservation& frame) {
+  const auto start = std::chrono::steady_clock::now();
+  int attempt_id = -2;
+  if (frame.attempt) {
+    --attempts_in_flight_;
+    ++attempts_;
+    attempt_id = attempt_ids_.empty() ? -2 : attempt_ids_.front();
+    if (!attempt_ids_.empty()) attempt_ids_.erase(attempt_ids_.begin());
+  }
+  std::vector<uint8_t> code;
+  if (frame.small_mm.data != nullptr) code = db_.encode(frame.small_mm);
+  bool found = false;
+  bool view_jump = false;
+  if (!code.empty() && last_code_.size() == code.size()) {
+    int differ = 0;
+    for (size_t i = 0; i < code.size(); ++i) differ += code[i] != last_code_[i];
+    view_jump = differ > settings_.view_jump_dissimilarity * static_cast<float>(code.size());
+  }
+  if (!code.empty()) last_code_ = code;
+  switch (mode_) {
+    case Mode::kTracking:
+      if (frame.tracked && view_jump) {
+        // Tracked, but the view jumped: the pose may be a wrong minimum that passed the accept
+        // test, and the last good pose is where the camera no longer is.
+        mode_ = Mode::kLost;
+        view_jumped_ = true;
+        lost_frames_ = kLastPoseFirstFrames + 1;
+        failed_ids_.clear();
+        choose_candidates(code);
+      } else if (frame.tracking_ran && !frame.tracked) {
+        mode_ = Mode::kLost;
+        lost_frames_ = 1;
+        failed_ids_.clear();
+        if (!code.empty()) choose_candidates(code);
+      } else if (frame.tracked && frame.good) {
+        last_good_pose_ = frame.T_world_cam;
+        if (!code.empty()) harvest(frame, code);
+      }
+      break;
+    case Mode::kLost:
+      // After a view jump only an attempt from a keyframe starts a verification: frames that
+      // track on from the suspect pose would verify it.
+      if (frame.tracked && (!view_jumped_ || (frame.attempt && attempt_id >= 0))) {
+        mode_ = Mode::kVerifying;
+        verified_ = 1;
+        verify_pose_ = frame.T_world_cam;
+      } else {
+        ++lost_frames_;
+        if (!code.empty()) choose_candidates(code);
+      }
+      break;
+    case Mode::kVerifying: {
+      float metres = 0, degrees = 0;
+      if (frame.tracked) pose_step(verify_pose_, frame.T_world_cam, metres, degrees);
+      if (!frame.tracked || metres > settings_.verify_max_step_m ||
+          degrees > settings_.verify_max_step_deg) {
+        mode_ = Mode::kLost;
+        ++lost_frames_;
+        if (!code.empty()) choose_candidates(code);
+        break;
+      }
+      verify_pose_ = frame.T_world_cam;
+      if (++verified_ >= settings_.verify_frames) {
+        mode_ = Mode::kTracking;
+        view_jumped_ = false;
+        ++relocalisations_;
+        found = true;
+        last_good_pose_ = frame.T_world_cam;
+        failed_ids_.clear();
+      }
+      break;
+    }
+  }
+  host_ms_ +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return found;
+}
+
+void Relocaliser::harvest(const RelocaliserObservation& frame, const std::vector<uint8_t>& code) {
+  if (db_.full()) return;
+  const std::vector<KeyframeMatch> nearest = db_.nearest(code, 1);
+  if (nearest.empty() || nearest[0].dissimilarity > settings_.harvest_dissimilarity) {
+    db_.add(code, Keyframe{frame.T_world_cam, frame.frame});
+  }
+}
+
+void Relocaliser::choose_candidates(const std::vector<uint8_t>& code) {
+  const std::vector<KeyframeMatch> nearest = db_.nearest(code, settings_.candidates);
+  std::vector<Mat4f> poses;
+  std::vector<int> ids;
+  const bool last_first = lost_frames_ <= kLastPoseFirstFrames && !view_jumped_;
+  if (last_first) {
+    poses.push_back(last_good_pose_);
+    ids.push_back(-1);
+  }
+  for (const KeyframeMatch& m : nearest) {
+    poses.push_back(db_.keyframe(m.keyframe).T_world_cam);
+    ids.push_back(m.keyframe);
+  }
+  // Without keyframes to try, a view jump leaves only the last good pose (and tracking on).
+  if (view_jumped_ && poses.empty()) view_jumped_ = false;
+  if (!last_first && !view_jumped_) {
+    poses.push_back(last_good_pose_);
+    ids.push_back(-1);
+  }
+  // A candidate that left the list and comes back belongs to a new view: it gets a new try.
+  failed_ids_.erase(
+      std::remove_if(failed_ids_.begin(), failed_ids_.end(),
+                     [&](int id) { return std::find(ids.begin(), ids.end(), id) == ids.end(); }),
+      failed_ids_.end());
+  candidates_ = std::move(poses);
+  candidate_ids_ = std::move(ids);
+}
+
+RelocaliserFigures Relocaliser::figures() const {
+  RelocaliserFigures f;
+  f.keyframes = db_.size();
+  f.attempts = attempts_;
+  f.relocalisations = relocalisations_;
+  f.memory_bytes = db_.memory_bytes();
+  f.capacity_bytes = db_.capacity_bytes();
+  f.host_ms = host_ms_;
+  f.can_relocalise = can_relocalise_;
+  return f;
+}
+
+}  // namespace kfx

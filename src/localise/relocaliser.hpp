@@ -1,0 +1,135 @@
+#pragma once
+/// Relocalisation: finding the camera again after tracking is lost, or in a map loaded from a
+/// file. One floor above the frame loop (DESIGN.md): the pipeline tells it what each collected
+/// frame did and asks it what the next submitted frame should do; it never touches the map.
+///
+/// While tracking is good it harvests keyframes (localise/keyframe_database.hpp): a frame whose
+/// view differs enough from its nearest keyframe is filed with its pose. When a frame fails the
+/// accept test the camera is lost: integration stops, and the next frames attempt candidate
+/// poses, one at a time: the nearest keyframes of the last lost frame's view and the last good
+/// pose. An attempt frame moves the camera to the candidate, raycasts the map from it and
+/// tracks that same frame against the raycast. A frame that passes the accept test starts a
+/// verification: the frames after it are tracked as usual and must pass too, each moving the
+/// camera by no more than a frame's plausible motion, before the camera counts as found and
+/// integration resumes. Any failure on the way goes back to lost and the next candidate.
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "core/image.hpp"
+#include "core/math.hpp"
+#include "localise/keyframe_database.hpp"
+
+namespace kfx {
+
+/// Settings of the relocaliser (settings relocalise_*; docs/settings.md).
+struct RelocaliserSettings {
+  int fern_count = 500;  ///< ferns per code
+  int keyframe_capacity = 1000;
+  /// A good frame becomes a keyframe when the share of ferns whose codes differ from its
+  /// nearest keyframe's exceeds this (InfiniTAM's 0.2).
+  float harvest_dissimilarity = 0.2f;
+  /// Accepted frames in a row (the attempt's included) before the camera counts as found.
+  int verify_frames = 3;
+  /// Nearest keyframes tried per lost view.
+  int candidates = 3;
+  /// Largest motion between two verification frames, metres and degrees: more is a jump no
+  /// camera makes in a frame, so the accepted pose is not trusted.
+  float verify_max_step_m = 0.10f;
+  float verify_max_step_deg = 10.0f;
+  /// A tracked frame whose code differs from the last frame's in more than this share of
+  /// ferns is a view jump (frames missing, the camera moved while covered): the accept test
+  /// can pass there at a wrong pose, so the camera counts as lost and only candidates from
+  /// keyframes that look like the new view are tried. Measured (bench/RESULTS.md,
+  /// "Relocalisation"): up to 0.13 between tum_fr1_xyz's frames, 0.34 on tum_fr1_rpy's fast
+  /// turns, 0.43 at a 48 cm, 26° cut.
+  float view_jump_dissimilarity = 0.4f;
+};
+
+/// What the relocaliser reads of one collected frame.
+struct RelocaliserObservation {
+  bool tracking_ran = false;
+  bool tracked = false;                ///< the accept test passed
+  bool good = false;                   ///< the tracking state is good (not poor, not lost)
+  bool attempt = false;                ///< the frame was an attempt (plan().attempt)
+  Mat4f T_world_cam;                   ///< pose after the frame
+  int frame = 0;                       ///< the pipeline's frame number
+  ImageView<const uint16_t> small_mm;  ///< its small depth image (kernels/small_depth.hpp)
+};
+
+/// What the next submitted frame does.
+struct RelocaliserPlan {
+  bool integrate = true;  ///< integration allowed (false until the camera is found)
+  bool attempt = false;   ///< move to T_world_cam, raycast, then track this frame
+  Mat4f T_world_cam;
+};
+
+/// The relocaliser's figures for stats.json.
+struct RelocaliserFigures {
+  int keyframes = 0;
+  int attempts = 0;             ///< attempt frames collected
+  int relocalisations = 0;      ///< times the camera was found after being lost
+  uint64_t memory_bytes = 0;    ///< the keyframe database's
+  uint64_t capacity_bytes = 0;  ///< ... when full
+  double host_ms = 0;           ///< host time: codes, queries, harvesting
+  bool can_relocalise = true;   ///< false with a loaded map that came without keyframes
+};
+
+class Relocaliser {
+ public:
+  Relocaliser() = default;
+  /// For small depth images of width × height pixels.
+  Relocaliser(const RelocaliserSettings& settings, int small_width_px, int small_height_px);
+
+  /// Starts over: empty database, tracking (the first pose is given).
+  void reset();
+  /// The camera was put at a pose the caller trusts (set_pose): tracking, nothing to verify.
+  void trust_pose(const Mat4f& T_world_cam);
+  /// A map was loaded: its keyframe database replaces this one's, if it came with one that
+  /// matches this relocaliser's image size and fern count; else the database is emptied and
+  /// can_relocalise() is false (harvesting starts again once the camera is found).
+  void adopt_keyframes(std::optional<KeyframeDatabase> keyframes);
+  /// Lost until found, `T_world_cam` (e.g. the camera a loaded map was saved with) the first
+  /// candidate.
+  void start_lost(const Mat4f& T_world_cam);
+
+  /// Decides the next submitted frame; `frames_in_flight`: attempts already submitted and not
+  /// collected make it wait (the pose they reach is not known yet).
+  RelocaliserPlan plan();
+  /// Takes in a collected frame (in order); true when it is the frame the camera was found at.
+  bool observe(const RelocaliserObservation& frame);
+
+  /// True until a lost camera is found again (integration stops meanwhile).
+  bool lost() const { return mode_ != Mode::kTracking; }
+  bool can_relocalise() const { return can_relocalise_; }
+  const KeyframeDatabase& keyframes() const { return db_; }
+  RelocaliserFigures figures() const;
+
+ private:
+  enum class Mode { kTracking, kLost, kVerifying };
+  void harvest(const RelocaliserObservation& frame, const std::vector<uint8_t>& code);
+  void choose_candidates(const std::vector<uint8_t>& code);
+
+  RelocaliserSettings settings_;
+  KeyframeDatabase db_;
+  Mode mode_ = Mode::kTracking;
+  Mat4f last_good_pose_;
+  std::vector<Mat4f> candidates_;   ///< poses to try, best first
+  std::vector<int> candidate_ids_;  ///< their keyframes (−1: the last good pose)
+  std::vector<int> failed_ids_;     ///< candidates tried since the view last changed
+  std::vector<uint8_t> last_code_;  ///< the last observed frame's code
+  bool view_jumped_ = false;        ///< lost at a view jump: the last good pose is suspect
+  int pending_attempt_id_ = -2;     ///< the candidate of the last attempt planned
+  std::vector<int> attempt_ids_;    ///< the candidates of the attempts in flight, in order
+  int attempts_in_flight_ = 0;
+  int lost_frames_ = 0;  ///< lost frames collected since the loss
+  int verified_ = 0;     ///< accepted frames in the verification so far
+  Mat4f verify_pose_;    ///< the last verified frame's pose
+  int attempts_ = 0;
+  int relocalisations_ = 0;
+  double host_ms_ = 0;
+  bool can_relocalise_ = true;
+};
+
+}  // namespace kfx

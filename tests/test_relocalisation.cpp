@@ -1,0 +1,362 @@
+/// Relocalisation (localise/relocaliser.hpp): the small depth image the views are coded from,
+/// the keyframe database's ferns, harvest and query, a kidnapped camera found again on the
+/// synthetic room, and the database saved with the map, loaded, refused when corrupt.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+#include <map>
+
+#include "api/internal.hpp"
+#include "io_test_support.hpp"
+#include "kernels/small_depth.hpp"
+#include "kfx/kfx.hpp"
+#include "localise/keyframe_database.hpp"
+#include "localise/relocaliser.hpp"
+#include "output/block_map_file.hpp"
+#include "output/keyframe_section.hpp"
+#include "output/volume_file.hpp"
+#include "test_dir.hpp"
+
+namespace kfx {
+namespace {
+
+// ---- the small depth image -------------------------------------------------------------
+
+HostImage<uint16_t> small_of(const HostImage<float>& depth_m) {
+  const SmallDepthParams p = small_depth_params(depth_m.width(), depth_m.height());
+  HostImage<uint16_t> mean(p.width_px, p.height_px), out(p.width_px, p.height_px);
+  const SmallDepthMeanArgs m{p, depth_m.view(), mean.view()};
+  for (int y = 0; y < p.height_px; ++y) {
+    for (int x = 0; x < p.width_px; ++x) small_depth_mean_pixel(x, y, m);
+  }
+  const SmallDepthBlurArgs b{mean.view(), out.view()};
+  for (int y = 0; y < p.height_px; ++y) {
+    for (int x = 0; x < p.width_px; ++x) small_depth_blur_pixel(x, y, b);
+  }
+  return out;
+}
+
+TEST(SmallDepth, SizesFollowTheComputeSize) {
+  const SmallDepthParams a = small_depth_params(320, 240);
+  EXPECT_EQ(a.factor, 8);
+  EXPECT_EQ(a.width_px, 40);
+  EXPECT_EQ(a.height_px, 30);
+  const SmallDepthParams b = small_depth_params(80, 60);
+  EXPECT_EQ(b.factor, 2);
+  EXPECT_EQ(b.width_px, 40);
+  const SmallDepthParams c = small_depth_params(640, 480);
+  EXPECT_EQ(c.factor, 16);
+  EXPECT_EQ(c.height_px, 30);
+}
+
+TEST(SmallDepth, AveragesValidDepthKeepsHolesAndBlursOverValidNeighboursOnly) {
+  // 320×240: a plane at 2 m with a ramp in x, a hole (no depth) over the small pixel (5, 5)'s
+  // block, and a block with only a few valid pixels at (20, 10).
+  HostImage<float> depth(320, 240, 0.0f);
+  for (int y = 0; y < 240; ++y) {
+    for (int x = 0; x < 320; ++x) depth(x, y) = 2.0f + 0.001f * (x / 8);
+  }
+  for (int y = 40; y < 48; ++y) {
+    for (int x = 40; x < 48; ++x) depth(x, y) = 0.0f;
+  }
+  for (int y = 80; y < 88; ++y) {
+    for (int x = 160; x < 168; ++x) depth(x, y) = (x == 160 && y < 83) ? 3.0f : 0.0f;
+  }
+  const HostImage<uint16_t> s = small_of(depth);
+  ASSERT_EQ(s.width(), 40);
+  EXPECT_EQ(s(5, 5), 0);    // the hole stays a hole
+  EXPECT_EQ(s(20, 10), 0);  // 3 valid pixels of 64: below a quarter
+  // Far from holes the blur of a linear ramp is the ramp: 2000 + x mm.
+  EXPECT_EQ(s(30, 20), 2030);
+  EXPECT_EQ(s(0, 0), 2000);  // at the border, over the neighbours that exist
+  // Beside the hole the blur renormalises over the valid neighbours: no pull towards 0.
+  EXPECT_GE(s(6, 5), 2005);
+  EXPECT_LE(s(6, 5), 2007);
+}
+
+// ---- the keyframe database -------------------------------------------------------------
+
+HostImage<uint16_t> wall(int tilt_mm_per_px, int offset_mm) {
+  HostImage<uint16_t> image(40, 30);
+  for (int y = 0; y < 30; ++y) {
+    for (int x = 0; x < 40; ++x) {
+      image(x, y) = static_cast<uint16_t>(offset_mm + tilt_mm_per_px * (x - 20) + 20 * y);
+    }
+  }
+  return image;
+}
+
+TEST(KeyframeDatabase, FernCodesAreDeterministicAndReadTheThresholds) {
+  const KeyframeDatabase a(40, 30, 500, 10), b(40, 30, 500, 10);
+  ASSERT_EQ(a.tests().size(), 2000u);
+  for (size_t i = 0; i < a.tests().size(); ++i) {
+    EXPECT_EQ(a.tests()[i].x_px, b.tests()[i].x_px);
+    EXPECT_EQ(a.tests()[i].threshold_mm, b.tests()[i].threshold_mm);
+    EXPECT_LT(a.tests()[i].x_px, 40);
+    EXPECT_LT(a.tests()[i].y_px, 30);
+    EXPECT_GE(a.tests()[i].threshold_mm, KeyframeDatabase::kMinThresholdMm);
+    EXPECT_LE(a.tests()[i].threshold_mm, KeyframeDatabase::kMaxThresholdMm);
+  }
+  const HostImage<uint16_t> image = wall(30, 2000);
+  EXPECT_EQ(a.encode(image.view()), b.encode(image.view()));
+  // Everything beyond every threshold: all bits set; nothing (holes): none.
+  for (uint8_t c : a.encode(HostImage<uint16_t>(40, 30, 5000).view())) ASSERT_EQ(c, 15);
+  for (uint8_t c : a.encode(HostImage<uint16_t>(40, 30, 0).view())) ASSERT_EQ(c, 0);
+  // The fixed seed pins the tests: these values are those of every build.
+  EXPECT_EQ(a.tests()[0].x_px, KeyframeDatabase(40, 30, 1, 1).tests()[0].x_px);
+}
+
+TEST(KeyframeDatabase, HarvestAndQueryFindTheNearestViewWithinCapacity) {
+  KeyframeDatabase db(40, 30, 500, 3);
+  const int offsets[3] = {1000, 2000, 3000};
+  for (int i = 0; i < 3; ++i) {
+    Keyframe k;
+    k.T_world_cam = Mat4f::translation(Vec3f{static_cast<float>(i), 0, 0});
+    k.frame = 10 * i;
+    EXPECT_TRUE(db.add(db.encode(wall(10 * (i + 1), offsets[i]).view()), k));
+  }
+  EXPECT_TRUE(db.full());
+  EXPECT_FALSE(db.add(db.encode(wall(5, 1500).view()), Keyframe{}));
+  EXPECT_EQ(db.size(), 3);
+  EXPECT_EQ(db.memory_bytes(), 2000u * sizeof(FernTest) + 3u * (500u + sizeof(Keyframe)));
+  EXPECT_EQ(db.memory_bytes(), db.capacity_bytes());
+  // A view a little off the second keyframe's finds it first, with a small dissimilarity.
+  const auto near = db.nearest(db.encode(wall(20, 2030).view()), 2);
+  ASSERT_EQ(near.size(), 2u);
+  EXPECT_EQ(near[0].keyframe, 1);
+  EXPECT_EQ(db.keyframe(near[0].keyframe).frame, 10);
+  EXPECT_LT(near[0].dissimilarity, 0.1f);
+  EXPECT_GT(near[1].dissimilarity, near[0].dissimilarity);
+  EXPECT_EQ(db.nearest(db.encode(wall(20, 2000).view()), 1)[0].dissimilarity, 0.0f);
+}
+
+TEST(KeyframeDatabase, SerialisesAndParsesBackAndRefusesCorruptBytes) {
+  KeyframeDatabase db(40, 30, 64, 5);
+  db.add(db.encode(wall(10, 1500).view()), Keyframe{Mat4f::translation(Vec3f{1, 2, 3}), 7});
+  db.add(db.encode(wall(30, 2500).view()), Keyframe{Mat4f::identity(), 9});
+  const std::vector<uint8_t> bytes = db.serialise();
+  const KeyframeDatabase back = KeyframeDatabase::parse(bytes.data(), bytes.size(), "f", 1);
+  EXPECT_EQ(back.size(), 2);
+  EXPECT_EQ(back.capacity(), 2);  // raised to the stored count
+  EXPECT_EQ(back.serialise(), bytes);
+  EXPECT_EQ(back.keyframe(0).frame, 7);
+  EXPECT_EQ(back.keyframe(0).T_world_cam.translation_part().z, 3.0f);
+  io::test::expect_error(
+      [&] { KeyframeDatabase::parse(bytes.data(), bytes.size() - 1, "map.kfxtsdf", 0); },
+      {"map.kfxtsdf", "keyframe database", "truncated"});
+  std::vector<uint8_t> bad = bytes;
+  bad[20] = 0xff;  // the first fern test's x
+  bad[21] = 0xff;
+  io::test::expect_error([&] { KeyframeDatabase::parse(bad.data(), bad.size(), "m", 0); },
+                         {"m:", "outside"});
+  bad = bytes;
+  bad[bytes.size() - 64 + 3] = 0x7f;  // the last pose's first element: no longer a rotation
+  io::test::expect_error([&] { KeyframeDatabase::parse(bad.data(), bad.size(), "m", 0); },
+                         {"m:", "keyframe 1"});
+}
+
+// ---- the relocaliser on the synthetic room ---------------------------------------------
+
+/// The room at 4x speed: a loop every 75 frames. The jump looks at a side wall from frame 85 to
+/// 105; when it ends the camera is back on its loop 0.3 m from where it was lost, at a place
+/// the first loop mapped (and harvested keyframes at).
+const char* kKidnap = "synthetic:frames=115,width=160,height=120,speed=4,jump=85-105";
+const char* kLoop = "synthetic:frames=125,width=160,height=120,speed=4";
+constexpr int kJumpLast = 105;
+constexpr int kLoopFrames = 75;
+/// The goals of relocalisation: found within this many frames of the view returning, at a
+/// pose this close to where the uninterrupted run's tracking puts it.
+constexpr int kFramesToFind = 5;
+constexpr float kFoundWithinM = 0.05f;
+constexpr float kFoundWithinDeg = 5.0f;
+
+Settings reloc_settings(bool blocks, bool relocalise = true) {
+  Settings s = Settings().backend("cpu").set("volume_resolution", "64");
+  if (relocalise) s.set("relocalise", "on");
+  if (blocks) s.set("volume", "blocks").set("voxel_size_m", "0.066").set("map_budget_mb", "16");
+  return s;
+}
+
+std::vector<SequenceFrame> read_all(const char* input) {
+  Sequence sequence(input);
+  std::vector<SequenceFrame> frames;
+  SequenceFrame frame;
+  while (sequence.next(frame) == ReadStatus::kOk) frames.push_back(frame);
+  return frames;
+}
+
+/// The uninterrupted run of kLoop, per map kind, run once and shared by the tests below: its
+/// poses are where tracking against this map puts the camera (the map's own drift included,
+/// several centimetres at 64³), and its map saved after the first loop.
+struct UncutRun {
+  std::vector<Pose> poses;
+  std::string map_path;
+  KeyframeDatabase keyframes;
+};
+
+const UncutRun& uncut_run(bool blocks) {
+  static std::map<bool, UncutRun> runs;
+  auto found = runs.find(blocks);
+  if (found != runs.end()) return found->second;
+  UncutRun& run = runs[blocks];
+  const auto dir = test::fresh_test_dir(blocks ? "kfx_reloc_blocks_" : "kfx_reloc_dense_");
+  run.map_path = (dir / (blocks ? "map.kfxblocks" : "map.kfxtsdf")).string();
+  Sequence sequence(kLoop);
+  Reconstruction r(reloc_settings(blocks), sequence);
+  const auto frames = read_all(kLoop);
+  for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
+    run.poses.push_back(r.process(frames[i]).T_world_cam);
+    if (i + 1 == kLoopFrames) {
+      r.save_map(run.map_path);
+      run.keyframes = ReconstructionAccess::pipeline(r).relocaliser()->keyframes();
+    }
+  }
+  return run;
+}
+
+void pose_error(const Pose& a, const Pose& b, float& metres, float& degrees) {
+  metres = std::hypot(a[3] - b[3], a[7] - b[7], a[11] - b[11]);
+  double trace = 0;  // trace(Raᵀ Rb)
+  for (int i = 0; i < 3; ++i) {
+    for (int j = 0; j < 3; ++j) trace += a[4 * j + i] * b[4 * j + i];
+  }
+  degrees = static_cast<float>(std::acos(std::min(1.0, std::max(-1.0, (trace - 1) / 2))) *
+                               57.29577951308232);
+}
+
+class Relocalisation : public ::testing::TestWithParam<bool> {};
+
+TEST_P(Relocalisation, AKidnappedCameraIsFoundWithinFiveFramesNearTheTruth) {
+  const bool blocks = GetParam();
+  const auto frames = read_all(kKidnap);
+  Sequence sequence(kKidnap);
+  Reconstruction run(reloc_settings(blocks), sequence);
+  int found_at = -1;
+  for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
+    const FrameResult r = run.process(frames[i]);
+    if (i > 85 && i <= kJumpLast) {
+      EXPECT_FALSE(r.integrated) << "frame " << i << " in the jump was integrated";
+      EXPECT_FALSE(r.relocalised) << "frame " << i << ": relocalised while looking elsewhere";
+    }
+    if (r.relocalised && found_at < 0 && i > kJumpLast) found_at = i;
+    if (i > kJumpLast && found_at < 0) {
+      EXPECT_FALSE(r.integrated) << "frame " << i << " integrated before the camera was found";
+      EXPECT_EQ(r.tracking_quality, TrackingQuality::kLost) << "frame " << i;
+    }
+  }
+  ASSERT_GT(found_at, kJumpLast) << "never relocalised";
+  EXPECT_LE(found_at, kJumpLast + kFramesToFind);
+  float metres = 0, degrees = 0;
+  const UncutRun& uncut = uncut_run(blocks);
+  pose_error(run.trajectory()[found_at].T_world_cam, uncut.poses[found_at], metres, degrees);
+  EXPECT_LT(metres, kFoundWithinM);
+  EXPECT_LT(degrees, kFoundWithinDeg);
+  // And it keeps tracking from there, where the uninterrupted run is.
+  EXPECT_TRUE(run.trajectory().back().tracked);
+  pose_error(run.pose(), uncut.poses[frames.size() - 1], metres, degrees);
+  EXPECT_LT(metres, kFoundWithinM);
+}
+
+INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, Relocalisation, ::testing::Values(false, true),
+                         [](const auto& info) { return info.param ? "blocks" : "dense"; });
+
+// ---- the database saved with the map ---------------------------------------------------
+
+class RelocalisationMap : public ::testing::TestWithParam<bool> {};
+
+TEST_P(RelocalisationMap, SavedWithTheMapReloadedAndUsedToLocateANewRun) {
+  const bool blocks = GetParam();
+  const auto frames = read_all(kLoop);
+  Sequence sequence(kLoop);
+  const UncutRun& uncut = uncut_run(blocks);
+  const std::string& path = uncut.map_path;
+  ASSERT_GT(uncut.keyframes.size(), 2);
+  const std::optional<KeyframeDatabase> read = blocks ? output::read_block_map_file(path).keyframes
+                                                      : output::read_volume_file(path).keyframes;
+  ASSERT_TRUE(read.has_value());
+  EXPECT_EQ(read->serialise(), uncut.keyframes.serialise());
+
+  // A new run given only frames from the middle of the second loop, far from the saved camera
+  // (the end of the first): lost at first, it locates itself from the keyframes, integrating
+  // nothing before.
+  Reconstruction loaded(reloc_settings(blocks), sequence);
+  const LoadedMap info = loaded.load_map(path);
+  EXPECT_EQ(info.note, "");
+  const int start = 112;
+  int found_at = -1;
+  for (int i = start; i < static_cast<int>(frames.size()); ++i) {
+    const FrameResult r = loaded.process(frames[i]);
+    if (found_at < 0) {
+      EXPECT_FALSE(r.integrated) << "frame " << i;
+    }
+    if (r.relocalised && found_at < 0) found_at = i;
+  }
+  ASSERT_GE(found_at, start) << "never relocalised";
+  EXPECT_LE(found_at, start + kFramesToFind);
+  float metres = 0, degrees = 0;
+  pose_error(loaded.trajectory()[found_at - start].T_world_cam, uncut.poses[found_at], metres,
+             degrees);
+  EXPECT_LT(metres, kFoundWithinM);
+  EXPECT_LT(degrees, kFoundWithinDeg);
+}
+
+INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, RelocalisationMap, ::testing::Values(false, true),
+                         [](const auto& info) { return info.param ? "blocks" : "dense"; });
+
+TEST(RelocalisationMapFile, AnOlderFileLoadsAndSaysItCannotRelocalise) {
+  const auto dir = test::fresh_test_dir("kfx_reloc_map_");
+  const auto frames = read_all(kLoop);
+  Sequence sequence(kLoop);
+  Reconstruction first(reloc_settings(false, false), sequence);
+  for (int i = 0; i < 10; ++i) first.process(frames[i]);
+  const std::string path = (dir / "map.kfxtsdf").string();
+  first.save_map(path);  // relocalise off: no keyframe section (format version 3 or 4)
+  {
+    std::ifstream in(path, std::ios::binary);
+    char header[12];
+    in.read(header, 12);
+    EXPECT_TRUE(header[8] == 3 || header[8] == 4) << int(header[8]);
+  }
+  Reconstruction loaded(reloc_settings(false), sequence);
+  const LoadedMap info = loaded.load_map(path);
+  EXPECT_TRUE(info.pose_restored);
+  EXPECT_NE(info.note.find("cannot relocalise"), std::string::npos) << info.note;
+  // From the saved camera it still verifies before integrating.
+  for (int i = 10; i < 13; ++i) EXPECT_FALSE(loaded.process(frames[i]).integrated) << i;
+}
+
+TEST(RelocalisationMapFile, ACorruptOrTruncatedKeyframeSectionIsAnErrorNamingTheFile) {
+  const auto dir = test::fresh_test_dir("kfx_reloc_map_");
+  const auto frames = read_all(kLoop);
+  Sequence sequence(kLoop);
+  for (bool blocks : {false, true}) {
+    Reconstruction r(reloc_settings(blocks), sequence);
+    for (int i = 0; i < 6; ++i) r.process(frames[i]);
+    const std::string path = (dir / (blocks ? "map.kfxblocks" : "map.kfxtsdf")).string();
+    r.save_map(path);
+    std::ifstream in(path, std::ios::binary);
+    const std::string bytes((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+    const size_t section = bytes.find("KFXKEYF");
+    ASSERT_NE(section, std::string::npos);
+    const std::string truncated = path + ".truncated", corrupt = path + ".corrupt",
+                      length = path + ".length";
+    std::ofstream(truncated, std::ios::binary) << bytes.substr(0, bytes.size() - 3);
+    std::string c = bytes;
+    c[section] = 'X';
+    std::ofstream(corrupt, std::ios::binary) << c;
+    std::string l = bytes;
+    l[section + 8] ^= 1;
+    std::ofstream(length, std::ios::binary) << l;
+    Reconstruction loader(reloc_settings(blocks), sequence);
+    io::test::expect_error([&] { loader.load_map(truncated); }, {truncated, "keyframe"});
+    io::test::expect_error([&] { loader.load_map(corrupt); }, {corrupt, "keyframe section"});
+    io::test::expect_error([&] { loader.load_map(length); }, {length, "keyframe section"});
+  }
+}
+
+}  // namespace
+}  // namespace kfx
