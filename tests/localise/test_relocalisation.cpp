@@ -11,7 +11,6 @@
 #include <map>
 
 #include "api/internal.hpp"
-#include "io_test_support.hpp"
 #include "kernels/small_depth.hpp"
 #include "kfx/kfx.hpp"
 #include "localise/keyframe_database.hpp"
@@ -19,7 +18,8 @@
 #include "output/block_map_file.hpp"
 #include "output/keyframe_section.hpp"
 #include "output/volume_file.hpp"
-#include "test_dir.hpp"
+#include "support/io_test_support.hpp"
+#include "support/test_dir.hpp"
 
 namespace kfx {
 namespace {

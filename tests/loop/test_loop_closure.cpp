@@ -11,14 +11,14 @@
 #include <fstream>
 #include <nlohmann/json.hpp>
 
-#include "cli_runner.hpp"
 #include "eval/rpe.hpp"
 #include "io/reader.hpp"
 #include "io/trajectory.hpp"
-#include "io_test_support.hpp"
 #include "loop/offline_closure.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/pipeline.hpp"
+#include "support/cli_runner.hpp"
+#include "support/io_test_support.hpp"
 
 namespace kfx {
 namespace {

@@ -7,10 +7,10 @@
 #include <cmath>
 #include <string>
 
-#include "cli_runner.hpp"
 #include "io/trajectory.hpp"
 #include "kfx/kfx.hpp"
-#include "test_dir.hpp"
+#include "support/cli_runner.hpp"
+#include "support/test_dir.hpp"
 
 namespace kfx {
 namespace {
