@@ -227,8 +227,7 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   // Before anything of the frame: a lost camera's next candidate pose, and whether the frame
   // may be integrated (not until the relocaliser has found the camera).
   // A frame at a given pose is placed, never searched for.
-  const RelocaliserPlan plan =
-      relocalise_ && !pose_given ? relocaliser_.plan() : RelocaliserPlan{};
+  const RelocaliserPlan plan = relocalise_ && !pose_given ? relocaliser_.plan() : RelocaliserPlan{};
   report.relocalisation_attempt = plan.attempt;
   if (swap_due_) {
     const auto start = std::chrono::steady_clock::now();
