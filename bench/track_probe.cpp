@@ -7,12 +7,19 @@
 /// smallest first, and the weakest direction (camera axes), and the warnings `kfx run` would
 /// give (FrameDiagnostics). --map-origin-start puts the first camera at the map's origin
 /// instead; --dump DIR writes every 25th frame's depth and colour side by side as PNG.
-/// --backend cuda runs it on the GPU (default cpu). A diagnostic, not a test: it asserts
-/// nothing; bench/RESULTS.md records what it found on the synthetic house.
+/// --cache DIR keeps each rendered frame (depth and colour) in DIR and reads it back on the next
+/// run of the same --input: the house's analytic render costs far more than tracking on the
+/// CPU, so a stretch probed again (another preset, another setting) runs at tracking speed.
+/// --backend cuda runs it on the GPU (default cpu); --preset NAME starts from that preset
+/// (default exact) before the input's recommended settings and the --set assignments. A diagnostic,
+/// not a test: it asserts nothing; bench/RESULTS.md records what it found on the synthetic house.
 
 #include <Eigen/Core>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -28,18 +35,50 @@ namespace {
 struct Options {
   std::string spec = "synthetic:scene=house,width=320,height=240";
   std::string backend = "cpu";
+  std::string preset = "exact";
   int from = 0, to = -1;
   bool true_start = true;
-  std::string dump_dir;  ///< every 25th frame's depth and colour as PNG, when set
+  std::string dump_dir;   ///< every 25th frame's depth and colour as PNG, when set
+  std::string cache_dir;  ///< rendered frames kept here, when set
   std::vector<std::pair<std::string, std::string>> sets;
 };
 
 [[noreturn]] void usage(const char* why) {
-  std::fprintf(stderr,
-               "kfx_track_probe: %s\nusage: kfx_track_probe [--input SPEC] --from N --to M "
-               "[--backend cpu|cuda] [--map-origin-start] [--dump DIR] [--set key=value]...\n",
-               why);
+  std::fprintf(
+      stderr,
+      "kfx_track_probe: %s\nusage: kfx_track_probe [--input SPEC] --from N --to M "
+      "[--backend cpu|cuda] [--preset NAME] [--map-origin-start] [--dump DIR] [--cache DIR] "
+      "[--set key=value]...\n",
+      why);
   std::exit(2);
+}
+
+/// Frame f of the scene, from the cache when it holds it (then written there when it did not).
+/// A cache file is named by the frame and a hash of the --input spec, so two inputs never mix.
+void render_frame(const kfx::io::SyntheticScene& scene, const Options& o, int f,
+                  kfx::HostImage<uint16_t>& depth, kfx::HostImage<kfx::Rgb8>& rgb) {
+  if (o.cache_dir.empty()) return scene.render(f, depth, &rgb);
+  const std::string path = o.cache_dir + "/" + std::to_string(std::hash<std::string>{}(o.spec)) +
+                           "_" + std::to_string(f) + ".frame";
+  const int w = scene.options().width_px, h = scene.options().height_px;
+  const size_t depth_bytes = sizeof(uint16_t) * w * h, rgb_bytes = sizeof(kfx::Rgb8) * w * h;
+  if (std::FILE* in = std::fopen(path.c_str(), "rb")) {
+    depth = kfx::HostImage<uint16_t>(w, h);
+    rgb = kfx::HostImage<kfx::Rgb8>(w, h);
+    const bool whole = std::fread(depth.data(), 1, depth_bytes, in) == depth_bytes &&
+                       std::fread(rgb.data(), 1, rgb_bytes, in) == rgb_bytes;
+    std::fclose(in);
+    if (whole) return;
+  }
+  scene.render(f, depth, &rgb);
+  // Written under a temporary name and renamed, so a run cut short leaves no half frame.
+  const std::string tmp = path + ".tmp";
+  std::FILE* out = std::fopen(tmp.c_str(), "wb");
+  if (!out) throw std::runtime_error(path + ": cannot write the frame cache");
+  const bool ok = std::fwrite(depth.data(), 1, depth_bytes, out) == depth_bytes &&
+                  std::fwrite(rgb.data(), 1, rgb_bytes, out) == rgb_bytes;
+  if (std::fclose(out) != 0 || !ok || std::rename(tmp.c_str(), path.c_str()) != 0)
+    throw std::runtime_error(path + ": cannot write the frame cache");
 }
 
 }  // namespace
@@ -54,6 +93,8 @@ int main(int argc, char** argv) try {
     };
     if (a == "--backend") {
       o.backend = next();
+    } else if (a == "--preset") {
+      o.preset = next();
     } else if (a == "--input") {
       o.spec = next();
     } else if (a == "--from") {
@@ -62,6 +103,8 @@ int main(int argc, char** argv) try {
       o.to = std::stoi(next());
     } else if (a == "--map-origin-start") {
       o.true_start = false;
+    } else if (a == "--cache") {
+      o.cache_dir = next();
     } else if (a == "--dump") {
       o.dump_dir = next();
     } else if (a == "--set") {
@@ -73,11 +116,12 @@ int main(int argc, char** argv) try {
       usage(("unknown argument " + a).c_str());
     }
   }
+  if (!o.cache_dir.empty()) std::filesystem::create_directories(o.cache_dir);
   const kfx::io::SyntheticOptions so = kfx::io::parse_synthetic_spec(o.spec);
   const kfx::io::SyntheticScene scene(so);
   auto reader = kfx::io::make_synthetic_reader(o.spec);
   if (o.to < 0) o.to = so.frames - 1;
-  kfx::PipelineConfig config = kfx::make_preset("exact");
+  kfx::PipelineConfig config = kfx::make_preset(o.preset);
   for (const auto& [k, v] : reader->recommended_settings()) kfx::set_config_value(config, k, v);
   for (const auto& [k, v] : o.sets) kfx::set_config_value(config, k, v);
   kfx::Pipeline pipeline(config, scene.intrinsics(), so.width_px, so.height_px,
@@ -98,7 +142,7 @@ int main(int argc, char** argv) try {
       "gt x_m z_m yaw_deg | frame error_cm ex ey ez(camera, cm) inliers iterations | "
       "eigenvalues (per inlier) smallest..largest | weakest (tx ty tz ; wx wy wz, camera)\n");
   for (int f = o.from; f <= o.to; ++f) {
-    scene.render(f, depth, &rgb);
+    render_frame(scene, o, f, depth, rgb);
     const kfx::FrameReport r = pipeline.process(depth, &rgb);  // rgb used when the settings ask
     for (const std::string& w :
          diagnostics.check(f, diagnostics.sample(depth.view()), r.T_world_cam,

@@ -10,6 +10,7 @@
 #include "core/se3.hpp"
 #include "kernels/solve.hpp"
 #include "kernels/tracking_state.hpp"
+#include "kernels/weak_direction.hpp"
 
 namespace kfx {
 
@@ -37,6 +38,9 @@ enum class IcpMotionModel : int {
 /// Settings of begin_tracking.
 struct IcpGuessParams {
   IcpMotionModel motion_model = IcpMotionModel::kOff;
+  /// icp_robust_pin_factor (> 0 with a robust weight; 0 = off): find the previous frame's
+  /// weak direction and the rows that pin it (kernels/weak_direction.hpp).
+  float robust_pin_factor = 0.0f;
 };
 
 /// True when the last two tracked frames were both accepted, so T_world_cam_prev⁻¹ ·
@@ -50,6 +54,11 @@ KFX_HD inline bool velocity_known(const TrackingState& s) { return s.accepted_ru
 /// re-orthonormalised (repeated, the product would multiply float rounding into a scale error
 /// ICP's rigid updates cannot undo). The revert pose stays the last accepted pose, not the guess.
 KFX_HD inline void begin_tracking(TrackingState& s, const IcpGuessParams& p) {
+  if (p.robust_pin_factor > 0.0f) {
+    // From the last frame's final pose and last iteration, before the motion model moves it.
+    s.weak_pin_threshold = weak_direction_pin_threshold(s.accumulator, s.T_world_cam,
+                                                        p.robust_pin_factor, s.weak_direction);
+  }
   s.T_world_cam_before = s.T_world_cam;
   if (p.motion_model == IcpMotionModel::kConstantVelocity && velocity_known(s)) {
     s.T_world_cam =

@@ -56,6 +56,9 @@ struct IcpParams {
   /// > 0: the scale grows with the depth's noise, c = max(robust_scale_m, this · σ(z)), so a
   /// residual the sensor's own noise explains is not down-weighted at far depths (0 = fixed c).
   float robust_scale_noise = 0.0f;
+  /// The robust weight spares the rows that pin the previous frame's weak direction
+  /// (icp_robust_pin_factor > 0; the state's weak_direction and weak_pin_threshold).
+  bool robust_pins = false;
   IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
   /// Floor f of the noise model, metres (0 = none): σ² becomes f² + σ², so near points stop
   /// outweighing far ones once σ(z) < f (the map and the association have errors of their own).
@@ -127,13 +130,17 @@ KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
 /// test): the robust weight of its residual times its noise weight at camera depth `depth_m`.
 /// 1 when both are off. The noise weight is σ(0.4)²/σ(z)², or with a floor f > 0
 /// (f² + σ(0.4)²)/(f² + σ(z)²): 1 at 0.4 m either way, tending to 1 everywhere as f grows.
-KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const IcpParams& p) {
+/// `pinning`: the row pins the weak direction (icp_robust_pin_factor), so its robust weight is 1.
+KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const IcpParams& p,
+                                   bool pinning = false) {
   float w = 1.0f;
   const float r = fabsf(row.error_m);
   float c = p.robust_scale_m;
   if (p.robust_scale_noise > 0.0f)
     c = fmaxf(c, p.robust_scale_noise * kinect_axial_sigma_m(depth_m));
-  if (p.robust == IcpRobust::kHuber) {
+  if (pinning) {
+    // least squares for this row
+  } else if (p.robust == IcpRobust::kHuber) {
     if (r > c) w = c / r;
   } else if (p.robust == IcpRobust::kTukey) {
     const float u = r / c;
@@ -201,8 +208,16 @@ KFX_HD inline void track_sample(int i, int j, const TrackArgs& a, double* acc) {
   const int x = i * a.stride_px, y = j * a.stride_px;
   const TrackRow row = track_pixel(x, y, a);
   const bool weighted = a.robust != IcpRobust::kNone || a.noise_weight != IcpNoiseWeight::kOff;
-  const float fit =
-      weighted && row.outcome == kTrackInlier ? icp_fit_weight(row, a.in_vertex(x, y).z, a) : 1.0f;
+  float fit = 1.0f;
+  if (weighted && row.outcome == kTrackInlier) {
+    bool pinning = false;
+    if (a.robust_pins) {
+      float jw = 0.0f;
+      for (int i = 0; i < 6; ++i) jw += row.jacobian[i] * a.state->weak_direction[i];
+      pinning = jw * jw > a.state->weak_pin_threshold;
+    }
+    fit = icp_fit_weight(row, a.in_vertex(x, y).z, a, pinning);
+  }
   const double sample_weight = static_cast<double>(a.stride_px) * a.stride_px;
   accumulate_row(acc, row, sample_weight, fit, a.fit_weighted_error_sq);
   if (a.outcome.data) a.outcome(x, y) = static_cast<int8_t>(row.outcome);

@@ -51,6 +51,11 @@ struct TrackingState {
   /// device (its allocation would not be the CPU's); the pipeline turns it into an error.
   int map_new_blocks_overflow;
   int intensity_reference;  ///< 1 once T_intensity_world and the reference intensity are set
+  /// icp_robust_pin_factor (kernels/weak_direction.hpp): the previous frame's least-pinned
+  /// direction in the ICP's row coordinates, and the threshold on (j·w)² above which a row pins
+  /// it and keeps full weight this frame (+∞: none does).
+  float weak_direction[6];
+  float weak_pin_threshold;
 };
 
 }  // namespace kfx

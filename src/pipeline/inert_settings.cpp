@@ -52,6 +52,8 @@ const std::vector<Dependency>& dependencies() {
        [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
       {"icp_robust_scale_noise", "icp_robust=huber or tukey", "icp_robust=none",
        [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
+      {"icp_robust_pin_factor", "icp_robust=huber or tukey", "icp_robust=none",
+       [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
       {"icp_noise_floor_m", "icp_noise_weight=nguyen", "icp_noise_weight=off",
        [](const C& c, const std::string&) {
          return c.quality.icp_noise_weight == IcpNoiseWeight::kNguyen;

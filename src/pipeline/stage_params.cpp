@@ -32,6 +32,10 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
     p.pyramid.level_intrinsics[l] = compute_k.scaled_down(static_cast<float>(1 << l));
   }
   p.icp_guess.motion_model = config.quality.icp_motion_model;
+  const bool pins =
+      config.quality.icp_robust != IcpRobust::kNone && config.quality.icp_robust_pin_factor > 0.0f;
+  p.icp_guess.robust_pin_factor = pins ? config.quality.icp_robust_pin_factor : 0.0f;
+  p.icp.robust_pins = pins;
   p.icp.dist_threshold_m = config.tracking.dist_threshold_m;
   p.icp.normal_threshold = config.tracking.normal_threshold;
   p.icp.icp_threshold = config.tracking.icp_threshold;

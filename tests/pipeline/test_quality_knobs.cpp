@@ -111,6 +111,13 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
                                                 "icp_robust_scale_noise=0"})));
   EXPECT_FALSE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
                                                  "icp_robust_scale_noise=2"})));
+  // The weak direction's pins: at 0 Huber's own, bit for bit; without a robust weight nothing to
+  // spare (exact's bits); on, another trajectory.
+  EXPECT_TRUE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
+                                                "icp_robust_pin_factor=0"})));
+  EXPECT_TRUE(identical(exact, trajectory_with({"icp_robust_pin_factor=4"})));
+  EXPECT_FALSE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
+                                                 "icp_robust_pin_factor=1"})));
 }
 
 TEST(QualityKnobs, SettingsAreValidated) {

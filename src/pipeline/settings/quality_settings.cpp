@@ -16,6 +16,8 @@ void check_quality(const PipelineConfig& config) {
             "icp_robust_scale_m must be > 0, got " << quality.icp_robust_scale_m);
   KFX_CHECK(quality.icp_robust_scale_noise >= 0 && std::isfinite(quality.icp_robust_scale_noise),
             "icp_robust_scale_noise must be >= 0, got " << quality.icp_robust_scale_noise);
+  KFX_CHECK(quality.icp_robust_pin_factor >= 0 && std::isfinite(quality.icp_robust_pin_factor),
+            "icp_robust_pin_factor must be >= 0, got " << quality.icp_robust_pin_factor);
   KFX_CHECK(
       std::isfinite(quality.raycast_normal_span_m) && quality.raycast_normal_span_m >= 0,
       "raycast_normal_span_m must be >= 0 (0 = one voxel), got " << quality.raycast_normal_span_m);
@@ -81,6 +83,14 @@ SettingsSection quality_section() {
       "many times the Kinect's depth noise at the point's depth, 0.0012 + 0.0019 (z - 0.4)^2 m: "
       "residuals the sensor's noise explains keep full weight at far depths (0 = off; >= 0)",
       [](C& c) -> float& { return c.quality.icp_robust_scale_noise; }));
+  rows.push_back(number_row(
+      "icp_robust_pin_factor", s,
+      "track: with it > 0, an inlier that pins the direction the previous frame's ICP pinned "
+      "least keeps least squares' weight instead of icp_robust's: one whose row j has (j.w)^2 "
+      "above this many times the mean over the rows, w that direction (the smallest eigenvector "
+      "of the normal matrix about the camera, as the tracking constraint's): a doorway down a "
+      "corridor stops a slide along it (0 = off; >= 0)",
+      [](C& c) -> float& { return c.quality.icp_robust_pin_factor; }));
   rows.push_back(choice_row(
       "icp_noise_weight", s,
       "track: weight each inlier by its depth noise: off | nguyen (1/sigma(z)^2, Kinect "

@@ -16,6 +16,9 @@ struct QualitySettings {
   float icp_robust_scale_m = 0.01f;         ///< robust scale c, point-to-plane metres
   /// > 0: c = max(icp_robust_scale_m, this · σ(z)), σ the Kinect's axial noise; 0 = fixed c.
   float icp_robust_scale_noise = 0.0f;
+  /// > 0: rows that pin the previous frame's weak direction, (j·w)² above this times its mean,
+  /// keep full weight under icp_robust (kernels/weak_direction.hpp); 0 = off.
+  float icp_robust_pin_factor = 0.0f;
   IcpNoiseWeight icp_noise_weight = IcpNoiseWeight::kOff;  ///< off | nguyen (1/σ(z)²)
   float icp_noise_floor_m = 0.0f;  ///< nguyen's floor f: (f² + σ(0.4)²)/(f² + σ(z)²); 0 = none
   /// Accept test: reject a frame whose inliers' summed ICP fit weight / compute pixels is
