@@ -11,9 +11,11 @@
 #include <cmath>
 #include <cstring>
 #include <memory>
+#include <string>
 #include <vector>
 
 #include "backend/backend.hpp"
+#include "backend/memory_budget.hpp"
 #include "kfx/error.hpp"
 #include "support/backend_map_params.hpp"
 
@@ -221,6 +223,26 @@ TEST_P(BackendMaps, AMapThatDoesNotExistOrACallInsideAFrameIsAnError) {
 }
 
 KFX_INSTANTIATE_BACKEND_MAP_TESTS(BackendMaps);
+
+TEST(BackendMapMemory, AnotherMapCostsTheFirstsBudgetAndAMapThatDoesNotFitSaysSo) {
+  const BackendSetup dense = setup_for(MapKind::kDense);
+  EXPECT_EQ(map_bytes(dense), static_cast<uint64_t>(kRes) * kRes * kRes * sizeof(Voxel));
+  BackendSetup blocks = setup_for(MapKind::kBlocks);
+  const uint64_t one_budget = map_bytes(blocks);
+  blocks.block_capacity *= 2;
+  EXPECT_GT(map_bytes(blocks), one_budget) << "each map holds the whole block budget";
+  EXPECT_NO_THROW(check_another_map_fits(dense, 1, map_bytes(dense), "free GPU memory"));
+  EXPECT_NO_THROW(check_another_map_fits(dense, 1, 0, "free GPU memory"));  // 0: unknown
+  try {
+    check_another_map_fits(blocks, 2, map_bytes(blocks) - 1, "free GPU memory");
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    const std::string message = e.what();
+    EXPECT_NE(message.find("another map"), std::string::npos) << message;
+    EXPECT_NE(message.find("holds 2 maps"), std::string::npos) << message;
+    EXPECT_NE(message.find("free GPU memory"), std::string::npos) << message;
+  }
+}
 
 }  // namespace
 }  // namespace kfx
