@@ -114,6 +114,8 @@ struct DebugMaps {
 /// what does depend on them (the frame index, the pose, converged, tracked) is read by the
 /// kernels from the device-side TrackingState. A new shape-dependent choice needs a bit in the
 /// shape (src/pipeline/pipeline.cpp).
+/// The selected map (select_map) is part of what a recording captures (its memory's addresses),
+/// so the CUDA backend records per shape and per map.
 class Backend {
  public:
   virtual ~Backend() = default;
@@ -124,8 +126,27 @@ class Backend {
   /// The GPU's PCI bus id ("0000:19:00.0"), for reading its energy; "" on the CPU.
   virtual std::string device_pci_bus_id() const { return ""; }
 
-  /// Empties the volume (tsdf 1, weight 0) and sets the pose; no reference view yet.
+  /// Empties the selected map (tsdf 1, weight 0; the other maps keep theirs) and sets the pose;
+  /// no reference view yet.
   virtual void reset(const Mat4f& T_world_cam) = 0;
+
+  /// Several maps in one backend (submaps, or a map rebuilt beside the one tracked against).
+  /// The backend starts with one map, map 0, made from its BackendSetup; create_map() adds an
+  /// empty map of the same kind and size (a block map gets BackendSetup::block_capacity blocks
+  /// of its own, so each map costs what the first does) and returns its handle, 1, 2, ...
+  /// without selecting it; it throws kfx::Error when the memory cannot be had. select_map()
+  /// makes a map the one every later stage call acts on (allocate_blocks, integrate, raycast,
+  /// render, extract_mesh, read and upload of the volume, colours or blocks) and throws
+  /// kfx::Error for a handle the backend lacks. Everything else is the backend's and stays as
+  /// it is across a switch: the camera pose and tracking state, the frame's images and the
+  /// reference view of the last raycast (the next frame tracks against it unless a raycast of
+  /// the newly selected map comes first). Call both between frames (not inside begin_frame()
+  /// .. end_frame()); frames already submitted keep the map they were recorded with.
+  virtual int create_map() = 0;
+  virtual void select_map(int map) = 0;
+  /// Maps held (at least 1) and the selected one's handle.
+  virtual int map_count() const = 0;
+  virtual int selected_map() const = 0;
   /// Moves the camera to `T_world_cam` between frames, keeping the map (kernels/camera_move.hpp);
   /// call with no frame in flight.
   virtual void set_pose(const Mat4f& T_world_cam) = 0;

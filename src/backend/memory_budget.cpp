@@ -44,6 +44,14 @@ uint64_t volume_bytes(const BackendSetup& setup) {
   return res * res * res * sizeof(Voxel);
 }
 
+/// A map's colours (setting colour): the dense colour field, or the blocks' colours.
+uint64_t colour_field_bytes(const BackendSetup& setup) {
+  const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
+  return setup.map_kind == MapKind::kBlocks
+             ? setup.block_capacity * (block_bytes(true) - kBytesPerBlock)
+             : res * res * res * sizeof(ColourVoxel);
+}
+
 /// The photometric term's buffers: two float intensity pyramids (under 4/3 of level 0 each)
 /// and, when colour fusion does not hold them already, the colour input and its staging.
 uint64_t photometric_bytes(const BackendSetup& setup) {
@@ -59,15 +67,29 @@ uint64_t photometric_bytes(const BackendSetup& setup) {
 
 uint64_t colour_bytes(const BackendSetup& setup) {
   if (!setup.colour) return 0;
-  const uint64_t res = static_cast<uint64_t>(setup.volume_res_vox);
-  const uint64_t field_bytes = setup.map_kind == MapKind::kBlocks
-                                   ? setup.block_capacity * (block_bytes(true) - kBytesPerBlock)
-                                   : res * res * res * sizeof(ColourVoxel);
+  const uint64_t field_bytes = colour_field_bytes(setup);
   const uint64_t input_px = static_cast<uint64_t>(setup.input_width_px) * setup.input_height_px;
   const uint64_t compute_px =
       static_cast<uint64_t>(setup.compute_width_px()) * setup.compute_height_px();
   // The colour field, the double-buffered colour input and its staging, the colour render.
   return field_bytes + 4 * input_px * sizeof(Rgb8) + compute_px * sizeof(Rgba8);
+}
+
+uint64_t map_bytes(const BackendSetup& setup) {
+  return volume_bytes(setup) + (setup.colour ? colour_field_bytes(setup) : 0);
+}
+
+void check_another_map_fits(const BackendSetup& setup, int maps_held, uint64_t available_bytes,
+                            const std::string& where) {
+  const uint64_t needed = map_bytes(setup);
+  if (available_bytes == 0 || needed <= available_bytes) return;
+  const std::string what =
+      setup.map_kind == MapKind::kBlocks
+          ? "a block map of " + std::to_string(setup.block_capacity) + " blocks (map_budget_mb)"
+          : "a " + std::to_string(setup.volume_res_vox) + "^3 volume";
+  KFX_FAIL("not enough memory for another map: the backend holds "
+           << maps_held << " map" << (maps_held == 1 ? "" : "s") << ", another one, " << what
+           << ", needs " << gib(needed) << ", but " << where << " is " << gib(available_bytes));
 }
 
 uint64_t backend_bytes_needed(const BackendSetup& setup) {

@@ -17,6 +17,16 @@ uint64_t backend_bytes_needed(const BackendSetup& setup);
 /// voxel), the colour input buffers and the colour render; 0 with colour off.
 uint64_t colour_bytes(const BackendSetup& setup);
 
+/// Bytes one map of `setup` holds: the res³ cube, or BackendSetup::block_capacity blocks with
+/// their hash, the GPU's per-frame allocation buffers and its tables; with colour, its colours.
+/// The backend's first map costs this, and so does every Backend::create_map().
+uint64_t map_bytes(const BackendSetup& setup);
+
+/// Throws kfx::Error when another map (map_bytes) exceeds `available_bytes` (0 = unknown: no
+/// check); the message names the maps held already (`maps_held`) and `where`.
+void check_another_map_fits(const BackendSetup& setup, int maps_held, uint64_t available_bytes,
+                            const std::string& where);
+
 /// Bytes the host can still allocate without swapping (MemAvailable in /proc/meminfo); 0 when
 /// unknown.
 uint64_t host_bytes_available();

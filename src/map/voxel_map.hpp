@@ -10,8 +10,8 @@
 /// `Blocks` is the block map of that location (HostBlockMap on the host, the CUDA backend's
 /// DeviceBlockMap on the device): what the two decide differently (allocation on one thread or
 /// thousands) stays theirs; their storage, view and insertion are shared
-/// (map/block_map_store.hpp). A backend holds maps by value, so nothing stops it from holding
-/// several (submaps, or a map being rebuilt beside the one tracked against).
+/// (map/block_map_store.hpp). Nothing in a map refers to its backend, so a backend holds several
+/// (map/map_set.hpp: submaps, or a map being rebuilt beside the one tracked against).
 
 #include <utility>
 

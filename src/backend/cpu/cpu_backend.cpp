@@ -13,6 +13,7 @@
 #include "backend/backend.hpp"
 #include "backend/block_map_mesh.hpp"
 #include "backend/frame_buffers.hpp"
+#include "backend/memory_budget.hpp"
 #include "kernels/block_allocation.hpp"
 #include "kernels/camera_move.hpp"
 #include "kernels/integrate.hpp"
@@ -24,6 +25,7 @@
 #include "kernels/small_depth.hpp"
 #include "kernels/track.hpp"
 #include "map/host_block_map.hpp"
+#include "map/map_set.hpp"
 
 namespace kfx {
 namespace {
@@ -88,7 +90,7 @@ class CpuBackend final : public Backend {
       : setup_(setup),
         input_mm_(setup.input_width_px, setup.input_height_px),
         buffers_(setup),
-        map_(make_host_map(setup)),
+        maps_(make_host_map(setup)),
         row_partials_(static_cast<size_t>(setup.compute_height_px()) * kAccumulatorSize) {
     auto& normals = buffers_.ref_normal.pixels();
     std::fill(normals.begin(), normals.end(), Vec3f{kInvalidNormal, 0, 0});
@@ -100,7 +102,7 @@ class CpuBackend final : public Backend {
   }
 
   void reset(const Mat4f& T_world_cam) override {
-    map_.clear(HostMemory{});
+    map().clear(HostMemory{});
     auto& vertices = buffers_.ref_vertex.pixels();
     std::fill(vertices.begin(), vertices.end(), Vec3f{0, 0, 0});
     state_ = initial_tracking_state(T_world_cam);
@@ -108,6 +110,33 @@ class CpuBackend final : public Backend {
   }
 
   void set_pose(const Mat4f& T_world_cam) override { move_camera(state_, T_world_cam); }
+
+  int create_map() override {
+    KFX_CHECK(!in_frame_, "create_map() inside a frame (between begin_frame and end_frame)");
+    check_another_map_fits(setup_, maps_.count(), host_bytes_available(),
+                           "the host's available memory (MemAvailable in /proc/meminfo)");
+    HostMap map;
+    try {
+      map = make_host_map(setup_);
+    } catch (const std::bad_alloc&) {
+      KFX_FAIL("not enough host memory: another map ("
+               << static_cast<double>(map_bytes(setup_)) / (1024.0 * 1024.0 * 1024.0)
+               << " GiB) could not be allocated");
+    }
+    map.clear(HostMemory{});
+    return maps_.add(std::move(map));
+  }
+
+  void select_map(int handle) override {
+    KFX_CHECK(!in_frame_, "select_map() inside a frame (between begin_frame and end_frame)");
+    maps_.select(handle);
+    // The state's block count is the selected map's, as a frame's allocation leaves it.
+    if (map().kind() == MapKind::kBlocks)
+      state_.map_blocks = map().blocks("select_map()").block_count();
+  }
+
+  int map_count() const override { return maps_.count(); }
+  int selected_map() const override { return maps_.selected(); }
 
   void upload_depth(ImageView<const uint16_t> depth_mm) override {
     check_depth_frame(depth_mm, setup_);
@@ -124,8 +153,9 @@ class CpuBackend final : public Backend {
 
   // The CPU runs each stage as it is called; end_frame() keeps the frame's result until read,
   // so a caller may submit the next frame first (as with the GPU).
-  void begin_frame(int /*shape*/) override {}
+  void begin_frame(int /*shape*/) override { in_frame_ = true; }
   void end_frame() override {
+    in_frame_ = false;
     finished_.push_back(FinishedFrame{state_, stage_ms_, std::move(small_depth_)});
     small_depth_ = HostImage<uint16_t>();
     stage_ms_.fill(0.0);
@@ -216,7 +246,7 @@ class CpuBackend final : public Backend {
   void skip_tracking() override { state_.tracked = 0; }
 
   void allocate_blocks(const IntegrateParams& p, bool always) override {
-    map_.visit([&](auto& storage) { allocate_in(storage, p, always); });
+    map().visit([&](auto& storage) { allocate_in(storage, p, always); });
   }
 
   /// The dense cube holds every voxel already.
@@ -263,7 +293,7 @@ class CpuBackend final : public Backend {
   void integrate(const IntegrateParams& p, bool always) override {
     prepare_integration(state_, always);
     if (!state_.integrate_now) return;
-    map_.visit([&](auto& storage) { integrate_into(storage, p); });
+    map().visit([&](auto& storage) { integrate_into(storage, p); });
   }
 
   /// Integration into the dense cube: every voxel column.
@@ -290,7 +320,7 @@ class CpuBackend final : public Backend {
 
   void raycast(const RaycastParams& p) override {
     set_reference_view(state_, p.k);
-    map_.visit([&](auto& storage) { raycast_map(p, storage.view()); });
+    map().visit([&](auto& storage) { raycast_map(p, storage.view()); });
     neighbour_normals(p);
   }
 
@@ -311,7 +341,7 @@ class CpuBackend final : public Backend {
     const RenderTrackArgs t =
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     for_each_pixel(w, h, [&](int x, int y) { render_track_pixel(x, y, t); });
-    map_.visit([&](auto& storage) {
+    map().visit([&](auto& storage) {
       const auto map = storage.view();
       render_volume(make_render_volume_args(map, buffers_.render_volume.view(), &state_, p));
       if (!setup_.colour) return;
@@ -361,15 +391,15 @@ class CpuBackend final : public Backend {
                    buffers_.render_colour};
   }
   std::vector<Voxel> read_volume() override {
-    const HostMap::Cube& cube = map_.cube("read_volume()");
+    const HostMap::Cube& cube = map().cube("read_volume()");
     return std::vector<Voxel>(cube.voxels.data(), cube.voxels.data() + cube.voxels.size());
   }
   std::vector<ColourVoxel> read_colour_volume() override {
-    return map_.visit([](auto& storage) { return dense_colours(storage); });
+    return map().visit([](auto& storage) { return dense_colours(storage); });
   }
 
   void reserve_mesh_extraction() override {
-    map_.visit([&](auto& storage) { reserve_mesh_extraction_for(storage); });
+    map().visit([&](auto& storage) { reserve_mesh_extraction_for(storage); });
   }
   /// A block map's mesh is sized per call by the blocks in the map.
   void reserve_mesh_extraction_for(HostBlockMap&) {}
@@ -395,7 +425,7 @@ class CpuBackend final : public Backend {
   }
 
   MeshView extract_mesh() override {
-    return map_.visit([&](auto& storage) { return extract_mesh_of(storage); });
+    return map().visit([&](auto& storage) { return extract_mesh_of(storage); });
   }
 
   /// Marching cubes over the block map (kernels/marching_cubes_blocks.hpp).
@@ -464,16 +494,16 @@ class CpuBackend final : public Backend {
   }
 
   void read_blocks_into(BlockMapContents& out) override {
-    map_.blocks("read_blocks()").contents_into(out);
+    map().blocks("read_blocks()").contents_into(out);
   }
   void upload_blocks(const BlockMapContents& contents) override {
-    HostBlockMap& blocks = map_.blocks("upload_blocks()");
+    HostBlockMap& blocks = map().blocks("upload_blocks()");
     blocks.load(contents);
     state_.map_blocks = blocks.block_count();
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
-    const HostMap::Cube& cube = map_.cube("upload_volume()");
+    const HostMap::Cube& cube = map().cube("upload_volume()");
     KFX_CHECK(
         voxels.size() == cube.voxels.size(),
         "volume of " << voxels.size() << " voxels given, the backend holds " << cube.voxels.size());
@@ -484,7 +514,7 @@ class CpuBackend final : public Backend {
 
   void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
     check_colour_volume_upload(colours, setup_);
-    const HostMap::Cube& cube = map_.cube("upload_colour_volume()");
+    const HostMap::Cube& cube = map().cube("upload_colour_volume()");
     check_colour_field_size(colours, cube.colours.size());
     std::copy(colours.begin(), colours.end(), cube.colours.data());
   }
@@ -621,7 +651,11 @@ class CpuBackend final : public Backend {
   HostImage<uint16_t> input_mm_;
   HostImage<Rgb8> input_rgb_;  ///< this frame's colour image (colour or photometric), input size
   FrameBuffers<HostImage, HostArray> buffers_;
-  HostMap map_;  ///< the map: the dense cube or the block map (BackendSetup::map_kind)
+  /// The maps: map 0 from BackendSetup::map_kind, more from create_map(); stages act on the
+  /// selected one, map().
+  MapSet<HostMap> maps_;
+  HostMap& map() { return maps_.current(); }
+  bool in_frame_ = false;  ///< between begin_frame() and end_frame()
   std::vector<double> row_partials_;
   // Mesh extraction (MarchingCubesArgs), allocated on first use.
   std::vector<uint8_t> mesh_brick_signs_;       ///< mc_brick_sign_bits per brick

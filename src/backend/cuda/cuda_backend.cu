@@ -13,6 +13,8 @@
 #include <filesystem>
 #include <iostream>
 #include <map>
+#include <memory>
+#include <utility>
 
 #include "backend/backend.hpp"
 #include "backend/block_map_mesh.hpp"
@@ -22,9 +24,13 @@
 #include "backend/cuda/cuda_memory.hpp"
 #include "backend/cuda/cuda_mesh.hpp"
 #include "backend/frame_buffers.hpp"
+#include "backend/memory_budget.hpp"
 #include "kernels/camera_move.hpp"
+#include "map/map_set.hpp"
 
 namespace kfx {
+
+uint64_t cuda_free_bytes();  // cuda_memory_info.cpp
 
 bool cuda_device_present(std::string* why_not) {
   int count = 0;
@@ -163,8 +169,8 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaMemsetAsync(buffers_.track_outcome.data(), 0, buffers_.track_outcome.bytes(),
                                    stream_.get()));
     state_ = DeviceBuffer<TrackingState>(1);
-    map_ = make_device_map(setup, w * h);
-    map_.clear(DeviceMemory{stream_.get()});
+    maps_ = std::make_unique<MapSet<DeviceMap>>(make_device_map(setup, w * h));
+    map().clear(DeviceMemory{stream_.get()});
     map_grid_ = std::max(1, properties_.multiProcessorCount * kMapBlocksPerSm);
     for (auto& parity : stage_events_) {
       for (auto& stage : parity) {
@@ -195,7 +201,7 @@ class CudaBackend final : public Backend {
 
   void reset(const Mat4f& T_world_cam) override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    map_.clear(DeviceMemory{stream_.get()});
+    map().clear(DeviceMemory{stream_.get()});
     *state_readback_[0].data() = initial_tracking_state(T_world_cam);
     KFX_CUDA_CHECK(cudaMemcpyAsync(state_.data(), state_readback_[0].data(), sizeof(TrackingState),
                                    cudaMemcpyHostToDevice, stream_.get()));
@@ -207,6 +213,31 @@ class CudaBackend final : public Backend {
     pending_.clear();
     frames_submitted_ = 0;
   }
+
+  int create_map() override {
+    KFX_CHECK(!in_frame_, "create_map() inside a frame (between begin_frame and end_frame)");
+    check_another_map_fits(setup_, maps_->count(), cuda_free_bytes(), "free GPU memory");
+    // Allocated outside any recording (cudaMalloc may not run in a capture), cleared in stream
+    // order: frames in flight do not touch the new map.
+    DeviceMap map = make_device_map(setup_, setup_.compute_width_px() * setup_.compute_height_px());
+    map.clear(DeviceMemory{stream_.get()});
+    return maps_->add(std::move(map));
+  }
+
+  void select_map(int handle) override {
+    KFX_CHECK(!in_frame_, "select_map() inside a frame (between begin_frame and end_frame)");
+    maps_->select(handle);
+    // The state's block count is the selected map's, as a frame's allocation leaves it; in
+    // stream order, after the frames in flight (which count their own map).
+    if (map().kind() == MapKind::kBlocks) {
+      KFX_CUDA_CHECK(cudaMemcpyAsync(&state_.data()->map_blocks,
+                                     &map().blocks("select_map()").args().counts->blocks,
+                                     sizeof(int), cudaMemcpyDeviceToDevice, stream_.get()));
+    }
+  }
+
+  int map_count() const override { return maps_->count(); }
+  int selected_map() const override { return maps_->selected(); }
 
   void set_pose(const Mat4f& T_world_cam) override {
     // The readback buffer is free only while no frame's state waits in it.
@@ -242,7 +273,9 @@ class CudaBackend final : public Backend {
 
   void begin_frame(int shape) override {
     KFX_CUDA_CHECK(cudaStreamWaitEvent(stream_.get(), upload_done_[parity_].get(), 0));
-    graph_key_ = shape * 2 + parity_;
+    in_frame_ = true;
+    // A recording captures the selected map's addresses: each map has recordings of its own.
+    graph_key_ = GraphKey{maps_->selected(), shape * 2 + parity_};
     replaying_ = !debug_sync_ && graphs_.count(graph_key_) > 0;
     capturing_ = !debug_sync_ && !replaying_;
     if (capturing_) {
@@ -264,6 +297,7 @@ class CudaBackend final : public Backend {
     }
     if (replaying_) graphs_.at(graph_key_).launch(stream_.get());
     replaying_ = false;
+    in_frame_ = false;
     KFX_CUDA_CHECK(cudaEventRecord(frame_done_[parity_].get(), stream_.get()));
     pending_.push_back(parity_);
     ++frames_submitted_;
@@ -444,7 +478,7 @@ class CudaBackend final : public Backend {
 
   void allocate_blocks(const IntegrateParams& p, bool always) override {
     if (replaying_) return;
-    map_.visit([&](auto& storage) { allocate_in(storage, p, always); });
+    map().visit([&](auto& storage) { allocate_in(storage, p, always); });
   }
 
   /// The dense cube holds every voxel already.
@@ -470,7 +504,7 @@ class CudaBackend final : public Backend {
     const ImageView<const Rgb8> colour_image{
         input_rgb_[parity_].data(), setup_.colour ? setup_.input_width_px : 0,
         setup_.colour ? setup_.input_height_px : 0, setup_.input_width_px};
-    map_.visit([&](auto& storage) { integrate_into(storage, p, colour_image); });
+    map().visit([&](auto& storage) { integrate_into(storage, p, colour_image); });
   }
 
   /// Integration into the block map: the visible blocks, 64 threads each.
@@ -510,7 +544,7 @@ class CudaBackend final : public Backend {
   void raycast(const RaycastParams& p) override {
     if (replaying_) return;
     launch(set_reference_kernel, dim3(1), dim3(1), state_.data(), p.k);
-    map_.visit([&](auto& storage) { raycast_map(p, storage); });
+    map().visit([&](auto& storage) { raycast_map(p, storage); });
   }
 
   template <class Storage>
@@ -559,7 +593,7 @@ class CudaBackend final : public Backend {
         make_render_track_args(buffers_.track_outcome.view(), buffers_.render_track.view(), p);
     launch(pixel_kernel<RenderTrackBody, RenderTrackArgs>, grid_for(w, h, block), block, t, w, h);
     const dim3 ray_block(16, 8);
-    map_.visit([&](auto& storage) {
+    map().visit([&](auto& storage) {
       using Map = decltype(storage.view());
       const Map map = storage.view();
       const RenderVolumeArgsT<Map> v =
@@ -623,11 +657,11 @@ class CudaBackend final : public Backend {
 
   std::vector<ColourVoxel> read_colour_volume() override {
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
-    return map_.visit([&](auto& storage) { return dense_colours(storage); });
+    return map().visit([&](auto& storage) { return dense_colours(storage); });
   }
 
   std::vector<Voxel> read_volume() override {
-    const DeviceMap::Cube& cube = map_.cube("read_volume()");
+    const DeviceMap::Cube& cube = map().cube("read_volume()");
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     std::vector<Voxel> voxels(cube.voxels.size());
     KFX_CUDA_CHECK(
@@ -636,7 +670,7 @@ class CudaBackend final : public Backend {
   }
 
   void reserve_mesh_extraction() override {
-    map_.visit([&](auto& storage) { reserve_mesh_extraction_for(storage); });
+    map().visit([&](auto& storage) { reserve_mesh_extraction_for(storage); });
   }
   /// A block map is meshed on the host, sized per call by the blocks in the map.
   void reserve_mesh_extraction_for(DeviceBlockMap&) {}
@@ -645,7 +679,7 @@ class CudaBackend final : public Backend {
   }
 
   MeshView extract_mesh() override {
-    return map_.visit([&](auto& storage) { return extract_mesh_of(storage); });
+    return map().visit([&](auto& storage) { return extract_mesh_of(storage); });
   }
   /// The host's marching cubes over a host copy of the blocks (block_map_mesh.hpp): the CPU's
   /// bodies and order, so both backends give the same bytes for the same map.
@@ -659,17 +693,17 @@ class CudaBackend final : public Backend {
   }
 
   void read_blocks_into(BlockMapContents& out) override {
-    map_.blocks("read_blocks()").download_into(out, stream_.get());
+    map().blocks("read_blocks()").download_into(out, stream_.get());
   }
 
   void upload_blocks(const BlockMapContents& contents) override {
-    const int count = map_.blocks("upload_blocks()").upload(contents, stream_.get());
+    const int count = map().blocks("upload_blocks()").upload(contents, stream_.get());
     KFX_CUDA_CHECK(
         cudaMemcpy(&state_.data()->map_blocks, &count, sizeof(int), cudaMemcpyHostToDevice));
   }
 
   void upload_volume(const std::vector<Voxel>& voxels) override {
-    const DeviceMap::Cube& cube = map_.cube("upload_volume()");
+    const DeviceMap::Cube& cube = map().cube("upload_volume()");
     KFX_CHECK(
         voxels.size() == cube.voxels.size(),
         "volume of " << voxels.size() << " voxels given, the backend holds " << cube.voxels.size());
@@ -683,7 +717,7 @@ class CudaBackend final : public Backend {
 
   void upload_colour_volume(const std::vector<ColourVoxel>& colours) override {
     check_colour_volume_upload(colours, setup_);
-    const DeviceMap::Cube& cube = map_.cube("upload_colour_volume()");
+    const DeviceMap::Cube& cube = map().cube("upload_colour_volume()");
     check_colour_field_size(colours, cube.colours.size());
     KFX_CUDA_CHECK(cudaStreamSynchronize(stream_.get()));
     KFX_CUDA_CHECK(cudaMemcpy(cube.colours.data(), colours.data(), cube.colours.bytes(),
@@ -793,20 +827,25 @@ class CudaBackend final : public Backend {
   DeviceBuffer<unsigned int> level_barrier_;
   DeviceBuffer<TrackingState> state_;
   MeshExtractor mesh_;  ///< its buffers are allocated on first use
-  /// The map: the dense cube or the block map (BackendSetup::map_kind); the block map's
-  /// grid-stride kernels' grid, and the host mesh of its blocks (grows to the largest so far).
-  DeviceMap map_;
+  /// The maps: map 0 from BackendSetup::map_kind, more from create_map(); stages act on the
+  /// selected one, map(). Then the block map's grid-stride kernels' grid, and the host mesh of
+  /// a block map (grows to the largest so far).
+  std::unique_ptr<MapSet<DeviceMap>> maps_;  ///< made once the stream exists (map 0 is cleared)
+  DeviceMap& map() { return maps_->current(); }
   int map_grid_ = 1;
   std::vector<MeshVertex> block_mesh_vertices_;
   std::vector<MeshTriangle> block_mesh_triangles_;
   std::array<std::array<std::array<std::unique_ptr<Event>, 2>, kStages>, 2> stage_events_;
   std::array<double, kStages> last_stage_ms_{};
   std::array<bool, kStages> stage_timed_{};
-  std::map<int, GraphExec> graphs_;
+  /// A recorded frame: (selected map, shape · 2 + parity).
+  using GraphKey = std::pair<int, int>;
+  std::map<GraphKey, GraphExec> graphs_;
   std::deque<int> pending_;
   int frames_submitted_ = 0;
   int parity_ = 0;
-  int graph_key_ = 0;
+  GraphKey graph_key_{0, 0};
+  bool in_frame_ = false;  ///< between begin_frame() and end_frame()
   bool capturing_ = false;
   bool replaying_ = false;
 };
