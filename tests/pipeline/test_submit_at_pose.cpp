@@ -6,8 +6,10 @@
 #include <gtest/gtest.h>
 
 #include <cstring>
+#include <string>
 #include <vector>
 
+#include "backend/backend.hpp"
 #include "io/reader.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/pipeline.hpp"
@@ -46,10 +48,11 @@ Frames tracked_frames() {
 
 Mesh mesh_of(Pipeline& pipeline) { return Mesh(pipeline.extract_mesh()); }
 
-TEST(SubmitAtPose, FramesInFlightFuseTheSameMapAsFramesCollectedOneByOne) {
+/// On `kind`: one frame collected before the next is placed, then two in flight.
+void fuse_in_flight_and_one_by_one(BackendKind kind) {
   const Frames in = tracked_frames();
   ASSERT_EQ(in.frames.size(), 10u);
-  Pipeline one_by_one(in.config, in.k, in.width, in.height, BackendKind::kCpu);
+  Pipeline one_by_one(in.config, in.k, in.width, in.height, kind);
   for (size_t i = 0; i < in.frames.size(); ++i) {
     one_by_one.submit_at_pose(in.poses[i], in.frames[i].depth_mm.view());
     const FrameReport r = one_by_one.collect();
@@ -57,7 +60,7 @@ TEST(SubmitAtPose, FramesInFlightFuseTheSameMapAsFramesCollectedOneByOne) {
     EXPECT_EQ(std::memcmp(&r.T_world_cam, &in.poses[i], sizeof(Mat4f)), 0) << "frame " << i;
   }
   // Two frames in flight at a time, no view raycast.
-  Pipeline in_flight(in.config, in.k, in.width, in.height, BackendKind::kCpu);
+  Pipeline in_flight(in.config, in.k, in.width, in.height, kind);
   for (size_t i = 0; i < in.frames.size(); ++i) {
     in_flight.submit_at_pose(in.poses[i], in.frames[i].depth_mm.view(), {}, false);
     if (in_flight.frames_in_flight() == 2) {
@@ -75,6 +78,18 @@ TEST(SubmitAtPose, FramesInFlightFuseTheSameMapAsFramesCollectedOneByOne) {
   ASSERT_EQ(a.vertices.size(), b.vertices.size());
   EXPECT_EQ(
       std::memcmp(a.vertices.data(), b.vertices.data(), a.vertices.size() * sizeof(MeshVertex)), 0);
+}
+
+TEST(SubmitAtPose, FramesInFlightFuseTheSameMapAsFramesCollectedOneByOne) {
+  fuse_in_flight_and_one_by_one(BackendKind::kCpu);
+}
+
+// On the GPU the staged pose is copied in stream order and the frame adopts it inside its
+// recorded graph (shape bit 64), replayed for every later frame at a given pose.
+TEST(SubmitAtPose, FramesInFlightFuseTheSameMapAsFramesCollectedOneByOneOnTheGpu) {
+  std::string why_not;
+  if (!cuda_available(&why_not)) GTEST_SKIP() << why_not;
+  fuse_in_flight_and_one_by_one(BackendKind::kCuda);
 }
 
 TEST(SubmitAtPose, TrackedFrameAfterAFrameWithoutViewWaitsForAFreshOne) {
