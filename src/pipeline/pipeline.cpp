@@ -264,8 +264,8 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   report.raycast = (f >= bootstrap - 1 || map_loaded_) &&
                    (f % config_.approx.raycast_rate == 0 || reference_stale_);
   if (pose_given && !given_raycast_view_) {
-    // Nothing needs this frame's view: the reference left behind is another pose's, so a
-    // tracked frame waits for a fresh one (the next frame raycasts first, as after set_pose()).
+    // Nothing needs this frame's view: the reference left behind is another pose's, so the
+    // next frame to be tracked is not; it raycasts a fresh view instead (as after set_pose()).
     report.raycast = false;
     have_reference_ = false;
     reference_stale_ = true;
