@@ -313,13 +313,14 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     acquisition_s_in_flight.push_back(acquisition_s);
     const bool renders_now = pipeline.renders(pipeline.frame_count());
     if (pose != nullptr) {
-      ReconstructionAccess::submit_at_pose(reconstruction, frame, pose_matrix(*pose));
+      // Nothing tracks against a view raycast here: only the cloud reads one, the last pose's.
+      const bool raycast_view = outputs.cloud && pose == &outputs.given_poses.back();
+      ReconstructionAccess::submit_at_pose(reconstruction, frame, pose_matrix(*pose), raycast_view);
     } else {
       ReconstructionAccess::submit(reconstruction, frame);
     }
-    // A rendering frame is collected at once: its renders are read before the next submit; a
-    // frame at a given pose too, as the next is placed with nothing in flight.
-    while (reconstruction.frames_in_flight() > (renders_now || given ? 0 : 1)) {
+    // A rendering frame is collected at once: its renders are read before the next submit.
+    while (reconstruction.frames_in_flight() > (renders_now ? 0 : 1)) {
       finish(reconstruction.collect());
     }
   }
@@ -476,8 +477,17 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     }
   }
   if (outputs.renders) written += " renders/";
+  const std::string& shown_dir = outputs.final_dir.empty() ? out_dir : outputs.final_dir;
+  if (interrupted || InterruptRequests::requested()) {
+    // Outputs the caller was to move into place are dropped with the run (their caller's
+    // cleanup): the earlier ones stay.
+    if (!outputs.final_dir.empty()) {
+      throw Interrupted("interrupted (Ctrl-C) after " + std::to_string(summary.frames) +
+                        " frame(s): nothing replaced in " + shown_dir);
+    }
+  }
   std::cout << summary.one_line() << "\n"
-            << "outputs in " << out_dir << ": " << written << "\n";
+            << "outputs in " << shown_dir << ": " << written << "\n";
   if (interrupted || InterruptRequests::requested()) {
     throw Interrupted("interrupted (Ctrl-C) after " + std::to_string(summary.frames) +
                       " frame(s): the outputs in " + out_dir + " cover the frames done");

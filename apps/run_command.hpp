@@ -15,6 +15,9 @@ namespace kfx::cli {
 /// The outputs beyond the four every run writes, and where the poses come from.
 struct RunOutputs {
   std::string dir;
+  /// Where the outputs end up when the caller moves them from `dir` after the run (messages name
+  /// it); "" = dir itself.
+  std::string final_dir;
   bool mesh = true;          ///< mesh.ply
   bool cloud = false;        ///< cloud.ply
   bool save_volume = false;  ///< volume.kfxtsdf

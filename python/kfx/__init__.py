@@ -211,6 +211,22 @@ class Reconstruction(_Reconstruction):
         else:
             self.submit_array(frame, stamp, depth_scale, colour, input_index)
 
+    def integrate_at(self, frame: Any, pose: Any, colour: Any = None, stamp: float = 0.0,
+                     depth_scale: Optional[float] = None,
+                     input_index: Optional[int] = None) -> FrameResult:
+        """Integrates the next frame at ``pose`` (4x4 float32 or float64, camera to map frame,
+        metres) instead of tracking it: the map becomes the fusion of the frames at the poses
+        given (a trajectory optimised after the run, ground truth). ``frame`` and the other
+        arguments as in process(); the frames in flight are collected first. Raises kfx.Error
+        naming the frame when the pose is not a rigid transform. Returns its FrameResult, whose
+        pose is the one given."""
+        if isinstance(frame, Frame):
+            if colour is not None:
+                raise Error("a kfx.Frame brings its own colour image: give colour= with a "
+                            "depth array only")
+            return self.integrate_frame_at(frame, pose)
+        return self.integrate_array_at(frame, pose, stamp, depth_scale, colour, input_index)
+
     def mesh(self) -> Mesh:
         """The map as a triangle mesh (marching cubes)."""
         return Mesh(*self.mesh_arrays())

@@ -428,6 +428,26 @@ NB_MODULE(_kfx, m) {
           },
           "depth"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(), "colour"_a = nb::none(),
           "input_index"_a = nb::none())
+      .def(
+          "integrate_frame_at",
+          [](kfx::Reconstruction& r, const kfx::SequenceFrame& f, const AnyArray& pose) {
+            const kfx::Pose p = pose_from(pose);
+            nb::gil_scoped_release release;
+            return r.integrate_at(f, p);
+          },
+          "frame"_a, "pose"_a)
+      .def(
+          "integrate_array_at",
+          [](kfx::Reconstruction& r, const AnyArray& depth, const AnyArray& pose, double stamp,
+             std::optional<double> depth_scale, std::optional<AnyArray> colour,
+             std::optional<int> input_index) {
+            const kfx::FrameView v = frame_view(depth, stamp, depth_scale, colour, input_index);
+            const kfx::Pose p = pose_from(pose);
+            nb::gil_scoped_release release;
+            return r.integrate_at(v, p);
+          },
+          "depth"_a, "pose"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(),
+          "colour"_a = nb::none(), "input_index"_a = nb::none())
       .def("collect", &kfx::Reconstruction::collect, nb::call_guard<nb::gil_scoped_release>(),
            "Waits for the oldest submitted frame and returns its FrameResult.")
       .def_prop_ro("frames_in_flight", &kfx::Reconstruction::frames_in_flight,

@@ -42,10 +42,10 @@ struct ReconstructionAccess {
   static const FrameReport& last_report(const Reconstruction& reconstruction);
   /// Submits a frame a reader read (with its colour image, when it has one).
   static void submit(Reconstruction& reconstruction, const io::Frame& frame);
-  /// Submits it at a given pose: not tracked, integrated there (Pipeline::submit_at_pose);
-  /// collects the frames in flight first.
+  /// Submits it at a given pose: not tracked, integrated there (Pipeline::submit_at_pose, whose
+  /// `raycast_view` this is); frames may be in flight.
   static void submit_at_pose(Reconstruction& reconstruction, const io::Frame& frame,
-                             const Mat4f& T_world_cam);
+                             const Mat4f& T_world_cam, bool raycast_view = true);
   /// The volume and depth warnings counted so far, per cause (kfx run's stats.json).
   static const FrameDiagnostics& diagnostics(const Reconstruction& reconstruction);
   /// Turns the renders of Pipeline::set_rendering on; frames that render are collected at once.

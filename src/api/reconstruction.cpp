@@ -151,7 +151,10 @@ struct Reconstruction::Impl {
 
   /// Checks `frame` and submits it. Throws, changing nothing, on a bad frame. `colour_given`:
   /// as colour_view().
-  void submit(const FrameView& frame, bool colour_given, const Mat4f* given_pose = nullptr) {
+  /// `given_pose`: integrated there, not tracked (frames may be in flight: the pose goes with
+  /// the frame); `raycast_view` as Pipeline::submit_at_pose's.
+  void submit(const FrameView& frame, bool colour_given, const Mat4f* given_pose = nullptr,
+              bool raycast_view = true) {
     const std::string label = "frame " + std::to_string(frame_number(frame));
     KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
               label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
@@ -170,11 +173,10 @@ struct Reconstruction::Impl {
     if (given_pose != nullptr) {
       const std::string problem = rigid_transform_problem(*given_pose);
       KFX_CHECK(problem.empty(), label << ": the given pose " << problem);
-      drain();  // the pose is set before the frame, with nothing in flight
     }
     samples_in_flight.push_back(diagnostics->sample(mm));
     if (given_pose != nullptr) {
-      pipeline->submit_at_pose(*given_pose, mm, rgb);
+      pipeline->submit_at_pose(*given_pose, mm, rgb, raycast_view);
     } else {
       pipeline->submit(mm, rgb);
     }
@@ -331,11 +333,13 @@ void Reconstruction::submit(const SequenceFrame& frame) { impl_->submit(frame.vi
 FrameResult Reconstruction::collect() { return impl_->collect(); }
 FrameResult Reconstruction::integrate_at(const FrameView& frame, const Pose& T_world_cam) {
   const Mat4f pose = api::to_mat4f(T_world_cam);
+  impl_->drain();  // the result returned is this frame's
   impl_->submit(frame, true, &pose);
   return impl_->collect();
 }
 FrameResult Reconstruction::integrate_at(const SequenceFrame& frame, const Pose& T_world_cam) {
   const Mat4f pose = api::to_mat4f(T_world_cam);
+  impl_->drain();
   impl_->submit(frame.view(), false, &pose);
   return impl_->collect();
 }
@@ -551,8 +555,8 @@ void ReconstructionAccess::submit(Reconstruction& r, const io::Frame& frame) {
   r.impl_->submit(api::frame_view(frame), false);
 }
 void ReconstructionAccess::submit_at_pose(Reconstruction& r, const io::Frame& frame,
-                                          const Mat4f& T_world_cam) {
-  r.impl_->submit(api::frame_view(frame), false, &T_world_cam);
+                                          const Mat4f& T_world_cam, bool raycast_view) {
+  r.impl_->submit(api::frame_view(frame), false, &T_world_cam, raycast_view);
 }
 const FrameDiagnostics& ReconstructionAccess::diagnostics(const Reconstruction& r) {
   return *r.impl_->diagnostics;

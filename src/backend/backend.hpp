@@ -188,9 +188,10 @@ class Backend {
   /// After read_state(): the small depth image (mm, 0 = none) of the frame it read; empty when
   /// that frame made none. A copy of a few kilobytes the frame already brought back.
   virtual HostImage<uint16_t> read_small_depth() = 0;
-  /// Relocalisation: hands the backend a camera pose for the next frame's adopt_staged_pose(),
-  /// in stream order, so frames may be in flight. Call between upload_depth() and
-  /// begin_frame(), and only for a frame that adopts it.
+  /// Relocalisation's candidate pose, or a frame's given pose (Pipeline::submit_at_pose): hands
+  /// the backend a camera pose for the next frame's adopt_staged_pose(), in stream order, so
+  /// frames may be in flight and the device never waits for the host. Call between
+  /// upload_depth() and begin_frame(), and only for a frame that adopts it.
   virtual void stage_pose(const Mat4f& T_world_cam) = 0;
   /// First in a frame (before preprocess()): moves the camera to the staged pose
   /// (kernels/camera_move.hpp), forgetting the motion history, as set_pose() between frames.

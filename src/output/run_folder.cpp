@@ -52,4 +52,35 @@ void prepare_run_folder(const std::string& dir, bool overwrite) {
   }
 }
 
+void replace_run_outputs(const std::string& staging, const std::string& dir) {
+  std::error_code ec;
+  KFX_CHECK(
+      fs::exists(fs::path(staging) / "stats.json", ec),
+      "'" << staging << "' holds no stats.json: not a complete run to move into '" << dir << "'");
+  // The order of arrival: the raw trajectory first, the mark of completeness last.
+  std::vector<std::string> order = {"odometry.txt"};
+  for (const auto& name : run_output_names()) {
+    if (name != "odometry.txt" && name != "stats.json") order.push_back(name);
+  }
+  order.push_back("stats.json");
+  const auto remove = [&](const fs::path& path) {
+    fs::remove_all(path, ec);
+    KFX_CHECK(!ec, "cannot remove '" << path.string() << "': " << ec.message());
+  };
+  remove(fs::path(dir) / "stats.json");
+  for (const auto& name : order) {
+    const fs::path from = fs::path(staging) / name, to = fs::path(dir) / name;
+    if (!fs::exists(from, ec)) {
+      remove(to);  // not written this time (the earlier run's cloud, say): not this run's
+      continue;
+    }
+    // A file replaces a file in one rename; a folder (renders/) must go first.
+    if (fs::is_directory(to, ec)) remove(to);
+    fs::rename(from, to, ec);
+    KFX_CHECK(!ec,
+              "cannot move '" << from.string() << "' to '" << to.string() << "': " << ec.message());
+  }
+  remove(staging);
+}
+
 }  // namespace kfx::output

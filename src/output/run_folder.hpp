@@ -16,4 +16,13 @@ const std::vector<std::string>& run_output_names();
 /// are removed. Throws kfx::Error naming the folder and the reason.
 void prepare_run_folder(const std::string& dir, bool overwrite);
 
+/// Moves the outputs of a complete run written into `staging` (run_output_names() only) into
+/// `dir`, replacing the earlier run's there, and removes `staging`. Each file arrives by a
+/// rename (same filesystem: `staging` lies inside `dir`), so no output is ever half-written;
+/// dir's stats.json, the mark of a complete run, leaves first and the new one arrives last, and
+/// odometry.txt arrives before trajectory.txt is replaced, so a crash between two renames leaves
+/// no folder that passes for a complete run and never loses the raw trajectory. An earlier
+/// output the new run did not write is removed. Throws kfx::Error naming the file.
+void replace_run_outputs(const std::string& staging, const std::string& dir);
+
 }  // namespace kfx::output

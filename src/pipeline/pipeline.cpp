@@ -202,15 +202,14 @@ FrameReport Pipeline::process(const HostImage<uint16_t>& depth_mm, const HostIma
 }
 
 void Pipeline::submit_at_pose(const Mat4f& T_world_cam, ImageView<const uint16_t> depth_mm,
-                              ImageView<const Rgb8> rgb) {
-  KFX_CHECK(in_flight_.empty(),
-            "Pipeline::submit_at_pose() with frames in flight: collect them first");
-  // Placed like set_pose() but without marking the reference view stale: the frame is not
-  // tracked, so it needs no raycast from its pose (the raycast rate keeps the renders going).
-  backend_->set_pose(T_world_cam);
+                              ImageView<const Rgb8> rgb, bool raycast_view) {
+  // Placed as set_pose() places the camera, but in stream order: submit() stages the pose with
+  // the frame's depth and the frame adopts it first (set_pose() would wait for the device).
   camera_m_ = T_world_cam.translation_part();
   if (frame_ == 0 && !map_loaded_) initial_pose_ = T_world_cam;
   pose_given_ = true;
+  given_pose_ = T_world_cam;
+  given_raycast_view_ = raycast_view;
   submit(depth_mm, rgb);
 }
 
@@ -247,6 +246,7 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
     b.upload_colour(rgb);
   }
   if (plan.attempt) b.stage_pose(plan.T_world_cam);
+  if (pose_given) b.stage_pose(given_pose_);
   // The reference view exists only after the first raycast (end of frame 3 when exact: the
   // bootstrap frames 0..bootstrap_frames−1 are integrated untracked at the first pose).
   const int bootstrap = config_.quality.bootstrap_frames;
@@ -263,6 +263,13 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
                              (always || (f % config_.integration.rate == 0 && !held_out));
   report.raycast = (f >= bootstrap - 1 || map_loaded_) &&
                    (f % config_.approx.raycast_rate == 0 || reference_stale_);
+  if (pose_given && !given_raycast_view_) {
+    // Nothing needs this frame's view: the reference left behind is another pose's, so the
+    // next frame to be tracked is not; it raycasts a fresh view instead (as after set_pose()).
+    report.raycast = false;
+    have_reference_ = false;
+    reference_stale_ = true;
+  }
   if (report.raycast) {
     have_reference_ = true;
     reference_stale_ = false;
@@ -270,9 +277,10 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   // Which stages run depends on the frame number only: the shape names the sequence.
   report.rendered = renders(f);
   const int shape = (track ? 1 : 0) | (may_integrate ? 2 : 0) | (always ? 4 : 0) |
-                    (report.raycast ? 8 : 0) | (report.rendered ? 16 : 0) | (plan.attempt ? 32 : 0);
+                    (report.raycast ? 8 : 0) | (report.rendered ? 16 : 0) |
+                    (plan.attempt ? 32 : 0) | (pose_given ? 64 : 0);
   b.begin_frame(shape);
-  if (plan.attempt) b.adopt_staged_pose();
+  if (plan.attempt || pose_given) b.adopt_staged_pose();
 
   b.begin_stage(Stage::kPreprocess);
   b.preprocess(params_.bilateral);

@@ -92,10 +92,14 @@ class Pipeline {
   void submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb = {});
   /// Submits the next frame at a pose given by the caller (camera to volume frame): it is not
   /// tracked, and it is integrated there whatever the tracking state (a map fused at poses
-  /// known from elsewhere: a finished run's optimised trajectory, ground truth). No frame may
-  /// be in flight (the pose is set before the frame, as set_pose() does). `rgb` as in submit().
+  /// known from elsewhere: a finished run's optimised trajectory, ground truth). Frames may be
+  /// in flight: the pose travels with the frame, in stream order (Backend::stage_pose), so the
+  /// device never waits for the host between frames. `rgb` as in submit().
+  /// `raycast_view`: the frame raycasts its view at the raycast rate (the reference view a
+  /// tracked frame needs, the cloud); false: it raycasts nothing, and the next tracked frame
+  /// starts over from a fresh raycast (as after set_pose()). Renders need no raycast.
   void submit_at_pose(const Mat4f& T_world_cam, ImageView<const uint16_t> depth_mm,
-                      ImageView<const Rgb8> rgb = {});
+                      ImageView<const Rgb8> rgb = {}, bool raycast_view = true);
   /// Waits for the oldest submitted frame and returns its report.
   FrameReport collect();
   /// Turns the renders on or off: when on, every frame f with f % render.rate == 0 renders
@@ -184,6 +188,8 @@ class Pipeline {
   bool reference_stale_ = false;
   /// The frame being submitted was placed by submit_at_pose(): not tracked, always integrated.
   bool pose_given_ = false;
+  Mat4f given_pose_;                ///< its pose
+  bool given_raycast_view_ = true;  ///< its raycast_view
 
   /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
   /// next frame; decided in collect() (swap_due_).

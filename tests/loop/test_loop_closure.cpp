@@ -221,5 +221,54 @@ TEST(LoopClosure, OptimiseAShortRunKeepsItsOdometry) {
   }
 }
 
+std::string file_text(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string((std::istreambuf_iterator<char>(in)), {});
+}
+
+// An optimise whose fusion fails (the run's input truncated after the run: its last frame reads
+// bad) leaves the run folder as it was: the raw trajectory, the statistics and the mesh, no
+// odometry.txt and no staging folder. Once the input is whole again it succeeds in place.
+TEST(LoopClosure, OptimiseWhoseFusionFailsLeavesTheRunAsItWas) {
+  namespace fs = std::filesystem;
+  const io::test::TempDir dir("kfx_optimise_fails");
+  const std::string raw = dir.file("input.raw"), run = dir.folder("run");
+  test::CommandResult r =
+      test::run_kfx("convert \"synthetic:frames=30,width=160,height=120\" " + raw);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::run_kfx("run " + raw + " --backend cpu -q --set volume_resolution=96 -o " + run);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::string trajectory = file_text(run + "/trajectory.txt");
+  const std::string stats = file_text(run + "/stats.json");
+  const std::string mesh = file_text(run + "/mesh.ply");
+  const auto poses = io::read_tum_trajectory(run + "/trajectory.txt");
+  ASSERT_FALSE(poses.empty());
+  const auto whole_size = fs::file_size(raw);
+  fs::copy_file(raw, raw + ".whole");
+  fs::resize_file(raw, whole_size - 100);  // the last frame's colour cut short
+
+  r = test::run_kfx("optimise -q " + run);
+  EXPECT_NE(r.exit_code, 0);
+  EXPECT_NE(r.output.find("truncated"), std::string::npos) << r.output;
+  EXPECT_EQ(file_text(run + "/trajectory.txt"), trajectory);
+  EXPECT_EQ(file_text(run + "/stats.json"), stats);
+  EXPECT_EQ(file_text(run + "/mesh.ply"), mesh);
+  EXPECT_FALSE(fs::exists(run + "/odometry.txt"));
+  EXPECT_FALSE(fs::exists(run + "/.kfx-optimise.partial"));
+
+  fs::remove(raw);
+  fs::rename(raw + ".whole", raw);
+  r = test::run_kfx("optimise -q " + run);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_FALSE(fs::exists(run + "/.kfx-optimise.partial"));
+  // The raw trajectory is kept as odometry.txt (its poses; the header names what it is).
+  const auto odometry = io::read_tum_trajectory(run + "/odometry.txt");
+  ASSERT_EQ(odometry.size(), poses.size());
+  for (size_t i = 0; i < poses.size(); ++i) {
+    EXPECT_EQ(odometry[i].stamp_s, poses[i].stamp_s);
+    for (int c = 0; c < 3; ++c) EXPECT_EQ(odometry[i].t[c], poses[i].t[c]);
+  }
+}
+
 }  // namespace
 }  // namespace kfx

@@ -184,6 +184,48 @@ TEST_F(ReportTest, AnOlderRunsLostFramesAreItsWarningStretches) {
   EXPECT_NE(page.find("\"first_frame\":9,\"frames\":1,\"last_frame\":9"), std::string::npos);
 }
 
+TEST_F(ReportTest, AnOptimisedRunShowsItsOdometryAndLoops) {
+  // A folder as `kfx optimise` leaves it: odometry.txt beside trajectory.txt, and stats.json's
+  // loop_closure. (Made by hand from a short run: the report reads only the folder.)
+  const fs::path out = dir_ / "run";
+  const auto r = test::run_kfx(
+      "run synthetic:frames=6,width=160,height=120 --backend cpu -q -v 64 --no-mesh --no-report "
+      "--out " +
+      out.string());
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const auto without = test::run_kfx("report " + out.string());
+  ASSERT_EQ(without.exit_code, 0) << without.output;
+  EXPECT_EQ(read_text(out / "report.html").find("\"loop_closure\":{"), std::string::npos);
+
+  fs::copy_file(out / "trajectory.txt", out / "odometry.txt");
+  auto stats = nlohmann::json::parse(read_text(out / "stats.json"));
+  stats["loop_closure"] = {{"keyframes", 2},
+                           {"loops_proposed", 1},
+                           {"loops_accepted", 1},
+                           {"loops_rejected_by_verification", 0},
+                           {"loops_rejected_by_pose_graph", 0},
+                           {"odometry_ate_rmse_m", 0.0123},
+                           {"loops",
+                            {{{"from_pose", 0},
+                              {"to_pose", 5},
+                              {"source", "proximity"},
+                              {"verified", true},
+                              {"rejection", ""},
+                              {"inlier_fraction", 0.9},
+                              {"residual_rms_m", 0.004},
+                              {"chi2_initial", 0.2},
+                              {"chi2_final", 0.1},
+                              {"accepted", true}}}}};
+  std::ofstream(out / "stats.json") << stats.dump();
+  const auto report = test::run_kfx("report " + out.string());
+  ASSERT_EQ(report.exit_code, 0) << report.output;
+  const std::string page = read_text(out / "report.html");
+  EXPECT_NE(page.find("\"loop_closure\":{"), std::string::npos);
+  EXPECT_NE(page.find("\"odometry_ate_rmse_m\":0.0123"), std::string::npos);
+  EXPECT_NE(page.find("\"odometry\":{"), std::string::npos);
+  EXPECT_NE(page.find("\"to_pose\":5"), std::string::npos);
+}
+
 TEST_F(ReportTest, ReportOfAFolderThatIsNoRunIsAClearError) {
   const auto r = test::run_kfx("report " + dir_.string());
   EXPECT_NE(r.exit_code, 0);

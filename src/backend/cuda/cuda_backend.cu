@@ -104,6 +104,7 @@ class CudaBackend final : public Backend {
     programmatic_launch_ = setup.cuda.pdl && properties_.major >= 9;
     const int w = setup.compute_width_px(), h = setup.compute_height_px();
     const size_t input_pixels = static_cast<size_t>(setup.input_width_px) * setup.input_height_px;
+    staged_pose_ = DeviceBuffer<Mat4f>(1);
     for (int p = 0; p < 2; ++p) {
       input_mm_[p] = DeviceBuffer<uint16_t>(input_pixels);
       staging_mm_[p] = PinnedBuffer<uint16_t>(input_pixels);
@@ -112,13 +113,13 @@ class CudaBackend final : public Backend {
         const SmallDepthParams small = small_depth_params(w, h);
         small_readback_[p] =
             PinnedBuffer<uint16_t>(static_cast<size_t>(small.width_px) * small.height_px);
-        staged_pose_host_[p] = PinnedBuffer<Mat4f>(1);
         if (p == 0) {  // allocated here: no cudaMalloc may run while a frame is recorded
           small_mean_ = DeviceImage<uint16_t>(small.width_px, small.height_px);
           small_blurred_ = DeviceImage<uint16_t>(small.width_px, small.height_px);
-          staged_pose_ = DeviceBuffer<Mat4f>(1);
         }
       }
+      // A staged pose for relocalisation's attempts and for frames at given poses.
+      staged_pose_host_[p] = PinnedBuffer<Mat4f>(1);
       if (setup.colour || setup.photometric) {
         input_rgb_[p] = DeviceBuffer<Rgb8>(input_pixels);
         staging_rgb_[p] = PinnedBuffer<Rgb8>(input_pixels);
@@ -331,8 +332,6 @@ class CudaBackend final : public Backend {
   }
 
   void stage_pose(const Mat4f& T_world_cam) override {
-    KFX_CHECK(staged_pose_host_[parity_].size() == 1,
-              "stage_pose(): the backend was set up without small_depth (relocalisation)");
     // upload_depth() waited for the frame two back, the last reader of this parity's buffer.
     *staged_pose_host_[parity_].data() = T_world_cam;
     KFX_CUDA_CHECK(cudaMemcpyAsync(staged_pose_.data(), staged_pose_host_[parity_].data(),
@@ -341,7 +340,6 @@ class CudaBackend final : public Backend {
 
   void adopt_staged_pose() override {
     if (replaying_) return;
-    KFX_CHECK(staged_pose_.size() == 1, "adopt_staged_pose() without stage_pose()");
     launch(adopt_pose_kernel, dim3(1), dim3(1), state_.data(),
            static_cast<const Mat4f*>(staged_pose_.data()));
   }

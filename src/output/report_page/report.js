@@ -220,15 +220,54 @@
   var lostIndex = {};
   lost.forEach(function (f) { lostIndex[f] = true; });
   var lostPoints = T.est.filter(function (p, j) { return lostIndex[T.est_frames[j]]; });
+  // A run kfx optimise closed loops over: the raw odometry too, and the accepted loops' ends on it.
+  var O = KFX.odometry, LC = KFX.loop_closure;
+  var loopEnds = [];
+  if (O && LC) {
+    var odometryAt = {};
+    O.est_frames.forEach(function (f, j) { odometryAt[f] = O.est[j]; });
+    (LC.loops || []).forEach(function (l) {
+      if (!l.accepted) return;
+      [l.from_pose, l.to_pose].forEach(function (p) { if (odometryAt[p]) loopEnds.push(odometryAt[p]); });
+    });
+  }
   views.forEach(function (v) {
     var series = [];
     if (T.gt) series.push({ name: "ground truth", x: column(T.gt, v[1]), y: column(T.gt, v[2]), color: "#888" });
-    series.push({ name: "kfx", x: column(T.est, v[1]), y: column(T.est, v[2]), color: "#1f6fd0" });
+    if (O) series.push({ name: "odometry (before loop closure)", x: column(O.est, v[1]), y: column(O.est, v[2]), color: "#f4a261" });
+    if (loopEnds.length) series.push({ name: "accepted loops' ends (odometry)", x: column(loopEnds, v[1]), y: column(loopEnds, v[2]), color: "#2a9d8f", dots: true });
+    series.push({ name: O ? "kfx, loops closed" : "kfx", x: column(T.est, v[1]), y: column(T.est, v[2]), color: "#1f6fd0" });
     if (lostPoints.length) series.push({ name: "tracking failed", x: column(lostPoints, v[1]), y: column(lostPoints, v[2]), color: "#e33", dots: true });
     plot(el("trajectory-plots"), { title: "Trajectory, " + v[0] + " (" + names[v[1]] + ", " + names[v[2]] + ")",
       xlabel: names[v[1]] + " (m, " + T.frame + " frame)", ylabel: names[v[2]] + " (m)" + (v[3] ? ", down" : ""),
       series: series, equal: true, flipY: v[3] });
   });
+
+  // ---- Loop closure (kfx optimise): the counts, the ATE before and after, every loop ----
+  if (LC) {
+    var lc = ["<h2>Loop closure</h2>", '<table class="summary">'];
+    var lcRows = [["keyframes", LC.keyframes], ["loops proposed", LC.loops_proposed],
+      ["loops accepted", LC.loops_accepted],
+      ["rejected by verification", LC.loops_rejected_by_verification],
+      ["rejected by the pose graph", LC.loops_rejected_by_pose_graph],
+      ["ATE RMSE before (odometry)", LC.odometry_ate_rmse_m === undefined ? "—" : fixed(100 * LC.odometry_ate_rmse_m, 2) + " cm"],
+      ["ATE RMSE after", S.ate_rmse_m === undefined ? "—" : fixed(100 * S.ate_rmse_m, 2) + " cm"]];
+    lcRows.forEach(function (r) { lc.push("<tr><th>" + text(r[0]) + "</th><td>" + text(r[1]) + "</td></tr>"); });
+    lc.push("</table>");
+    if ((LC.loops || []).length) {
+      lc.push('<table class="summary"><tr><th>from pose</th><th>to pose</th><th>source</th><th>verified</th>' +
+              "<th>inliers</th><th>residual (mm)</th><th>χ² before</th><th>χ² after</th><th>accepted</th></tr>");
+      LC.loops.forEach(function (l) {
+        lc.push("<tr>" + [l.from_pose, l.to_pose, l.source, l.verified ? "yes" : "no: " + l.rejection,
+          fixed(100 * l.inlier_fraction, 0) + " %", fixed(1000 * l.residual_rms_m, 1),
+          fixed(l.chi2_initial, 2), fixed(l.chi2_final, 2), l.accepted ? "yes" : "no"].map(function (c) {
+          return "<td>" + text(c) + "</td>";
+        }).join("") + "</tr>");
+      });
+      lc.push("</table>");
+    }
+    el("loop-closure").innerHTML = lc.join("");
+  }
 
   // ---- Per-frame plots: translational error, stage times; lost frames as red lines ----
   if (T.errors_m) {
