@@ -35,8 +35,9 @@ void Relocaliser::reset() {
   candidates_.clear();
   candidate_ids_.clear();
   failed_ids_.clear();
-  last_code_.clear();
+  last_view_code_.clear();
   view_jumped_ = false;
+  lost_from_frame_ = 0;
   attempt_ids_.clear();
   pending_attempt_id_ = -2;
   attempts_in_flight_ = 0;
@@ -49,6 +50,8 @@ void Relocaliser::reset() {
 }
 
 void Relocaliser::trust_pose(const Mat4f& T_world_cam) {
+  // The camera was put elsewhere on purpose: the next view is no jump.
+  last_view_code_.clear();
   mode_ = Mode::kTracking;
   last_good_pose_ = T_world_cam;
   candidates_.clear();
@@ -72,6 +75,8 @@ void Relocaliser::adopt_keyframes(std::optional<KeyframeDatabase> keyframes) {
 }
 
 void Relocaliser::start_lost(const Mat4f& T_world_cam) {
+  last_view_code_.clear();
+  view_jumped_ = false;
   mode_ = Mode::kLost;
   last_good_pose_ = T_world_cam;
   candidates_.assign(1, T_world_cam);
@@ -79,6 +84,34 @@ void Relocaliser::start_lost(const Mat4f& T_world_cam) {
   failed_ids_.clear();
   lost_frames_ = 0;
   verified_ = 0;
+  lost_from_frame_ = 0;
+}
+
+bool Relocaliser::submitted_view(int frame, ImageView<const uint16_t> small_mm, bool placed) {
+  const auto start = std::chrono::steady_clock::now();
+  std::vector<uint8_t> code = db_.encode(small_mm);
+  bool view_jump = false;
+  if (last_view_code_.size() == code.size()) {
+    int differ = 0;
+    for (size_t i = 0; i < code.size(); ++i) differ += code[i] != last_view_code_[i];
+    view_jump = differ > settings_.view_jump_dissimilarity * static_cast<float>(code.size());
+  }
+  // Only a tracking camera turns lost here: a lost or verifying one tries candidates anyway.
+  const bool lost_now = view_jump && !placed && mode_ == Mode::kTracking;
+  if (lost_now) {
+    // The last good pose is where the camera no longer is; the frames before this one, still in
+    // flight, were tracked and integrated as usual and are collected as such.
+    mode_ = Mode::kLost;
+    view_jumped_ = true;
+    lost_from_frame_ = frame;
+    lost_frames_ = kLastPoseFirstFrames + 1;
+    failed_ids_.clear();
+    choose_candidates(code);
+  }
+  last_view_code_ = std::move(code);
+  host_ms_ +=
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  return lost_now;
 }
 
 RelocaliserPlan Relocaliser::plan() {
@@ -117,25 +150,16 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
   std::vector<uint8_t> code;
   if (frame.small_mm.data != nullptr) code = db_.encode(frame.small_mm);
   bool found = false;
-  bool view_jump = false;
-  if (!code.empty() && last_code_.size() == code.size()) {
-    int differ = 0;
-    for (size_t i = 0; i < code.size(); ++i) differ += code[i] != last_code_[i];
-    view_jump = differ > settings_.view_jump_dissimilarity * static_cast<float>(code.size());
-  }
-  if (!code.empty()) last_code_ = code;
-  switch (mode_) {
+  // A frame submitted before the view jump that made the camera lost: it tracked (or not) in
+  // the old view, and the loss's candidates belong to the new one.
+  const bool before_jump = mode_ == Mode::kLost && view_jumped_ && frame.frame < lost_from_frame_;
+  switch (before_jump ? Mode::kTracking : mode_) {
     case Mode::kTracking:
-      if (frame.tracked && view_jump) {
-        // Tracked, but the view jumped: the pose may be a wrong minimum that passed the accept
-        // test, and the last good pose is where the camera no longer is.
-        mode_ = Mode::kLost;
-        view_jumped_ = true;
-        lost_frames_ = kLastPoseFirstFrames + 1;
-        failed_ids_.clear();
-        choose_candidates(code);
+      if (before_jump) {
+        if (frame.tracked && frame.good && !code.empty()) harvest(frame, code);
       } else if (frame.tracking_ran && !frame.tracked) {
         mode_ = Mode::kLost;
+        lost_from_frame_ = frame.frame;
         lost_frames_ = 1;
         failed_ids_.clear();
         if (!code.empty()) choose_candidates(code);

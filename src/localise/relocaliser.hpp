@@ -38,10 +38,11 @@ struct RelocaliserSettings {
   /// camera makes in a frame, so the accepted pose is not trusted.
   float verify_max_step_m = 0.10f;
   float verify_max_step_deg = 10.0f;
-  /// A tracked frame whose code differs from the last frame's in more than this share of
-  /// ferns is a view jump (frames missing, the camera moved while covered): the accept test
-  /// can pass there at a wrong pose, so the camera counts as lost and only candidates from
-  /// keyframes that look like the new view are tried. Measured (bench/RESULTS.md,
+  /// A frame whose code (of its input depth, before it is submitted: submitted_view()) differs
+  /// from the last submitted frame's in more than this share of ferns is a view jump (frames
+  /// missing, the camera moved while covered): the accept test can pass there at a wrong pose,
+  /// so a tracking camera counts as lost from that frame on, before it is integrated, and only
+  /// candidates from keyframes that look like the new view are tried. Measured (bench/RESULTS.md,
   /// "Relocalisation"): up to 0.13 between tum_fr1_xyz's frames, 0.34 on tum_fr1_rpy's fast
   /// turns, 0.43 at a 48 cm, 26° cut.
   float view_jump_dissimilarity = 0.4f;
@@ -94,6 +95,11 @@ class Relocaliser {
   /// candidate.
   void start_lost(const Mat4f& T_world_cam);
 
+  /// Takes in the small image of frame `frame`'s input depth (input_small_depth.hpp) before the
+  /// frame is planned and submitted; true when it is a view jump that made the camera lost.
+  /// `placed`: the frame is put at a given pose (never lost; its view is still the next one's
+  /// reference).
+  bool submitted_view(int frame, ImageView<const uint16_t> small_mm, bool placed = false);
   /// Decides the next submitted frame; `frames_in_flight`: attempts already submitted and not
   /// collected make it wait (the pose they reach is not known yet).
   RelocaliserPlan plan();
@@ -102,6 +108,9 @@ class Relocaliser {
 
   /// True until a lost camera is found again (integration stops meanwhile).
   bool lost() const { return mode_ != Mode::kTracking; }
+  /// Whether collected frame `frame` belongs to the loss: false for frames submitted before a
+  /// view jump that made the camera lost (they were tracked and integrated as usual).
+  bool lost_at(int frame) const { return lost() && frame >= lost_from_frame_; }
   bool can_relocalise() const { return can_relocalise_; }
   const KeyframeDatabase& keyframes() const { return db_; }
   RelocaliserFigures figures() const;
@@ -115,13 +124,14 @@ class Relocaliser {
   KeyframeDatabase db_;
   Mode mode_ = Mode::kTracking;
   Mat4f last_good_pose_;
-  std::vector<Mat4f> candidates_;   ///< poses to try, best first
-  std::vector<int> candidate_ids_;  ///< their keyframes (−1: the last good pose)
-  std::vector<int> failed_ids_;     ///< candidates tried since the view last changed
-  std::vector<uint8_t> last_code_;  ///< the last observed frame's code
-  bool view_jumped_ = false;        ///< lost at a view jump: the last good pose is suspect
-  int pending_attempt_id_ = -2;     ///< the candidate of the last attempt planned
-  std::vector<int> attempt_ids_;    ///< the candidates of the attempts in flight, in order
+  std::vector<Mat4f> candidates_;        ///< poses to try, best first
+  std::vector<int> candidate_ids_;       ///< their keyframes (−1: the last good pose)
+  std::vector<int> failed_ids_;          ///< candidates tried since the view last changed
+  std::vector<uint8_t> last_view_code_;  ///< the last submitted frame's input-depth code
+  bool view_jumped_ = false;             ///< lost at a view jump: the last good pose is suspect
+  int lost_from_frame_ = 0;  ///< the view jump's frame: frames before it are not part of the loss
+  int pending_attempt_id_ = -2;   ///< the candidate of the last attempt planned
+  std::vector<int> attempt_ids_;  ///< the candidates of the attempts in flight, in order
   int attempts_in_flight_ = 0;
   int lost_frames_ = 0;  ///< lost frames collected since the loss
   int verified_ = 0;     ///< accepted frames in the verification so far

@@ -54,6 +54,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
     r.fern_count = config_.tracking.relocalise_ferns;
     r.keyframe_capacity = config_.tracking.relocalise_keyframes;
     relocaliser_ = Relocaliser(r, small_params_.width_px, small_params_.height_px);
+    input_small_ = InputSmallDepth(small_params_, ratio);
   }
   const LensDistortion& distortion = config_.input.distortion;
   if (config_.quality.depth_undistortion && !distortion.none()) {
@@ -225,7 +226,10 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
   report.index = f;
   // Before anything of the frame: a lost camera's next candidate pose, and whether the frame
   // may be integrated (not until the relocaliser has found the camera).
-  // A frame at a given pose is placed, never searched for.
+  // A frame at a given pose is placed, never searched for. A view jump is seen here, on the
+  // host from the input depth, so that the frame of the jump is neither integrated nor tracked
+  // from the old pose but is already an attempt from the keyframes.
+  if (relocalise_) relocaliser_.submitted_view(f, input_small_.make(depth_mm), pose_given);
   const RelocaliserPlan plan = relocalise_ && !pose_given ? relocaliser_.plan() : RelocaliserPlan{};
   report.relocalisation_attempt = plan.attempt;
   if (swap_due_) {
@@ -413,7 +417,7 @@ FrameReport Pipeline::collect() {
     o.small_mm = small.view();
     report.relocalised = relocaliser_.observe(o);
     // Until it is found, a lost camera stays lost, tracked frames or not (they verify).
-    if (relocaliser_.lost()) report.quality = TrackingQuality::kLost;
+    if (relocaliser_.lost_at(report.index)) report.quality = TrackingQuality::kLost;
   }
   for (Stage s : {Stage::kPreprocess, Stage::kTrack, Stage::kIntegrate, Stage::kRaycast}) {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
