@@ -20,6 +20,9 @@
 #include "pipeline/config.hpp"
 #include "run_command.hpp"
 #ifdef KFX_HAVE_LOOP
+#include "kernels/small_depth.hpp"
+#include "localise/input_small_depth.hpp"
+#include "loop/appearance_candidates.hpp"
 #include "loop/offline_closure.hpp"
 #endif
 
@@ -98,6 +101,72 @@ nlohmann::json read_stats(const std::string& path) {
   return stats;
 }
 
+/// The depth of the frames posed at `poses` (sorted indices into `stamped`), read in one pass
+/// over `options.input`'s `reader`; a pose whose frame the input does not yield is an error
+/// naming the input, and so is a bad frame unless the run skipped bad frames.
+std::map<int, HostImage<uint16_t>> read_depth_of_poses(io::Reader& reader,
+                                                       const std::vector<io::StampedPose>& stamped,
+                                                       const std::vector<int>& poses,
+                                                       const RunOptions& options,
+                                                       const std::string& trajectory_path) {
+  const std::string& input = options.input;
+  std::map<int, HostImage<uint16_t>> depth_of_pose;
+  size_t next = 0;
+  io::Frame frame;
+  while (next < poses.size()) {
+    const io::ReadResult read = reader.next(frame);
+    if (read.status == io::ReadStatus::kEnd) break;
+    if (read.status == io::ReadStatus::kBadFrame) {
+      KFX_CHECK(options.skip_bad_frames, read.message);
+      continue;
+    }
+    while (next < poses.size() &&
+           stamped[poses[next]].stamp_s < frame.stamp_s - kGivenPoseStampToleranceS) {
+      ++next;  // a pose whose frame the input no longer yields: its depth is missing
+    }
+    if (next < poses.size() &&
+        std::abs(stamped[poses[next]].stamp_s - frame.stamp_s) <= kGivenPoseStampToleranceS) {
+      depth_of_pose.emplace(poses[next], frame.depth_mm);
+      ++next;
+    }
+  }
+  for (int i : poses) {
+    KFX_CHECK(depth_of_pose.count(i) > 0, input << ": no frame stamped " << stamped[i].stamp_s
+                                                << " s (pose " << i << " of " << trajectory_path
+                                                << "): is this the run's input?");
+  }
+  return depth_of_pose;
+}
+
+/// Loop candidates by appearance: one pass over the input makes every keyframe's small depth
+/// image (the relocaliser's, from the input depth at the compute size), whose fern codes pair
+/// the keyframes that look alike.
+std::vector<loop::LoopCandidate> appearance_candidates(const RunOptions& options,
+                                                       const std::vector<io::StampedPose>& stamped,
+                                                       const std::vector<int>& keyframes,
+                                                       const loop::AppearanceOptions& appearance,
+                                                       const std::string& trajectory_path) {
+  PreparedRun prepared = prepare_run(options);
+  io::Reader& reader = *prepared.reader;
+  const int ratio = prepared.config.input.compute_size_ratio;
+  const SmallDepthParams params =
+      small_depth_params(reader.width_px() / ratio, reader.height_px() / ratio);
+  InputSmallDepth maker(params, ratio);
+  std::map<int, HostImage<uint16_t>> depth =
+      read_depth_of_poses(reader, stamped, keyframes, options, trajectory_path);
+  std::vector<HostImage<uint16_t>> small;
+  for (int pose : keyframes) {
+    const ImageView<const uint16_t> made = maker.make(depth.at(pose).view());
+    HostImage<uint16_t> copy(made.width, made.height);
+    for (int y = 0; y < made.height; ++y) {
+      for (int x = 0; x < made.width; ++x) copy(x, y) = made(x, y);
+    }
+    small.push_back(std::move(copy));
+    depth.erase(pose);
+  }
+  return loop::propose_by_appearance(small, keyframes, appearance);
+}
+
 /// The run's options, as its stats.json records them: every setting written out.
 RunOptions options_of_run(const nlohmann::json& stats, const std::string& stats_path,
                           const std::string& backend, bool quiet) {
@@ -150,40 +219,25 @@ void optimise(const OptimiseOptions& opt) {
   for (const auto& p : stamped) odometry.push_back(to_pose3d(p));
   loop::OfflineClosureOptions closure;
   if (opt.keyframe_gap > 0) closure.keyframes.max_gap_frames = opt.keyframe_gap;
-  if (opt.loop_min_gap > 0) closure.proximity.min_frame_gap = opt.loop_min_gap;
-  const loop::ClosurePlan plan = loop::plan_closure(odometry, closure);
+  if (opt.loop_min_gap > 0) {
+    closure.proximity.min_frame_gap = opt.loop_min_gap;
+    closure.appearance.min_frame_gap = opt.loop_min_gap;
+  }
+  const std::vector<loop::LoopCandidate> by_appearance =
+      appearance_candidates(options, stamped, loop::select_keyframes(odometry, closure.keyframes),
+                            closure.appearance, odometry_path);
+  const loop::ClosurePlan plan = loop::plan_closure(odometry, closure, by_appearance);
   std::cerr << "kfx optimise: " << odometry.size() << " poses, " << plan.keyframes.size()
-            << " keyframes, " << plan.candidates.size() << " loop candidate(s)\n";
+            << " keyframes, " << plan.candidates.size() << " loop candidate(s) ("
+            << by_appearance.size() << " by appearance)\n";
 
   // One pass over the input keeps the depth of the poses the verification reads.
   loop::OfflineClosureResult result;
   {
     PreparedRun prepared = prepare_run(options);
     io::Reader& reader = *prepared.reader;
-    std::vector<io::StampedPose> needed;  // sorted by stamp, as the poses are
-    for (int i : plan.poses_needed) needed.push_back(stamped[i]);
-    std::map<int, HostImage<uint16_t>> depth_of_pose;
-    size_t next = 0;
-    io::Frame frame;
-    while (next < needed.size()) {
-      const io::ReadResult read = reader.next(frame);
-      if (read.status == io::ReadStatus::kEnd) break;
-      if (read.status == io::ReadStatus::kBadFrame) continue;
-      while (next < needed.size() &&
-             needed[next].stamp_s < frame.stamp_s - kGivenPoseStampToleranceS) {
-        ++next;  // a pose whose frame the input no longer yields: its depth is missing
-      }
-      if (next < needed.size() &&
-          std::abs(needed[next].stamp_s - frame.stamp_s) <= kGivenPoseStampToleranceS) {
-        depth_of_pose.emplace(plan.poses_needed[next], frame.depth_mm);
-        ++next;
-      }
-    }
-    for (int i : plan.poses_needed) {
-      KFX_CHECK(depth_of_pose.count(i) > 0,
-                options.input << ": no frame stamped " << stamped[i].stamp_s << " s (pose " << i
-                              << " of " << odometry_path << "): is this the run's input?");
-    }
+    const std::map<int, HostImage<uint16_t>> depth_of_pose =
+        read_depth_of_poses(reader, stamped, plan.poses_needed, options, odometry_path);
     loop::LoopVerifier verifier(prepared.config, prepared.input_intrinsics, reader.width_px(),
                                 reader.height_px(), prepared.backend);
     result = loop::close_loops(

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "loop/appearance_candidates.hpp"
 #include "loop/keyframes.hpp"
 #include "loop/loop_candidates.hpp"
 #include "loop/loop_verifier.hpp"
@@ -19,6 +20,8 @@ namespace kfx::loop {
 struct OfflineClosureOptions {
   KeyframeOptions keyframes;
   ProximityOptions proximity;
+  /// For the caller that proposes candidates by appearance too (kfx optimise does).
+  AppearanceOptions appearance;
   VerifyOptions verify;
   PoseGraphOptions graph;
   /// The older keyframe's map: its pose and this many poses on either side of it.
