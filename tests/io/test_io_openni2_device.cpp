@@ -9,7 +9,7 @@
 #include "io/reader.hpp"
 #include "support/io_test_support.hpp"
 
-namespace kfx::io {
+namespace kfx::io::test {
 namespace {
 
 TEST(OpenNI2Device, ADeviceThatIsNotThereIsNamed) {
@@ -36,4 +36,4 @@ TEST(OpenNI2Device, OptionsAreCheckedBeforeAnyDeviceIsOpened) {
 }
 
 }  // namespace
-}  // namespace kfx::io
+}  // namespace kfx::io::test
