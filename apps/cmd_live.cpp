@@ -25,7 +25,8 @@ constexpr const char* kBootstrap =
     "    import kfx.live\n"
     "except ImportError as e:\n"
     "    sys.exit('kfx live: error: ' + sys.executable + ' cannot import the kfx Python package ('"
-    " + str(e) + '); install it (pip install kfx[realsense]) or set KFX_PYTHON to a Python '"
+    " + str(e) + '); install it (pip install kfx, or kfx[realsense] for a RealSense camera) '"
+    "'or set KFX_PYTHON to a Python '"
     "'that has it')\n"
     "sys.exit(kfx.live.main(sys.argv[1:]))\n";
 
