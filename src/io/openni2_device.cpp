@@ -67,10 +67,11 @@ using openni2::last_error;
 
 /// How long the first frame may take: a camera starts its streams, a player opens its file.
 constexpr int kFirstFrameTimeoutMs = 5000;
-/// How long a running device may go without a depth frame before it counts as stalled (a
-/// camera unplugged); a recording played at its pace has ended when its player falls silent
-/// this long.
+/// How long a running camera may go without a depth frame before it counts as stalled (a
+/// camera unplugged).
 constexpr int kStallTimeoutMs = 2000;
+/// A recording played at its pace has ended when its player falls silent this long (its last
+/// frames came while the reader was busy).
 constexpr int kPlayerSilentMs = 1000;
 /// Long enough for a player to finish handing over a frame (microseconds of work, but its
 /// thread may wait for a core on a busy machine).
@@ -89,9 +90,10 @@ std::string devices_found() {
   return text.str();
 }
 
-/// The video mode kfx asks a camera for: 640×480 at 30 Hz where the sensor has it, in `format`
-/// (or, for depth, any format kfx reads); the sensor's current mode when it is such a one
-/// already and no better is listed; `fallback` when the sensor lists none that fits.
+/// The video mode kfx asks a camera's sensor for: 640×480 at 30 Hz (depth in millimetres,
+/// colour RGB888) where it lists that; else `fallback` (its current mode) when kfx reads that
+/// one, else the first listed mode kfx reads, else `fallback` (the caller's checks then say
+/// what kfx cannot read).
 openni::VideoMode choose_mode(const openni::SensorInfo& sensor, bool depth,
                               const openni::VideoMode& fallback) {
   const auto usable = [depth](const openni::VideoMode& mode) {
@@ -180,9 +182,10 @@ class OpenNI2DeviceReader : public Reader {
 
   ~OpenNI2DeviceReader() override {
     if (playback_) {
-      // A player closed while it hands a frame over crashes in libOniFile (seen when kfx live
-      // stopped mid-recording under load). Frame by frame, it hands over none unasked: it
-      // finishes the frame in hand, then waits.
+      // A player closed at once after its reader stopped crashed in libOniFile, in its own
+      // thread handing a frame over (kfx live stopped mid-recording on a busy machine: about
+      // one stop in two). Put frame by frame, it hands over none unasked, and given a moment
+      // to finish the one it may be handing over, it did not crash in 16 stops.
       playback_->setSpeed(-1.0f);
       std::this_thread::sleep_for(kPlayerSettleTime);
     }
