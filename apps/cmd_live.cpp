@@ -1,6 +1,8 @@
-/// `kfx live --out DIR [...]`: live reconstruction from a RealSense camera. The camera is
-/// reached through pyrealsense2 (librealsense is not packaged here), so this hands over to the
-/// Python package (`python -m kfx.live`, same arguments), naming what is missing when it cannot.
+/// `kfx live --out DIR [...]`: live reconstruction from a RealSense camera or an OpenNI2 device.
+/// A RealSense camera is reached through pyrealsense2 (librealsense is not packaged here), an
+/// OpenNI2 device through the library's `openni2:` input; the frame queue, the drops and the
+/// clean stop are the Python package's, so this hands over to it (`python -m kfx.live`, same
+/// arguments), naming what is missing when it cannot.
 
 #include <unistd.h>
 
@@ -23,7 +25,8 @@ constexpr const char* kBootstrap =
     "    import kfx.live\n"
     "except ImportError as e:\n"
     "    sys.exit('kfx live: error: ' + sys.executable + ' cannot import the kfx Python package ('"
-    " + str(e) + '); install it (pip install kfx[realsense]) or set KFX_PYTHON to a Python '"
+    " + str(e) + '); install it (pip install kfx, or kfx[realsense] for a RealSense camera) '"
+    "'or set KFX_PYTHON to a Python '"
     "'that has it')\n"
     "sys.exit(kfx.live.main(sys.argv[1:]))\n";
 
@@ -32,9 +35,9 @@ constexpr const char* kBootstrap =
 void add_live_command(CLI::App& app) {
   CLI::App* command = app.add_subcommand(
       "live",
-      "reconstruct live from a RealSense camera, or a RealSense recording played at its pace "
-      "(--from-file), until Ctrl-C; runs the Python package's kfx.live (pyrealsense2): "
-      "`kfx live --help` lists its options");
+      "reconstruct live from a RealSense camera (pyrealsense2) or an OpenNI2 device (--openni "
+      "[URI]), or a recording played at its pace (--from-file REC, --openni FILE.oni), until "
+      "Ctrl-C; runs the Python package's kfx.live: `kfx live --help` lists its options");
   // Every argument, --help included, belongs to kfx.live.
   command->prefix_command();
   command->set_help_flag();

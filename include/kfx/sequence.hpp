@@ -14,6 +14,10 @@
 
 namespace kfx {
 
+/// True when this kfx was built with OpenNI2 (Debian's libopenni2-dev), which reads `.oni`
+/// recordings and OpenNI2 devices (`openni2:` inputs); false where those inputs say it was not.
+bool has_openni2();
+
 /// One frame as a sequence read it. The depth is in millimetres (uint16, 0 = no measurement).
 struct SequenceFrame {
   int index = 0;         ///< position in the sequence, from 0

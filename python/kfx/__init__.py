@@ -29,6 +29,7 @@ from ._kfx import (
     ReadStatus,
     Settings,
     has_cuda,
+    has_openni2,
     presets,
     settings_table,
     version,
@@ -38,8 +39,8 @@ from ._kfx import _Reconstruction
 
 __all__ = [
     "Camera", "Error", "Frame", "FrameResult", "Mesh", "PointCloud", "Reconstruction",
-    "Sequence", "Settings", "has_cuda", "make_settings", "open", "presets", "settings_table",
-    "to_open3d", "version",
+    "Sequence", "Settings", "has_cuda", "has_openni2", "make_settings", "open", "presets",
+    "settings_table", "to_open3d", "version",
 ]
 __version__ = version()
 

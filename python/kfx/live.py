@@ -1,5 +1,7 @@
-"""Live reconstruction from a RealSense camera (``pyrealsense2``, ``pip install kfx[realsense]``),
-or from a RealSense recording played back at the camera's pace standing in for one.
+"""Live reconstruction from a RealSense camera (``pyrealsense2``, ``pip install kfx[realsense]``)
+or an OpenNI2 device (the library's ``openni2:`` input: Kinect v1, Xtion, Orbbec; kfx built with
+OpenNI2), or from a recording played back at the camera's pace standing in for one (a RealSense
+recording, or an OpenNI2 ``.oni`` that OpenNI2 plays as a device).
 
 The camera is read on a thread of its own into a bounded queue: when the reconstruction falls
 behind, the oldest waiting frame is dropped and counted, so the queue never grows and the frame
@@ -7,8 +9,8 @@ processed is always a recent one. Ctrl-C (SIGINT) or SIGTERM stops the camera an
 output of the frames processed: ``trajectory.txt``, ``mesh.ply`` and ``stats.json`` (frames
 received, processed and dropped, and the deepest the queue got).
 
-``kfx live --out DIR [--from-file REC] [--set key=value]...`` runs this module (``python -m
-kfx.live``); ``kfx.live.run(...)`` is the same from Python.
+``kfx live --out DIR [--from-file REC | --openni [URI]] [--set key=value]...`` runs this module
+(``python -m kfx.live``); ``kfx.live.run(...)`` is the same from Python.
 """
 
 from __future__ import annotations
@@ -34,9 +36,14 @@ def _realsense() -> Any:
     try:
         import pyrealsense2  # noqa: PLC0415 (optional dependency)
     except ImportError as error:
+        openni = ("kfx live --openni [URI] (kfx.live.run(..., openni=URI)) reads one instead"
+                  if kfx.has_openni2() else
+                  "this kfx was built without OpenNI2 either (Debian's libopenni2-dev), which "
+                  "would read an OpenNI2 device instead")
         raise kfx.Error("kfx live needs the PyPI package 'pyrealsense2' "
-                        "(pip install kfx[realsense]); it is not installed for "
-                        f"{sys.executable}") from error
+                        "(pip install kfx[realsense]) for a RealSense camera; it is not "
+                        f"installed for {sys.executable}. For an OpenNI2 device (Kinect v1, "
+                        f"Xtion, Orbbec), {openni}") from error
     return pyrealsense2
 
 
@@ -59,6 +66,7 @@ class LiveStats:
     frames_dropped: int = 0      # received, not processed: dropped from the full queue (kfx
     #                              fell behind) or still waiting when stopped
     frames_missed: int = 0       # gaps in the camera's frame numbers (lost before kfx saw them)
+    frames_bad: int = 0          # frames the camera delivered that could not be read (skipped)
     queue_size: int = 0          # the queue's bound
     max_queue_depth: int = 0     # the most frames that ever waited
     seconds: float = 0.0         # from the first frame received to the stop
@@ -67,12 +75,108 @@ class LiveStats:
     viewer: Dict[str, Any] = field(default_factory=dict)
 
 
-class Camera:
-    """A RealSense device, or a recording played at the camera's pace, yielding LiveFrames on
-    a thread into a bounded queue (oldest dropped when full)."""
+class _LiveSource:
+    """What every live source shares: its frames read on a thread of its own into a bounded
+    queue (the oldest dropped and counted when full), the counts, and a clean stop. A source
+    sets ``source``, ``camera`` (a kfx.Camera), ``depth_units_m`` and ``has_colour``, then calls
+    ``_start``; it reads a frame in ``_read`` and lets its device go in ``_close``."""
 
     end_reason = ""  # why the camera stopped on its own ("end of recording")
     error: Optional[BaseException] = None  # what stopped the capture thread, if it failed
+    source = ""
+    camera: Any = None
+    depth_units_m = 0.001
+
+    @property
+    def has_colour(self) -> bool:
+        """Whether the camera delivers colour registered to its depth."""
+        return False
+
+    def _start(self, queue_size: int, wait_when_full: bool) -> None:
+        """Starts the reading thread. `wait_when_full`: a recording read as fast as it is read
+        waits for room in the queue instead of dropping (reading it loses nothing)."""
+        self.queue: "queue.Queue[Optional[LiveFrame]]" = queue.Queue(maxsize=queue_size)
+        self.stats = LiveStats(source=self.source, queue_size=queue_size)
+        self._stop = threading.Event()
+        self._wait_when_full = wait_when_full
+        self._last_number: Optional[int] = None
+        self._lock = threading.Lock()
+        self._thread = threading.Thread(target=self._capture, name="kfx-camera", daemon=True)
+        self._thread.start()
+
+    def _read(self) -> Optional[LiveFrame]:
+        """The next frame, or None when none came in a short while (the stop is looked at
+        between reads); raises StopIteration, with end_reason set, when the camera has ended."""
+        raise NotImplementedError
+
+    def _close(self) -> None:
+        """Lets the device go (after the reading thread ended)."""
+
+    def _put(self, frame: Optional[LiveFrame], wait: bool) -> None:
+        """Queues `frame`. When the queue is full, `wait` waits for room while the camera runs
+        (a recording played as fast as it is read: reading it loses nothing); otherwise the
+        oldest waiting frame is dropped and counted."""
+        while wait and not self._stop.is_set():
+            try:
+                self.queue.put(frame, timeout=0.1)
+                break
+            except queue.Full:
+                pass
+        else:
+            while True:
+                try:
+                    self.queue.put_nowait(frame)
+                    break
+                except queue.Full:
+                    try:
+                        dropped = self.queue.get_nowait()
+                    except queue.Empty:
+                        continue
+                    if dropped is not None:
+                        with self._lock:
+                            self.stats.frames_dropped += 1
+        with self._lock:
+            self.stats.max_queue_depth = max(self.stats.max_queue_depth, self.queue.qsize())
+
+    def _capture(self) -> None:
+        try:
+            while not self._stop.is_set():
+                try:
+                    frame = self._read()
+                except StopIteration:
+                    break
+                if frame is None:
+                    continue
+                with self._lock:
+                    if self._last_number is not None and frame.number > self._last_number + 1:
+                        self.stats.frames_missed += frame.number - self._last_number - 1
+                    self._last_number = frame.number
+                    self.stats.frames_received += 1
+                self._put(frame, self._wait_when_full)
+        except Exception as error:  # noqa: BLE001 (reported by the reading side)
+            self.error = error
+        finally:
+            # Tells the reader the camera stopped, where there is room: a full queue's frames
+            # are still to be processed (the reader sees the end once it has taken them).
+            try:
+                self.queue.put_nowait(None)
+            except queue.Full:
+                pass
+
+    @property
+    def running(self) -> bool:
+        """False once the camera stopped (ended, failed or was stopped) and sends no more."""
+        return self._thread.is_alive()
+
+    def stop(self) -> None:
+        self._stop.set()
+        self._thread.join()
+        self._close()
+
+
+class Camera(_LiveSource):
+    """A RealSense device, or a recording played at the camera's pace, yielding LiveFrames on
+    a thread into a bounded queue (oldest dropped when full)."""
 
     def __init__(self, from_file: str = "", serial: str = "", width: int = 640,
                  height: int = 480, fps: int = 30, colour: bool = True, queue_size: int = 2,
@@ -122,14 +226,7 @@ class Camera:
                           np.allclose(extrinsic.translation, 0))
             if not registered:
                 self._align = rs.align(rs.stream.depth)
-        self.queue: "queue.Queue[Optional[LiveFrame]]" = queue.Queue(maxsize=queue_size)
-        self.stats = LiveStats(source=self.source, queue_size=queue_size)
-        self._stop = threading.Event()
-        self._wait_when_full = bool(from_file) and not real_time
-        self._last_number: Optional[int] = None
-        self._lock = threading.Lock()
-        self._thread = threading.Thread(target=self._capture, name="kfx-camera", daemon=True)
-        self._thread.start()
+        self._start(queue_size, wait_when_full=bool(from_file) and not real_time)
 
     @property
     def has_colour(self) -> bool:
@@ -152,63 +249,60 @@ class Camera:
                          depth.get_timestamp() * 1e-3, depth.get_frame_number(),
                          1.0 / self.depth_units_m)
 
-    def _put(self, frame: Optional[LiveFrame], wait: bool) -> None:
-        """Queues `frame`. When the queue is full, `wait` waits for room while the camera runs
-        (a recording played as fast as it is read: reading it loses nothing); otherwise the
-        oldest waiting frame is dropped and counted."""
-        while wait and not self._stop.is_set():
-            try:
-                self.queue.put(frame, timeout=0.1)
-                break
-            except queue.Full:
-                pass
-        else:
-            while True:
-                try:
-                    self.queue.put_nowait(frame)
-                    break
-                except queue.Full:
-                    try:
-                        dropped = self.queue.get_nowait()
-                    except queue.Empty:
-                        continue
-                    if dropped is not None:
-                        with self._lock:
-                            self.stats.frames_dropped += 1
-        with self._lock:
-            self.stats.max_queue_depth = max(self.stats.max_queue_depth, self.queue.qsize())
+    def _read(self) -> Optional[LiveFrame]:
+        ok, frames = self._pipeline.try_wait_for_frames(200)
+        if not ok:
+            if (self._playback is not None and self._playback.current_status()
+                    == self._rs.playback_status.stopped):
+                self.end_reason = "end of recording"
+                raise StopIteration
+            return None
+        return self._frame(frames)
 
-    def _capture(self) -> None:
-        try:
-            while not self._stop.is_set():
-                ok, frames = self._pipeline.try_wait_for_frames(200)
-                if not ok:
-                    if (self._playback is not None and self._playback.current_status()
-                            == self._rs.playback_status.stopped):
-                        self.end_reason = "end of recording"
-                        break
-                    continue
-                frame = self._frame(frames)
-                if frame is None:
-                    continue
-                with self._lock:
-                    if self._last_number is not None and frame.number > self._last_number + 1:
-                        self.stats.frames_missed += frame.number - self._last_number - 1
-                    self._last_number = frame.number
-                    self.stats.frames_received += 1
-                self._put(frame, self._wait_when_full)
-        except Exception as error:  # noqa: BLE001 (reported by the reading side)
-            self.error = error
-        finally:
-            self._put(None, False)  # tells the reader the camera stopped
-
-    def stop(self) -> None:
-        self._stop.set()
-        self._thread.join()
+    def _close(self) -> None:
         try:
             self._pipeline.stop()
         except RuntimeError:
             pass
+
+
+class OpenNI2Camera(_LiveSource):
+    """An OpenNI2 device (the first one OpenNI2 finds, or the one at ``uri``), or an ``.oni``
+    recording OpenNI2 plays as a device at its recorded pace, read through the library's
+    ``openni2:`` input on a thread into a bounded queue (oldest dropped when full). Depth comes
+    in millimetres, the intrinsics from the device's field of view (docs/cameras.md)."""
+
+    def __init__(self, uri: str = "", colour: bool = True, queue_size: int = 2,
+                 real_time: bool = True) -> None:
+        options = ([] if real_time else ["real_time=off"]) + ([] if colour else ["colour=off"])
+        spec = "openni2:" + uri + ("?" + "&".join(options) if options else "")
+        self._sequence = kfx.Sequence(spec)  # a kfx.Error names the device and the problem
+        self.source = self._sequence.description
+        self.camera = self._sequence.camera
+        self.depth_units_m = 0.001  # the library reads OpenNI2's depth in millimetres
+        self._colour = self._sequence.has_colour
+        # Only a recording read frame by frame has a known length; it waits for kfx instead of
+        # dropping. A camera, or a recording at its pace, never waits.
+        self._start(queue_size, wait_when_full=self._sequence.frame_count >= 0)
+
+    @property
+    def has_colour(self) -> bool:
+        return bool(self._colour)
+
+    def _read(self) -> Optional[LiveFrame]:
+        status, frame = self._sequence.read()  # waits for the device, the GIL released
+        if status == kfx.ReadStatus.END:
+            self.end_reason = "end of recording"
+            raise StopIteration
+        if status == kfx.ReadStatus.BAD_FRAME:
+            with self._lock:
+                self.stats.frames_bad += 1
+            return None
+        return LiveFrame(frame.depth, frame.colour if self._colour else None, frame.stamp,
+                         frame.index, 1000.0)
+
+    def _close(self) -> None:
+        del self._sequence  # closes the device
 
 
 def _write_atomically(path: pathlib.Path, text: str) -> None:
@@ -222,17 +316,33 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
         queue_size: int = 2, colour: bool = True, mesh: bool = True, real_time: bool = True,
         viewer: Optional[Any] = None, on_frame: Optional[Callable[[Any], None]] = None,
         stop: Optional[threading.Event] = None,
-        on_start: Optional[Callable[["Camera"], None]] = None) -> LiveStats:
+        on_start: Optional[Callable[[Any], None]] = None,
+        openni: Optional[str] = None) -> LiveStats:
     """Reconstructs from the camera (or ``from_file`` at the camera's pace) until ``stop`` is
     set, ``frames`` frames are processed (0: no limit) or the recording ends; then writes
     ``out``/trajectory.txt, mesh.ply (unless ``mesh`` is False) and stats.json, and returns
-    the stats. ``viewer`` (a kfx.viewer.Viewer) is fed each frame off the frame loop;
-    ``on_frame`` gets each FrameResult, ``on_start`` the Camera once it runs."""
+    the stats. The camera is a RealSense one unless ``openni`` is given: ``""`` for the first
+    OpenNI2 device, else its URI (an ``.oni`` path plays that recording as the device, at its
+    pace unless ``real_time`` is False). ``viewer`` (a kfx.viewer.Viewer) is fed each frame off
+    the frame loop; ``on_frame`` gets each FrameResult, ``on_start`` the camera once it runs."""
     if queue_size < 1:
         raise kfx.Error("kfx live: the queue holds at least one frame")
     out_dir = pathlib.Path(out)
     stop = stop or threading.Event()
-    camera = Camera(from_file, serial, colour=colour, queue_size=queue_size, real_time=real_time)
+    camera: _LiveSource
+    if openni is not None:
+        if from_file or serial:
+            raise kfx.Error("an OpenNI2 device is named by its URI (--openni URI, an "
+                            ".oni path for a recording), not by --from-file or --serial")
+        if not kfx.has_openni2():
+            raise kfx.Error("this kfx was built without OpenNI2, which reads OpenNI2 "
+                            "devices (--openni); install Debian's libopenni2-dev and rebuild "
+                            "kfx")
+        camera = OpenNI2Camera(openni, colour=colour, queue_size=queue_size,
+                               real_time=real_time)
+    else:
+        camera = Camera(from_file, serial, colour=colour, queue_size=queue_size,
+                        real_time=real_time)
     stats = camera.stats
     depth_scale = 1.0 / camera.depth_units_m
     started = None
@@ -252,7 +362,12 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
             try:
                 frame = camera.queue.get(timeout=0.2)
             except queue.Empty:
-                continue
+                if camera.running:
+                    continue
+                try:  # the camera stopped: what it sent last, or the end
+                    frame = camera.queue.get_nowait()
+                except queue.Empty:
+                    frame = None
             if frame is None:
                 stats.stopped_by = camera.end_reason or "camera stopped"
                 if camera.error is not None:
@@ -309,13 +424,18 @@ class _StopOnSignal:
 
 def main(argv: Optional[List[str]] = None) -> int:
     parser = argparse.ArgumentParser(
-        prog="kfx live", description="Reconstructs live from a RealSense camera (or a RealSense "
-        "recording played at the camera's pace) until Ctrl-C; writes trajectory.txt, mesh.ply "
-        "and stats.json (frames received, processed and dropped).")
+        prog="kfx live", description="Reconstructs live from a RealSense camera (pyrealsense2) "
+        "or an OpenNI2 device (--openni: Kinect v1, Xtion, Orbbec), or from a recording played "
+        "at the camera's pace, until Ctrl-C; writes trajectory.txt, mesh.ply and stats.json "
+        "(frames received, processed and dropped).")
     parser.add_argument("--out", "-o", required=True, help="output folder")
     parser.add_argument("--from-file", default="",
                         help="a RealSense recording (.bag or .db3) to play as the camera")
     parser.add_argument("--serial", default="", help="the camera's serial number (default: any)")
+    parser.add_argument("--openni", nargs="?", const="", default=None, metavar="URI",
+                        help="an OpenNI2 device instead of a RealSense camera: the first one "
+                             "OpenNI2 finds, or the one at URI; an .oni recording's path plays it "
+                             "as the device at its recorded pace (needs kfx built with OpenNI2)")
     parser.add_argument("--backend", default="auto", help="cpu, cuda or auto")
     parser.add_argument("--preset", default="exact")
     parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
@@ -327,7 +447,8 @@ def main(argv: Optional[List[str]] = None) -> int:
     parser.add_argument("--no-colour", action="store_true", help="depth only")
     parser.add_argument("--no-mesh", action="store_true", help="do not write mesh.ply")
     parser.add_argument("--fast-playback", action="store_true",
-                        help="play --from-file as fast as it is read, not at the camera's pace")
+                        help="play --from-file (or an .oni given to --openni) as fast as it is "
+                             "read, not at the camera's pace")
     parser.add_argument("--rerun", default="", metavar="FILE.rrd|spawn|HOST:PORT",
                         help="stream poses, depth, the tracking render and the model to Rerun: "
                              "an .rrd file, a viewer it spawns, or one listening at HOST:PORT")
@@ -347,7 +468,7 @@ def main(argv: Optional[List[str]] = None) -> int:
             viewer = Viewer(args.rerun)
         stats = run(args.out, args.from_file, args.serial, args.backend, args.preset, settings,
                     args.frames, args.queue, not args.no_colour, not args.no_mesh,
-                    not args.fast_playback, viewer, stop=stop.event,
+                    not args.fast_playback, viewer, stop=stop.event, openni=args.openni,
                     on_start=None if args.quiet else lambda camera: print(
                         f"kfx live: reading {camera.source} ({camera.camera.width}x"
                         f"{camera.camera.height}); Ctrl-C stops and writes the outputs",

@@ -205,6 +205,9 @@ NB_MODULE(_kfx, m) {
         return std::make_pair(ok, why);
       },
       "(True, '') when this build has the CUDA backend and a GPU is present, else (False, why).");
+  m.def("has_openni2", &kfx::has_openni2,
+        "True when this kfx was built with OpenNI2, which reads .oni recordings and OpenNI2 "
+        "devices (openni2: inputs, kfx live --openni).");
   m.def("presets", &kfx::Settings::presets, "Names of the presets.");
   m.def(
       "settings_table",
@@ -326,6 +329,8 @@ NB_MODULE(_kfx, m) {
       .def_prop_ro("width", &kfx::Sequence::width_px)
       .def_prop_ro("height", &kfx::Sequence::height_px)
       .def_prop_ro("frame_count", &kfx::Sequence::frame_count, "Frames, or -1 when unknown.")
+      .def_prop_ro("has_colour", &kfx::Sequence::has_colour,
+                   "True when the frames carry a colour image (registered to the depth).")
       .def_prop_ro("camera", &kfx::Sequence::camera, "The format's camera, or None.")
       .def_prop_ro("camera_source",
                    [](const kfx::Sequence& s) { return python_advice(s.camera_source()); })

@@ -17,6 +17,8 @@ struct Sequence::Impl {
   std::string message;
 };
 
+bool has_openni2() { return io::openni2_built(); }
+
 FrameView SequenceFrame::view() const {
   FrameView v;
   v.depth.data = depth_mm.data();

@@ -33,6 +33,15 @@ std::unique_ptr<Reader> open_icl_native_folder(const std::string& folder,
 /// file when kfx was built without OpenNI2 or the file is not a readable recording.
 std::unique_ptr<Reader> open_oni_recording(const std::string& path);
 
+/// How an input names an OpenNI2 device: `openni2:` (the first device), `openni2:URI`.
+inline constexpr const char* kOpenNI2Prefix = "openni2:";
+
+/// Opens an OpenNI2 device, `input` being `openni2:[URI][?real_time=on|off&colour=on|off]`: the
+/// first device OpenNI2 finds, the one at URI, or an .oni recording (a URI OpenNI2 plays as a
+/// device, at its recorded pace unless real_time=off). Throws kfx::Error naming the device when
+/// kfx was built without OpenNI2, no device is found, or its streams cannot be read.
+std::unique_ptr<Reader> open_openni2_device(const std::string& input);
+
 /// True when `folder` holds ICL-NUIM native depth files (scene_00_NNNN.depth).
 bool has_icl_native_files(const std::string& folder);
 

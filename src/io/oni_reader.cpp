@@ -3,7 +3,6 @@
 /// camera's recording included). Built only where libopenni2-dev was found; elsewhere an .oni
 /// input says kfx was built without it.
 
-#include <cmath>
 #include <filesystem>
 #include <memory>
 #include <sstream>
@@ -11,24 +10,14 @@
 
 #include "core/platform.hpp"
 #include "io/formats.hpp"
-
-#if KFX_HAVE_OPENNI2
-#include <OpenNI.h>
-#endif
+#include "io/openni2_frames.hpp"
 
 namespace kfx::io {
 
 #if KFX_HAVE_OPENNI2
 namespace {
 
-/// OpenNI's last error, for messages.
-std::string openni_error() {
-  const char* text = openni::OpenNI::getExtendedError();
-  std::string error = text ? text : "";
-  while (!error.empty() && (error.back() == '\n' || error.back() == ' ')) error.pop_back();
-  while (!error.empty() && (error.front() == '\t' || error.front() == ' ')) error.erase(0, 1);
-  return error.empty() ? "no reason given" : error;
-}
+using openni2::last_error;
 
 /// How long a frame the file says it has may take to come: the player reads it from disk and
 /// decodes it; longer means the file ends before it (the player then never delivers it).
@@ -37,14 +26,17 @@ constexpr int kFrameTimeoutMs = 2000;
 class OniReader : public Reader {
  public:
   explicit OniReader(std::string path) : path_(std::move(path)) {
+    // OpenNI2's threads, started from here on, take no signal meant for the process (Ctrl-C
+    // during kfx run).
+    const openni2::SignalsBlocked signals_blocked;
     std::error_code error;
     KFX_CHECK(std::filesystem::is_regular_file(path_, error),
               "cannot open input '" << path_ << "': no such file");
     KFX_CHECK(openni::OpenNI::initialize() == openni::STATUS_OK,
               "cannot open OpenNI2 recording '" << path_ << "': OpenNI2 did not start ("
-                                                << openni_error() << ")");
+                                                << last_error() << ")");
     KFX_CHECK(device_.open(path_.c_str()) == openni::STATUS_OK,
-              "cannot open OpenNI2 recording '" << path_ << "': " << openni_error());
+              "cannot open OpenNI2 recording '" << path_ << "': " << last_error());
     playback_ = device_.getPlaybackControl();
     KFX_CHECK(playback_ != nullptr,
               "cannot open OpenNI2 recording '" << path_ << "': OpenNI2 opened it as a device");
@@ -57,24 +49,13 @@ class OniReader : public Reader {
     depth_format_ = mode.getPixelFormat();
     KFX_CHECK(width_ > 0 && height_ > 0,
               "OpenNI2 recording '" << path_ << "': its depth stream has no image size");
-    KFX_CHECK(depth_format_ == openni::PIXEL_FORMAT_DEPTH_1_MM ||
-                  depth_format_ == openni::PIXEL_FORMAT_DEPTH_100_UM,
+    KFX_CHECK(openni2::is_read_depth_format(depth_format_),
               "OpenNI2 recording '" << path_ << "': depth in pixel format "
                                     << static_cast<int>(depth_format_)
                                     << " is not read (millimetres and 100 µm are)");
-    // The camera from the recorded field of view, as OpenNI's own CoordinateConverter maps
-    // pixels to points: the optical centre at the image's centre, no distortion.
-    const float hfov = depth_.getHorizontalFieldOfView(), vfov = depth_.getVerticalFieldOfView();
-    KFX_CHECK(std::isfinite(hfov) && std::isfinite(vfov) && hfov > 0.0f && vfov > 0.0f &&
-                  hfov < 3.1f && vfov < 3.1f,
-              "OpenNI2 recording '" << path_ << "': intrinsics missing: its depth stream "
-                                    << "records no field of view (" << hfov << " x " << vfov
-                                    << " rad)");
-    intrinsics_ = Intrinsics{static_cast<float>(width_ / (2.0 * std::tan(hfov / 2.0))),
-                             static_cast<float>(height_ / (2.0 * std::tan(vfov / 2.0))),
-                             width_ / 2.0f, height_ / 2.0f};
-    hfov_ = hfov;
-    vfov_ = vfov;
+    // The camera from the recorded field of view, as OpenNI2 itself maps pixels to points.
+    intrinsics_ = openni2::intrinsics_from_field_of_view(
+        depth_, width_, height_, "OpenNI2 recording '" + path_ + "'", &hfov_, &vfov_);
     frames_ = playback_->getNumberOfFrames(depth_);
     KFX_CHECK(frames_ > 0, "OpenNI2 recording '" << path_ << "' holds no depth frame");
     if (device_.hasSensor(openni::SENSOR_COLOR) &&
@@ -97,11 +78,11 @@ class OniReader : public Reader {
     playback_->setRepeatEnabled(false);
     KFX_CHECK(depth_.start() == openni::STATUS_OK,
               "OpenNI2 recording '" << path_ << "': its depth stream does not start ("
-                                    << openni_error() << ")");
+                                    << last_error() << ")");
     if (has_colour_) {
       KFX_CHECK(colour_.start() == openni::STATUS_OK,
                 "OpenNI2 recording '" << path_ << "': its colour stream does not start ("
-                                      << openni_error() << ")");
+                                      << last_error() << ")");
     }
   }
 
@@ -133,18 +114,7 @@ class OniReader : public Reader {
               << " were expected";
       return {ReadStatus::kBadFrame, message.str()};
     }
-    frame.depth_mm = HostImage<uint16_t>(width_, height_);
-    const auto* pixels = static_cast<const uint16_t*>(depth.getData());
-    const int stride = depth.getStrideInBytes() / 2;
-    for (int y = 0; y < height_; ++y) {
-      for (int x = 0; x < width_; ++x) {
-        const uint16_t value = pixels[y * stride + x];
-        // 100 µm units: to the nearest millimetre.
-        frame.depth_mm(x, y) = depth_format_ == openni::PIXEL_FORMAT_DEPTH_100_UM
-                                   ? static_cast<uint16_t>((value + 5) / 10)
-                                   : value;
-      }
-    }
+    openni2::copy_depth_mm(depth, depth_format_, width_, height_, frame.depth_mm);
     frame.rgb = HostImage<Rgb8>();
     if (has_colour_ && index < playback_->getNumberOfFrames(colour_)) {
       openni::VideoFrameRef colour;
@@ -157,15 +127,7 @@ class OniReader : public Reader {
                 << colour.getHeight();
         return {ReadStatus::kBadFrame, message.str()};
       }
-      frame.rgb = HostImage<Rgb8>(width_, height_);
-      const auto* rgb = static_cast<const uint8_t*>(colour.getData());
-      const int colour_stride = colour.getStrideInBytes();
-      for (int y = 0; y < height_; ++y) {
-        for (int x = 0; x < width_; ++x) {
-          const uint8_t* p = rgb + y * colour_stride + 3 * x;
-          frame.rgb(x, y) = Rgb8{p[0], p[1], p[2]};
-        }
-      }
+      openni2::copy_rgb(colour, width_, height_, frame.rgb);
     }
     frame.stamp_s = static_cast<double>(depth.getTimestamp()) * 1e-6;
     frame.index = index;
@@ -202,7 +164,7 @@ class OniReader : public Reader {
                   stream.readFrame(&out) == openni::STATUS_OK && out.isValid(),
               "OpenNI2 recording '" << path_ << "', " << what << " frame " << index << " of "
                                     << frames_ << ": not delivered (a truncated or corrupt "
-                                    << "recording?): " << openni_error());
+                                    << "recording?): " << last_error());
   }
 
   std::string path_;

@@ -26,8 +26,8 @@ constexpr const char* kSupportedInputs =
     "groundtruth.txt), an ICL-NUIM PNG folder (associations.txt 'n depth/n.png n rgb/n.png', "
     "*.gt.freiburg), an ICL-NUIM native POV-Ray folder (scene_00_NNNN.depth and .txt), a "
     "SLAMBench .raw file (optional .raw.json sidecar), a ROS 1 or RealSense .bag, a ROS 2 bag "
-    "(rosbag2 folder or .db3; topics chosen with INPUT?depth=/topic&colour=/topic), or "
-    "synthetic[:key=value,...]";
+    "(rosbag2 folder or .db3; topics chosen with INPUT?depth=/topic&colour=/topic), an OpenNI2 "
+    ".oni recording, an OpenNI2 device (openni2: or openni2:URI), or synthetic[:key=value,...]";
 
 /// Wraps a reader whose format has no place for an external ground truth (.raw, synthetic) and
 /// replaces its ground truth with the one read from a file.
@@ -174,6 +174,10 @@ std::unique_ptr<Reader> open_recording(const std::string& input, const std::stri
 
 std::unique_ptr<Reader> open_reader(const std::string& input_with_query,
                                     const ReaderOptions& options) {
+  if (input_with_query.rfind(kOpenNI2Prefix, 0) == 0) {
+    require_no_depth_scale(options, input_with_query, "an OpenNI2 device (depth in millimetres)");
+    return with_ground_truth_override(open_openni2_device(input_with_query), options);
+  }
   // A recording's topic choice: INPUT?depth=/topic&colour=/topic (only where INPUT exists).
   std::string input = input_with_query, query;
   const auto mark = input_with_query.rfind('?');

@@ -92,9 +92,13 @@ class Reader {
 /// Opens `input`: a TUM RGB-D folder, an ICL-NUIM PNG folder, an ICL-NUIM native (POV-Ray)
 /// folder, a SLAMBench `.raw` file, a recording (RealSense `.bag`/`.db3`, ROS 1 bag, ROS 2 bag,
 /// OpenNI2 `.oni`;
-/// topics chosen by `input?depth=/topic&colour=/topic`: docs/cameras.md), or
+/// topics chosen by `input?depth=/topic&colour=/topic`: docs/cameras.md), an OpenNI2 device
+/// (`openni2:` the first, `openni2:URI` one, read as it delivers frames), or
 /// `synthetic[:key=value,...]`. Throws kfx::Error naming the
 /// path and what is wrong when it cannot be opened or recognised.
 std::unique_ptr<Reader> open_reader(const std::string& input, const ReaderOptions& options = {});
+
+/// True when kfx was built with OpenNI2, which reads `.oni` recordings and OpenNI2 devices.
+bool openni2_built();
 
 }  // namespace kfx::io
