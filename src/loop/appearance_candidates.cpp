@@ -9,8 +9,8 @@ std::vector<LoopCandidate> propose_by_appearance(const std::vector<HostImage<uin
                                                  const std::vector<int>& keyframes,
                                                  const AppearanceOptions& options) {
   KFX_CHECK(small_mm.size() == keyframes.size(),
-            "propose_by_appearance: " << small_mm.size() << " small images for "
-                                      << keyframes.size() << " keyframes");
+            "propose_by_appearance: " << small_mm.size() << " small images for " << keyframes.size()
+                                      << " keyframes");
   std::vector<LoopCandidate> out;
   if (small_mm.empty()) return out;
   const int count = static_cast<int>(keyframes.size());

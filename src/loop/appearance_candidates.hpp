@@ -20,9 +20,10 @@ struct AppearanceOptions {
   /// camera differ in 0.02–0.13 and the relocaliser treats 0.4 as a different view; 0.2 kept
   /// only the weakest views of the synthetic room's loop, 0.3 its verifiable ones.
   float max_dissimilarity = 0.3f;
-  int fern_count = 500;                 ///< ferns of the code (the relocaliser's default)
-  int min_frame_gap = 200;              ///< at least this many poses apart in time
-  int max_candidates_per_keyframe = 2;  ///< the most alike older keyframes a keyframe is paired with
+  int fern_count = 500;     ///< ferns of the code (the relocaliser's default)
+  int min_frame_gap = 200;  ///< at least this many poses apart in time
+  int max_candidates_per_keyframe =
+      2;  ///< the most alike older keyframes a keyframe is paired with
   /// A keyframe less than this many keyframes after the last one given candidates gets none:
   /// a revisit spans many keyframes, and each loop costs a verification. Lower than
   /// proximity's: a view that looks alike may still be too weak a view to verify (a plain

@@ -78,6 +78,10 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
                                            : odometry[record.to_pose];
     record.check = verifier.verify(old_views, depth(record.to_pose), guess, options.verify);
     if (record.check.accepted) {
+      record.correction = loop_correction(odometry, record.from_pose, record.to_pose,
+                                          record.check.T_world_to, options.drift);
+    }
+    if (record.check.accepted && record.correction.within_bound) {
       record.in_graph = true;
       graph.add_loop_edge(c.from, c.to,
                           odometry[record.from_pose].inverse() * record.check.T_world_to,

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "loop/appearance_candidates.hpp"
+#include "loop/drift_bound.hpp"
 #include "loop/keyframes.hpp"
 #include "loop/loop_candidates.hpp"
 #include "loop/loop_verifier.hpp"
@@ -23,6 +24,8 @@ struct OfflineClosureOptions {
   /// For the caller that proposes candidates by appearance too (kfx optimise does).
   AppearanceOptions appearance;
   VerifyOptions verify;
+  /// A verified loop that needs a larger correction than the odometry drifts is rejected.
+  DriftBound drift;
   PoseGraphOptions graph;
   /// The older keyframe's map: its pose and this many poses on either side of it.
   int neighbourhood_poses = 4;
@@ -53,6 +56,7 @@ struct LoopRecord {
   int from_pose = 0;  ///< trajectory indices of the two keyframes
   int to_pose = 0;
   LoopCheck check;            ///< the geometric verification
+  LoopCorrection correction;  ///< what a verified loop asks of the odometry
   bool in_graph = false;      ///< verified, so it became a loop edge
   bool graph_inlier = false;  ///< the robust solve kept it
   double chi2_initial = 0, chi2_final = 0;
@@ -64,7 +68,7 @@ struct OfflineClosureResult {
   std::vector<int> keyframes;
   std::vector<LoopRecord> loops;
   int proposed = 0;
-  int rejected_by_verification = 0;
+  int rejected_by_verification = 0;  ///< ICP failed, or the correction exceeds the drift bound
   int rejected_by_graph = 0;
   int accepted = 0;
   double solve_time_s = 0;

@@ -115,7 +115,9 @@ TEST(LoopClosure, PullsInjectedDriftBackOnTheRoomsLoop) {
 // The twins at four times the speed: frame f + 225 is frame f in the second room, 3.72 m along
 // x. A place recogniser pairs them and guesses the same local pose; ICP against the first
 // room's map then converges perfectly (the rooms are identical), so verification accepts the
-// loop. The pose graph must switch it off: the odometry (here the truth) stays as it was.
+// loop. The pose graph must switch it off: the odometry (here the truth) stays as it was. (The
+// drift bound would reject it first, 3.7 m over about as much path: it is lifted here so that
+// the robust loss is what is tested.)
 TEST(LoopClosure, TwinsFalseLoopVerifiedThenSwitchedOffByThePoseGraph) {
   const TrueRun run =
       read_true_run("synthetic:scene=twins,width=160,height=120,noise=0,speed=4", small_frames());
@@ -126,6 +128,8 @@ TEST(LoopClosure, TwinsFalseLoopVerifiedThenSwitchedOffByThePoseGraph) {
   options.keyframes.min_translation_m = 1e9;
   options.keyframes.min_rotation_rad = 1e9;
   options.keyframes.max_gap_frames = 15;
+  options.drift.min_translation_m = 1e9;
+  options.drift.min_rotation_rad = 1e9;
   const std::vector<int> keyframes = loop::select_keyframes(run.poses, options.keyframes);
   const int from = 2, to = 17;  // poses 30 and 255
   ASSERT_EQ(keyframes.at(from), 30);
@@ -174,7 +178,7 @@ std::vector<HostImage<uint16_t>> keyframe_small_images(const TrueRun& run,
   return out;
 }
 
-// Drift of 15 cm by the loop's end, with proximity's reach cut to 5 cm: the loop's last poses
+// Drift of 8 cm by the loop's end, with proximity's reach cut to 3 cm: the loop's last poses
 // lie beyond it, as a building's loop returns with decimetres of error to proximity's 0.5 m.
 // The views still look alike, so appearance proposes the loop, with the identity as its guess,
 // and the closure pulls the drift back.
@@ -185,12 +189,12 @@ TEST(LoopClosure, AppearanceFindsTheLoopThatDriftHidesFromProximity) {
   std::vector<Pose3d> drifted(n);
   for (int i = 0; i < n; ++i) {
     Pose3d drift;
-    drift.t = Eigen::Vector3d(0.15 * i / (n - 1), 0, 0);
+    drift.t = Eigen::Vector3d(0.08 * i / (n - 1), 0, 0);
     drifted[i] = drift * run.poses[i];
   }
   loop::OfflineClosureOptions options;
   options.proximity.min_frame_gap = 100;
-  options.proximity.max_distance_m = 0.05;
+  options.proximity.max_distance_m = 0.03;
   options.appearance.min_frame_gap = 100;
   options.appearance.keyframe_stride = 1;  // the loop's last keyframes verify best
   options.appearance.max_candidates_per_keyframe = 1;
@@ -250,7 +254,39 @@ TEST(LoopClosure, AppearancePairsTheTwinsAndTheGraphKeepsTheOdometry) {
       verifier, options);
   std::printf("twins closure: %d proposed, %d accepted, position RMS change %.2f mm\n",
               result.proposed, result.accepted, position_rms_m(result.poses, run.poses) * 1000);
+  int verified = 0;
+  for (const loop::LoopRecord& r : result.loops) {
+    // ICP matches identical rooms; what stops such a loop is the drift it would need.
+    if (r.check.accepted) {
+      ++verified;
+      EXPECT_FALSE(r.correction.within_bound);
+      EXPECT_NE(r.correction.reason.find("more than the odometry drifts"), std::string::npos);
+    }
+  }
+  EXPECT_GE(verified, 1) << "ICP should match the identical rooms";
   EXPECT_LT(position_rms_m(result.poses, run.poses), 0.002);
+}
+
+// A camera that travelled 10 m along x: a loop may move its last pose by 5 % of that path.
+TEST(LoopClosure, DriftBoundFollowsThePathTravelled) {
+  std::vector<Pose3d> odometry(101);
+  for (int i = 0; i <= 100; ++i) odometry[i].t = Eigen::Vector3d(0.1 * i, 0, 0);
+  Pose3d near = odometry[100], far = odometry[100], turned = odometry[100];
+  near.t += Eigen::Vector3d(0, 0.3, 0);
+  far.t += Eigen::Vector3d(0, 0.8, 0);
+  turned.q = Eigen::AngleAxisd(0.5, Eigen::Vector3d::UnitY());  // 29°: more than 2°/m × 10 m
+  const loop::LoopCorrection ok = loop::loop_correction(odometry, 0, 100, near);
+  EXPECT_NEAR(ok.path_m, 10.0, 1e-9);
+  EXPECT_NEAR(ok.translation_m, 0.3, 1e-9);
+  EXPECT_TRUE(ok.within_bound) << ok.reason;
+  const loop::LoopCorrection too_far = loop::loop_correction(odometry, 0, 100, far);
+  EXPECT_FALSE(too_far.within_bound);
+  EXPECT_NE(too_far.reason.find("10 m of path"), std::string::npos) << too_far.reason;
+  EXPECT_FALSE(loop::loop_correction(odometry, 0, 100, turned).within_bound);
+  // A short path keeps the floor: 10 cm over 1 m.
+  Pose3d short_loop = odometry[10];
+  short_loop.t += Eigen::Vector3d(0, 0.08, 0);
+  EXPECT_TRUE(loop::loop_correction(odometry, 0, 10, short_loop).within_bound);
 }
 
 TEST(LoopClosure, KeyframesFollowedByEveryPose) {
