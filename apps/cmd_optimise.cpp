@@ -167,6 +167,22 @@ std::vector<loop::LoopCandidate> appearance_candidates(const RunOptions& options
   return loop::propose_by_appearance(small, keyframes, appearance);
 }
 
+/// The stretches of frames [first, last] the run's tracking judged poor or lost, from its
+/// stats.json (an optimised run keeps its odometry's under loop_closure). Without skipped bad
+/// frames a frame number is a trajectory line; with them the stretches cannot be placed.
+nlohmann::json weak_stretches_of_run(const nlohmann::json& stats) {
+  if (stats.contains("loop_closure")) {
+    return stats["loop_closure"].value("run_weak_stretches", nlohmann::json::array());
+  }
+  nlohmann::json out = nlohmann::json::array();
+  if (stats.value("skipped_bad_frames", 0) != 0 || !stats.contains("tracking_states")) return out;
+  for (const auto& stretch : stats["tracking_states"].value("stretches", nlohmann::json::array())) {
+    if (stretch.value("state", "good") == "good") continue;
+    out.push_back({stretch.value("first_frame", 0), stretch.value("last_frame", 0)});
+  }
+  return out;
+}
+
 /// The run's options, as its stats.json records them: every setting written out.
 RunOptions options_of_run(const nlohmann::json& stats, const std::string& stats_path,
                           const std::string& backend, bool quiet) {
@@ -218,6 +234,8 @@ void optimise(const OptimiseOptions& opt) {
   std::vector<loop::Pose3d> odometry;
   for (const auto& p : stamped) odometry.push_back(to_pose3d(p));
   loop::OfflineClosureOptions closure;
+  const nlohmann::json weak_stretches = weak_stretches_of_run(stats);
+  for (const auto& w : weak_stretches) closure.weak_stretches.emplace_back(w[0], w[1]);
   if (opt.keyframe_gap > 0) closure.keyframes.max_gap_frames = opt.keyframe_gap;
   if (opt.loop_min_gap > 0) {
     closure.proximity.min_frame_gap = opt.loop_min_gap;
@@ -304,6 +322,7 @@ void optimise(const OptimiseOptions& opt) {
       {"odometry", "odometry.txt"},
       {"keyframes", result.keyframes.size()},
       {"run_lost_frames", run_lost},
+      {"run_weak_stretches", weak_stretches},
       {"lost_frames_left_out", lost.size()},
       {"loops_proposed", result.proposed},
       {"loops_accepted", result.accepted},

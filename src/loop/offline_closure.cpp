@@ -18,6 +18,19 @@ std::vector<int> neighbourhood(int pose, int half_width, int pose_count) {
   return out;
 }
 
+/// The odometry's σ between poses a < b grows as √(poses between); a pose inside a weak
+/// stretch counts weak_sigma_factor² times (its σ that many times larger).
+double odometry_steps(int a, int b, const OfflineClosureOptions& options) {
+  double steps = 0;
+  for (int i = a; i < b; ++i) {
+    bool weak = false;
+    for (const auto& [first, last] : options.weak_stretches)
+      weak = weak || (i >= first && i <= last);
+    steps += weak ? options.weak_sigma_factor * options.weak_sigma_factor : 1.0;
+  }
+  return steps;
+}
+
 }  // namespace
 
 ClosurePlan plan_closure(const std::vector<Pose3d>& odometry, const OfflineClosureOptions& options,
@@ -59,7 +72,7 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
   }
   for (int k = 1; k < static_cast<int>(plan.keyframes.size()); ++k) {
     const int a = plan.keyframes[k - 1], b = plan.keyframes[k];
-    const double steps = std::sqrt(static_cast<double>(b - a));
+    const double steps = std::sqrt(odometry_steps(a, b, options));
     graph.add_odometry_edge(k - 1, k, odometry[a].inverse() * odometry[b],
                             isotropic_information(options.odometry_sigma_m_per_pose * steps,
                                                   options.odometry_sigma_rad_per_pose * steps));

@@ -6,6 +6,7 @@
 
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "loop/appearance_candidates.hpp"
@@ -33,6 +34,12 @@ struct OfflineClosureOptions {
   /// what the odometry claims about itself decides which loops look consistent with it.
   double odometry_sigma_m_per_pose = 0.003;
   double odometry_sigma_rad_per_pose = 0.002;
+  /// Stretches of poses [first, last] that tracking judged poor or lost (the run's
+  /// stats.json `tracking_states`): there the pose may have slid unnoticed, so their odometry
+  /// is trusted this many times less (its σ per pose multiplied), and a loop's correction
+  /// goes there rather than being spread over the well-tracked path.
+  std::vector<std::pair<int, int>> weak_stretches;
+  double weak_sigma_factor = 30.0;
   /// A verified loop's error (the ICP against the older map).
   double loop_sigma_m = 0.01;
   double loop_sigma_rad = 0.01;
