@@ -53,17 +53,10 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
   result.keyframes = plan.keyframes;
   result.proposed = static_cast<int>(plan.candidates.size());
   const int n = static_cast<int>(odometry.size());
-  PoseGraph graph;
-  for (int k = 0; k < static_cast<int>(plan.keyframes.size()); ++k) {
-    graph.add_node(k, odometry.at(plan.keyframes[k]));
-  }
-  for (int k = 1; k < static_cast<int>(plan.keyframes.size()); ++k) {
-    const int a = plan.keyframes[k - 1], b = plan.keyframes[k];
-    const double steps = std::sqrt(static_cast<double>(b - a));
-    graph.add_odometry_edge(k - 1, k, odometry[a].inverse() * odometry[b],
-                            isotropic_information(options.odometry_sigma_m_per_pose * steps,
-                                                  options.odometry_sigma_rad_per_pose * steps));
-  }
+  std::vector<Pose3d> keyframe_odometry;
+  for (int i : plan.keyframes) keyframe_odometry.push_back(odometry.at(i));
+  PoseGraph graph =
+      keyframe_graph(keyframe_odometry, keyframe_odometry, plan.keyframes, options.noise);
   std::vector<size_t> record_of_edge;  // loop edge order → record
   for (const LoopCandidate& c : plan.candidates) {
     LoopRecord record;
@@ -81,7 +74,7 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
       record.in_graph = true;
       graph.add_loop_edge(c.from, c.to,
                           odometry[record.from_pose].inverse() * record.check.T_world_to,
-                          isotropic_information(options.loop_sigma_m, options.loop_sigma_rad));
+                          loop_information(options.noise));
       record_of_edge.push_back(result.loops.size());
     } else {
       ++result.rejected_by_verification;
