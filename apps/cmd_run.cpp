@@ -388,8 +388,8 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     closure->finish();
     const std::vector<loop::Pose3d> raw = closure->odometry();
     const std::vector<loop::Pose3d> optimised = closure->optimised();
-    KFX_CHECK(raw.size() == trajectory.size(), "loop closure saw " << raw.size()
-                                                   << " frames of " << trajectory.size());
+    KFX_CHECK(raw.size() == trajectory.size(),
+              "loop closure saw " << raw.size() << " frames of " << trajectory.size());
     for (size_t i = 0; i < trajectory.size(); ++i) {
       odometry.push_back(closure->corrected()
                              ? io::to_stamped_pose(trajectory[i].stamp_s, loop::to_mat4f(raw[i]))
@@ -576,10 +576,10 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     // Loop closure: the optimised poses (written as the run's own trajectory is when nothing
     // moved), and the raw odometry beside them.
     if (stats["loop_closure"].value("trajectory_optimised", false)) {
-      io::write_tum_trajectory(out_dir + "/trajectory.txt", trajectory,
-                               {"trajectory of " + options.input +
-                                    " after online loop closure (camera to volume frame)",
-                                "stamp tx ty tz qx qy qz qw"});
+      io::write_tum_trajectory(
+          out_dir + "/trajectory.txt", trajectory,
+          {"trajectory of " + options.input + " after online loop closure (camera to volume frame)",
+           "stamp tx ty tz qx qy qz qw"});
     } else {
       reconstruction.save_trajectory(out_dir + "/trajectory.txt", options.input);
     }

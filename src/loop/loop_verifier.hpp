@@ -18,7 +18,7 @@
 namespace kfx {
 class Pipeline;
 struct FrameReport;
-}
+}  // namespace kfx
 
 namespace kfx::loop {
 

@@ -61,9 +61,9 @@ bool OnlineLoopClosure::after_frame(const FrameReport& report, ImageView<const u
   est_by_frame_.push_back(pose);
   // Only a frame whose pose the run trusts (tracked, or fused as a bootstrap frame) is kept.
   if ((report.tracked || report.integrated) &&
-      (keyframes_.empty() || starts_keyframe(keyframes_.back().raw, raw_.back(),
-                                             frame - keyframes_.back().frame,
-                                             options_.keyframes))) {
+      (keyframes_.empty() ||
+       starts_keyframe(keyframes_.back().raw, raw_.back(), frame - keyframes_.back().frame,
+                       options_.keyframes))) {
     Keyframe k;
     k.frame = frame;
     k.raw = raw_.back();
@@ -112,8 +112,8 @@ void OnlineLoopClosure::add_candidate(const LoopCandidate& candidate) {
   const int count = static_cast<int>(keyframes_.size());
   KFX_CHECK(candidate.from >= 0 && candidate.from < candidate.to && candidate.to < count,
             "loop candidate (" << candidate.from << ", " << candidate.to << ") from "
-                               << candidate.source << ": not two keyframes in time order (there are "
-                               << count << ")");
+                               << candidate.source
+                               << ": not two keyframes in time order (there are " << count << ")");
   queue_.push_back(candidate);
   ++figures_.proposed;
 }

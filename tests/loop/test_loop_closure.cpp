@@ -281,7 +281,6 @@ TEST(LoopClosure, OptimiseWhoseFusionFailsLeavesTheRunAsItWas) {
   }
 }
 
-
 // ---- Online loop closure (setting loop_closure=online, src/loop/online_closure.hpp) ----
 
 /// A sequence run through the frame loop with online closure or without (`closure` null); the
@@ -295,10 +294,10 @@ struct OnlineOutcome {
   bool corrected = false;
 };
 
-OnlineOutcome run_online(const TrueRun& run, const Intrinsics& k,
-                         const loop::OnlineClosureOptions* closure_options,
-                         const std::vector<Pose3d>* odometry = nullptr,
-                         const std::function<void(loop::OnlineLoopClosure&, int)>& after_frame = {}) {
+OnlineOutcome run_online(
+    const TrueRun& run, const Intrinsics& k, const loop::OnlineClosureOptions* closure_options,
+    const std::vector<Pose3d>* odometry = nullptr,
+    const std::function<void(loop::OnlineLoopClosure&, int)>& after_frame = {}) {
   Pipeline pipeline(run.config, k, run.width, run.height, BackendKind::kCpu);
   std::unique_ptr<loop::OnlineLoopClosure> closure;
   if (closure_options != nullptr) {
@@ -392,8 +391,8 @@ TEST(LoopClosureOnline, TwinsFalseLoopSwitchedOffWhileRunning) {
   Pose3d shift;
   shift.t = Eigen::Vector3d(-3.72, 0, 0);
   const Pose3d shift_in_volume = run.volume_from_scene * shift * run.volume_from_scene.inverse();
-  const OnlineOutcome online =
-      run_online(run, run.k, &options, &run.poses, [&](loop::OnlineLoopClosure& closure, int frame) {
+  const OnlineOutcome online = run_online(
+      run, run.k, &options, &run.poses, [&](loop::OnlineLoopClosure& closure, int frame) {
         if (frame != 60) return;  // input frame 255
         ASSERT_EQ(closure.keyframe_frames().at(2), 30);
         ASSERT_EQ(closure.keyframe_frames().at(4), 60);
@@ -425,8 +424,9 @@ TEST(LoopClosureOnline, OffInEveryPresetAndOffChangesNothing) {
   }
   const io::test::TempDir dir("kfx_online_off");
   const std::string plain = dir.folder("plain"), off = dir.folder("off");
-  const std::string input = "run \"synthetic:frames=12,width=160,height=120\" --backend cpu -q "
-                            "--no-mesh --no-report --set volume_resolution=64 ";
+  const std::string input =
+      "run \"synthetic:frames=12,width=160,height=120\" --backend cpu -q "
+      "--no-mesh --no-report --set volume_resolution=64 ";
   ASSERT_EQ(test::run_kfx(input + "-o " + plain).exit_code, 0);
   const test::CommandResult r = test::run_kfx(input + "--set loop_closure=off -o " + off);
   ASSERT_EQ(r.exit_code, 0) << r.output;
@@ -445,7 +445,8 @@ TEST(LoopClosureOnline, RunWritesOdometryAndCounts) {
   const test::CommandResult r = test::run_kfx(
       "run \"synthetic:frames=40,width=160,height=120,speed=2\" --backend cpu --no-mesh "
       "--set volume_resolution=96 --set compute_size_ratio=1 --set loop_closure=online "
-      "--set loop_min_gap_frames=20 -o " + out);
+      "--set loop_min_gap_frames=20 -o " +
+      out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("loops "), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(out + "/odometry.txt"));
@@ -454,9 +455,9 @@ TEST(LoopClosureOnline, RunWritesOdometryAndCounts) {
   ASSERT_TRUE(stats.contains("loop_closure")) << stats.dump();
   const auto& lc = stats["loop_closure"];
   EXPECT_EQ(lc["mode"], "online");
-  for (const char* key : {"keyframes", "loops_proposed", "loops_accepted", "loops_rejected",
-                          "solves", "map_rebuilds", "pose_graph_solve_ms", "reintegration_ms",
-                          "verification_ms", "host_ms"}) {
+  for (const char* key :
+       {"keyframes", "loops_proposed", "loops_accepted", "loops_rejected", "solves", "map_rebuilds",
+        "pose_graph_solve_ms", "reintegration_ms", "verification_ms", "host_ms"}) {
     EXPECT_TRUE(lc.contains(key)) << key;
   }
   EXPECT_EQ(io::read_tum_trajectory(out + "/odometry.txt").size(),

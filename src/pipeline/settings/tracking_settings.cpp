@@ -86,10 +86,10 @@ SettingsSection tracking_section() {
       Choices<LoopClosureMode>{{"off", LoopClosureMode::kOff},
                                {"online", LoopClosureMode::kOnline}},
       [](C& c) -> LoopClosureMode& { return c.tracking.loop_closure; }));
-  rows.push_back(integer_row(
-      "loop_min_gap_frames", s,
-      "loop closure: a loop joins frames at least this many apart in time (>= 1)",
-      [](C& c) -> int& { return c.tracking.loop_min_gap_frames; }));
+  rows.push_back(
+      integer_row("loop_min_gap_frames", s,
+                  "loop closure: a loop joins frames at least this many apart in time (>= 1)",
+                  [](C& c) -> int& { return c.tracking.loop_min_gap_frames; }));
   return section;
 }
 
