@@ -443,13 +443,14 @@ TEST(LoopClosureOnline, RunWritesOdometryAndCounts) {
   const io::test::TempDir dir("kfx_online_run");
   const std::string out = dir.folder("run");
   const test::CommandResult r = test::run_kfx(
-      "run \"synthetic:frames=40,width=160,height=120,speed=2\" --backend cpu --no-mesh "
+      "run \"synthetic:frames=30,width=160,height=120,speed=2\" --backend cpu --no-mesh "
       "--set volume_resolution=96 --set compute_size_ratio=1 --set loop_closure=online "
       "--set loop_min_gap_frames=20 -o " +
       out);
   ASSERT_EQ(r.exit_code, 0) << r.output;
   EXPECT_NE(r.output.find("loops "), std::string::npos) << r.output;
   EXPECT_TRUE(std::filesystem::exists(out + "/odometry.txt"));
+  EXPECT_TRUE(std::filesystem::exists(out + "/report.html"));
   nlohmann::json stats;
   std::ifstream(out + "/stats.json") >> stats;
   ASSERT_TRUE(stats.contains("loop_closure")) << stats.dump();
