@@ -390,11 +390,12 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     const std::vector<loop::Pose3d> optimised = closure->optimised();
     KFX_CHECK(raw.size() == trajectory.size(),
               "loop closure saw " << raw.size() << " frames of " << trajectory.size());
+    // Until the map moves, the tracked poses are the raw odometry (kept as tracked, bit for bit).
     for (size_t i = 0; i < trajectory.size(); ++i) {
       odometry.push_back(closure->corrected()
                              ? io::to_stamped_pose(trajectory[i].stamp_s, loop::to_mat4f(raw[i]))
                              : trajectory[i]);
-      if (closure->corrected()) {
+      if (closure->trajectory_optimised()) {
         trajectory[i] = io::to_stamped_pose(trajectory[i].stamp_s, loop::to_mat4f(optimised[i]));
       }
     }
@@ -425,13 +426,15 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
                     {"loops_rejected_by_pose_graph", lc.rejected_by_graph},
                     {"solves", lc.solves},
                     {"map_rebuilds", lc.rebuilds},
+                    {"map_rebuilds_skipped", lc.rebuilds_skipped},
+                    {"max_keyframe_shift_m", lc.max_shift_m},
                     {"keyframes_reintegrated", lc.keyframes_reintegrated},
                     {"pose_graph_solve_ms", lc.solve_ms},
                     {"verification_ms", lc.verify_ms},
                     {"reintegration_ms", lc.reintegrate_ms},
                     {"host_ms", lc.frame_work_ms},
                     {"max_frame_host_ms", lc.max_frame_work_ms},
-                    {"trajectory_optimised", closure->corrected()},
+                    {"trajectory_optimised", closure->trajectory_optimised()},
                     {"loops", loops}};
     if (!options.quiet) {
       std::cerr << name << ": loop closure: " << lc.keyframes << " keyframes, loops proposed "

@@ -186,12 +186,27 @@ void OnlineLoopClosure::take_result(const PoseGraphResult& result) {
   }
   figures_.accepted = result.loops_accepted;
   figures_.rejected_by_graph = result.loops_rejected;
+  const size_t n = result.poses.size();
+  last_solution_.clear();
   // Every loop switched off and the map never moved: the odometry stands, nothing to rebuild.
   if (result.loops_accepted == 0 && !corrected_) return;
-  const size_t n = result.poses.size();
+  for (size_t k = 0; k < n; ++k) last_solution_.push_back(result.poses.at(k));
+  double shift_m = 0;
+  for (size_t k = 0; k < n; ++k) {
+    shift_m = std::max(
+        shift_m, translation_distance_m(last_solution_[k], keyframes_[k].est) +
+                     kRebuildLeverM * rotation_distance_rad(last_solution_[k], keyframes_[k].est));
+  }
+  figures_.max_shift_m = std::max(figures_.max_shift_m, shift_m);
+  const PipelineConfig& config = pipeline_.config();
+  const double voxel_m = config.volume.grid_size_m() / config.volume.grid_res();
+  if (shift_m < options_.rebuild_min_shift_voxels * voxel_m) {
+    ++figures_.rebuilds_skipped;
+    return;
+  }
   rebuild_ = Rebuild{};
   rebuild_.active = true;
-  for (size_t k = 0; k < n; ++k) rebuild_.solved.push_back(result.poses.at(k));
+  rebuild_.solved = last_solution_;
   // Keyframes that came after the snapshot move as the last one solved.
   rebuild_.correction_after = rebuild_.solved.back() * keyframes_.at(n - 1).est.inverse();
   rebuild_.targets = rebuild_.solved;
@@ -245,24 +260,28 @@ void OnlineLoopClosure::finish() {
     verify_next();
     side_work = true;
   }
-  // One last solve over every keyframe, so the last keyframes follow the loops too.
-  if (!loop_records_.empty()) {
-    if (worker_.submit(graph(), options_.graph)) {
-      loops_submitted_ = loop_records_.size();
-      take_result(worker_.wait());
-    }
+  // One last solve over every keyframe, so the last keyframes follow the loops too; the
+  // trajectory follows it (the map too, when it moves a view by enough).
+  last_solution_.clear();
+  if (!loop_records_.empty() && worker_.submit(graph(), options_.graph)) {
+    loops_submitted_ = loop_records_.size();
+    take_result(worker_.wait());
   }
   if (rebuild_.active) {
     rebuild_step(rebuild_.targets.size());  // resumes in the rebuilt map
   } else if (side_work) {
     pipeline_.resume_in_map(tracking_map_, current_matrix_);
   }
-  for (const Keyframe& k : keyframes_) final_keyframe_poses_.push_back(k.est);
+  if (last_solution_.size() == keyframes_.size()) {
+    final_keyframe_poses_ = last_solution_;
+  } else if (corrected_) {
+    for (const Keyframe& k : keyframes_) final_keyframe_poses_.push_back(k.est);
+  }
   figures_.frame_work_ms += ms_since(start);
 }
 
 std::vector<Pose3d> OnlineLoopClosure::optimised() const {
-  if (final_keyframe_poses_.empty()) return raw_;
+  if (final_keyframe_poses_.empty()) return raw_;  // tracked poses and raw odometry agree
   return follow_keyframes(raw_, keyframe_frames_, final_keyframe_poses_);
 }
 

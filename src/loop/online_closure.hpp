@@ -41,7 +41,16 @@ struct OnlineClosureOptions {
   /// Keyframes integrated into the spare map per frame while the model is rebuilt: the rebuild
   /// is spread over frames so that no frame carries all of it.
   int rebuild_keyframes_per_frame = 4;
+  /// A solve moves the map only when it moves some keyframe's view by at least this many
+  /// voxels (its camera's shift plus its turn times kRebuildLeverM): below that the map already
+  /// agrees with the poses within its own resolution, and a map rebuilt from the keyframes
+  /// alone would be noisier than the one every frame fused.
+  double rebuild_min_shift_voxels = 0.5;
 };
+
+/// The distance in front of a keyframe's camera at which its turn is weighed as a shift
+/// (OnlineClosureOptions::rebuild_min_shift_voxels): where most of a room's surface lies.
+inline constexpr double kRebuildLeverM = 2.0;
 
 /// One candidate's fate.
 struct OnlineLoopRecord {
@@ -64,6 +73,8 @@ struct OnlineClosureFigures {
   int rejected_by_graph = 0;  ///< loop edges the latest solve switched off
   int solves = 0;             ///< solves returned
   int rebuilds = 0;           ///< the tracking map replaced by one rebuilt at optimised poses
+  int rebuilds_skipped = 0;   ///< solves that kept loops but moved no view by enough
+  double max_shift_m = 0;     ///< the most a solve moved a keyframe's view (shift + turn · lever)
   int keyframes_reintegrated = 0;
   /// Host time on the frame loop's thread (milliseconds, summed): verification, re-integration
   /// (the rebuilds), and everything the closure did after each frame; and the solver's own
@@ -104,13 +115,16 @@ class OnlineLoopClosure {
 
   /// Every frame's raw odometry: the tracked poses with the corrections taken out.
   const std::vector<Pose3d>& odometry() const { return raw_; }
-  /// Every frame's pose, following its keyframes' optimised poses (after finish()); the tracked
-  /// poses when no solve moved anything.
+  /// Every frame's pose, following its keyframes' poses from the last solve (after finish(),
+  /// when trajectory_optimised()).
   std::vector<Pose3d> optimised() const;
+  /// True after finish() when the trajectory follows a solve that kept a loop (or the map was
+  /// moved); false: no loop was kept, and the tracked poses are the trajectory.
+  bool trajectory_optimised() const { return !final_keyframe_poses_.empty(); }
   /// The camera's pose in the map tracked against (after the last after_frame(), which may have
   /// moved it).
   const Pose3d& camera_pose() const { return current_; }
-  /// True once a solve moved the map.
+  /// True once a solve moved the map (it was rebuilt at optimised poses).
   bool corrected() const { return corrected_; }
   const OnlineClosureFigures& figures() const { return figures_; }
 
@@ -157,6 +171,7 @@ class OnlineLoopClosure {
   PoseGraphWorker worker_;
   Rebuild rebuild_;
   std::vector<Pose3d> final_keyframe_poses_;  ///< after finish(): every keyframe's
+  std::vector<Pose3d> last_solution_;  ///< the last solve's keyframe poses, when it kept a loop
   bool corrected_ = false;
   OnlineClosureFigures figures_;
 };

@@ -325,7 +325,7 @@ OnlineOutcome run_online(
     closure->finish();
     out.figures = closure->figures();
     out.corrected = closure->corrected();
-    if (out.corrected) out.poses = closure->optimised();
+    if (closure->trajectory_optimised()) out.poses = closure->optimised();
   }
   return out;
 }
