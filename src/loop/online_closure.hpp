@@ -45,7 +45,7 @@ struct OnlineClosureOptions {
   /// voxels (its camera's shift plus its turn times kRebuildLeverM): below that the map already
   /// agrees with the poses within its own resolution, and a map rebuilt from the keyframes
   /// alone would be noisier than the one every frame fused.
-  double rebuild_min_shift_voxels = 0.5;
+  double rebuild_min_shift_voxels = 1.0;
 };
 
 /// The distance in front of a keyframe's camera at which its turn is weighed as a shift
