@@ -235,7 +235,7 @@ void optimise(const OptimiseOptions& opt) {
   for (const auto& p : stamped) odometry.push_back(to_pose3d(p));
   loop::OfflineClosureOptions closure;
   const nlohmann::json weak_stretches = weak_stretches_of_run(stats);
-  for (const auto& w : weak_stretches) closure.weak_stretches.emplace_back(w[0], w[1]);
+  for (const auto& w : weak_stretches) closure.noise.weak_stretches.emplace_back(w[0], w[1]);
   if (opt.keyframe_gap > 0) closure.keyframes.max_gap_frames = opt.keyframe_gap;
   if (opt.loop_min_gap > 0) {
     closure.proximity.min_frame_gap = opt.loop_min_gap;
@@ -302,10 +302,12 @@ void optimise(const OptimiseOptions& opt) {
   // out of the fusion, as the run left it out. Without skipped bad frames the trajectory's
   // lines are the frames in order, so the run's lost frame numbers name its lines.
   // (An optimised run's own lost_frames are empty: it tracked nothing; its odometry's are kept.)
-  const nlohmann::json run_lost =
-      stats.contains("loop_closure")
-          ? stats["loop_closure"].value("run_lost_frames", nlohmann::json::array())
-          : stats.value("lost_frames", nlohmann::json::array());
+  // (A run that closed loops online tracked its frames: its own lost_frames hold.)
+  const bool optimised_before =
+      stats.contains("loop_closure") && stats["loop_closure"].contains("run_lost_frames");
+  const nlohmann::json run_lost = optimised_before
+                                      ? stats["loop_closure"]["run_lost_frames"]
+                                      : stats.value("lost_frames", nlohmann::json::array());
   std::set<int> lost;
   if (stats.value("skipped_bad_frames", 0) == 0) {
     for (const auto& f : run_lost) lost.insert(f.get<int>());

@@ -43,6 +43,10 @@
 #include "run_options.hpp"
 #include "run_summary.hpp"
 #include "warning_stretches.hpp"
+#ifdef KFX_HAVE_LOOP
+#include "loop/online_closure.hpp"
+#include "loop/pose_conversion.hpp"
+#endif
 
 namespace kfx::cli {
 namespace {
@@ -123,6 +127,18 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
   const InterruptRequests interrupt_requests;
   PreparedRun prepared = prepare_run(options);
   io::Reader& reader = *prepared.reader;
+  // Loop closure while the run goes: frames fused at given poses are not tracked, so a fused
+  // pass (kfx fuse, kfx optimise) closes none, whatever the run it repeats had set.
+  const bool online_closure =
+      !given && prepared.config.tracking.loop_closure == LoopClosureMode::kOnline;
+#ifndef KFX_HAVE_LOOP
+  KFX_CHECK(!online_closure,
+            "setting loop_closure=online: this kfx was built without Ceres, so without loop "
+            "closure (install libceres-dev and build again, or set loop_closure=off)");
+#endif
+  KFX_CHECK(!online_closure || outputs.load_map.empty(),
+            "setting loop_closure=online closes loops over the frames of this run; it cannot "
+            "continue a loaded map (--load-map): set loop_closure=off");
   std::optional<Pose> init_pose;  // checked before any output exists
   if (!options.init_pose.empty()) init_pose = parse_init_pose(options.init_pose);
   // Everything that can fail for want of room or permission fails here, before the run.
@@ -156,6 +172,14 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     pipeline.backend().reserve_mesh_extraction();
   }
   pipeline.set_rendering(outputs.renders);
+#ifdef KFX_HAVE_LOOP
+  std::unique_ptr<loop::OnlineLoopClosure> closure;
+  if (online_closure) {
+    loop::OnlineClosureOptions closure_options;
+    closure_options.proximity.min_frame_gap = pipeline.config().tracking.loop_min_gap_frames;
+    closure = std::make_unique<loop::OnlineLoopClosure>(pipeline, closure_options);
+  }
+#endif
   const int total_frames = reader.frame_count() < 0 ? options.max_frames
                            : options.max_frames > 0
                                ? std::min(options.max_frames, reader.frame_count())
@@ -210,6 +234,19 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     trajectory.push_back(io::to_stamped_pose(result.stamp_s, report.T_world_cam));
     trajectory_frames.push_back(report.index);
     summary.add(report);
+#ifdef KFX_HAVE_LOOP
+    // No frame is in flight here (the loop collects each at once with loop closure on): the
+    // frame just read is this one.
+    if (closure) {
+      const bool colour_given = !frame.rgb.empty() && pipeline.config().colour.fuse;
+      if (closure->after_frame(report, frame.depth_mm.view(),
+                               colour_given ? frame.rgb.view() : ImageView<const Rgb8>{})) {
+        std::cerr << name << ": frame " << report.index
+                  << ": loop closed: the map rebuilt at the optimised poses ("
+                  << closure->figures().accepted << " loop(s) accepted)\n";
+      }
+    }
+#endif
     // A cause holds at this frame when the diagnostics counted one more frame with it.
     for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
       const int frames_now = diagnostics.count(static_cast<FrameCause>(c)).frames;
@@ -272,6 +309,13 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
                 << summary.tracking_states.count(TrackingQuality::kLost) << ", "
                 << output::frame_rate_text(summary.frames_per_second()) << " frames/s computation, "
                 << output::frame_rate_text(wall_fps) << " frames/s wall clock";
+#ifdef KFX_HAVE_LOOP
+      if (closure) {
+        const loop::OnlineClosureFigures& lc = closure->figures();
+        std::cerr << ", loops " << lc.accepted << " accepted of " << lc.proposed << " proposed ("
+                  << lc.rebuilds << " map rebuild(s))";
+      }
+#endif
       if (report.map_blocks > 0) {
         std::cerr << ", map " << report.map_blocks << " blocks ("
                   << static_cast<double>(report.map_bytes) / (1 << 20) << " MiB)";
@@ -320,7 +364,9 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
       ReconstructionAccess::submit(reconstruction, frame);
     }
     // A rendering frame is collected at once: its renders are read before the next submit.
-    while (reconstruction.frames_in_flight() > (renders_now ? 0 : 1)) {
+    // With loop closure every frame is: its work between frames needs the backend to itself.
+    const bool collect_now = renders_now || online_closure;
+    while (reconstruction.frames_in_flight() > (collect_now ? 0 : 1)) {
       finish(reconstruction.collect());
     }
   }
@@ -333,6 +379,72 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
                  "outputs of the frames done; Ctrl-C again stops at once, writing nothing\n";
   }
   while (reconstruction.frames_in_flight() > 0) finish(reconstruction.collect());
+  // Raw odometry (the tracked poses, corrections taken out) and the loops: odometry.txt and
+  // stats.json's loop_closure; the trajectory evaluated and written becomes the optimised one.
+  std::vector<io::StampedPose> odometry;
+  nlohmann::json closure_json;
+#ifdef KFX_HAVE_LOOP
+  if (closure && pipeline.frame_count() > 0) {
+    closure->finish();
+    const std::vector<loop::Pose3d> raw = closure->odometry();
+    const std::vector<loop::Pose3d> optimised = closure->optimised();
+    KFX_CHECK(raw.size() == trajectory.size(),
+              "loop closure saw " << raw.size() << " frames of " << trajectory.size());
+    // Until the map moves, the tracked poses are the raw odometry (kept as tracked, bit for bit).
+    for (size_t i = 0; i < trajectory.size(); ++i) {
+      odometry.push_back(closure->corrected()
+                             ? io::to_stamped_pose(trajectory[i].stamp_s, loop::to_mat4f(raw[i]))
+                             : trajectory[i]);
+      if (closure->trajectory_optimised()) {
+        trajectory[i] = io::to_stamped_pose(trajectory[i].stamp_s, loop::to_mat4f(optimised[i]));
+      }
+    }
+    const loop::OnlineClosureFigures& lc = closure->figures();
+    nlohmann::json loops = nlohmann::json::array();
+    for (const loop::OnlineLoopRecord& r : lc.loops) {
+      loops.push_back({{"from_stamp_s", trajectory.at(r.from_frame).stamp_s},
+                       {"to_stamp_s", trajectory.at(r.to_frame).stamp_s},
+                       {"from_pose", r.from_frame},
+                       {"to_pose", r.to_frame},
+                       {"source", r.source},
+                       {"verified", r.check.accepted},
+                       {"rejection", r.check.accepted ? r.correction.reason : r.check.reason},
+                       {"inlier_fraction", r.check.inlier_fraction},
+                       {"residual_rms_m", r.check.residual_rms_m},
+                       {"constraint_min", r.check.constraint_min},
+                       {"accepted", r.in_graph && r.graph_inlier},
+                       {"chi2_initial", r.chi2_initial},
+                       {"chi2_final", r.chi2_final}});
+    }
+    closure_json = {{"mode", "online"},
+                    {"odometry", "odometry.txt"},
+                    {"keyframes", lc.keyframes},
+                    {"loops_proposed", lc.proposed},
+                    {"loops_accepted", lc.accepted},
+                    {"loops_rejected", lc.rejected_by_verification + lc.rejected_by_graph},
+                    {"loops_rejected_by_verification", lc.rejected_by_verification},
+                    {"loops_rejected_by_pose_graph", lc.rejected_by_graph},
+                    {"solves", lc.solves},
+                    {"map_rebuilds", lc.rebuilds},
+                    {"map_rebuilds_skipped", lc.rebuilds_skipped},
+                    {"max_keyframe_shift_m", lc.max_shift_m},
+                    {"keyframes_reintegrated", lc.keyframes_reintegrated},
+                    {"pose_graph_solve_ms", lc.solve_ms},
+                    {"verification_ms", lc.verify_ms},
+                    {"reintegration_ms", lc.reintegrate_ms},
+                    {"host_ms", lc.frame_work_ms},
+                    {"max_frame_host_ms", lc.max_frame_work_ms},
+                    {"trajectory_optimised", closure->trajectory_optimised()},
+                    {"loops", loops}};
+    if (!options.quiet) {
+      std::cerr << name << ": loop closure: " << lc.keyframes << " keyframes, loops proposed "
+                << lc.proposed << ", accepted " << lc.accepted << ", rejected "
+                << lc.rejected_by_verification << " by verification and " << lc.rejected_by_graph
+                << " by the pose graph; " << lc.solves << " solve(s), " << lc.rebuilds
+                << " map rebuild(s)\n";
+    }
+  }
+#endif
   if (interrupted && pipeline.frame_count() == 0) {
     throw Interrupted("interrupted before any frame was done: nothing written");
   }
@@ -357,6 +469,7 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     stats["frames_without_given_pose"] = frames_without_pose;
   }
   for (const auto& [key, value] : outputs.extra_stats.items()) stats[key] = value;
+  if (!closure_json.is_null()) stats["loop_closure"] = closure_json;
   stats["frames_in_input"] =
       total_frames > 0 ? nlohmann::json(total_frames) : nlohmann::json(nullptr);
   for (int c = 0; c < static_cast<int>(FrameCause::kCount); ++c) {
@@ -401,6 +514,11 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
       }
       if (!options.quiet) std::cerr << eval::format_report(result);
       summary.ate_rmse_m = result.ate.stats_m.rmse;
+      if (!odometry.empty()) {
+        const auto raw = eval::evaluate_trajectories(odometry, prepared.ground_truth, eval_options,
+                                                     "odometry.txt", gt_label);
+        stats["loop_closure"]["odometry_ate_rmse_m"] = raw.ate.stats_m.rmse;
+      }
     } catch (const Error& e) {
       stats["ate_error"] = e.what();
       said(nullptr, std::string("no ATE: ") + e.what());
@@ -457,7 +575,25 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     written += " " + name;
   }
   output::write_run_config(out_dir + "/config.txt", pipeline.config(), options.preset);
-  reconstruction.save_trajectory(out_dir + "/trajectory.txt", options.input);
+  if (!odometry.empty()) {
+    // Loop closure: the optimised poses (written as the run's own trajectory is when nothing
+    // moved), and the raw odometry beside them.
+    if (stats["loop_closure"].value("trajectory_optimised", false)) {
+      io::write_tum_trajectory(
+          out_dir + "/trajectory.txt", trajectory,
+          {"trajectory of " + options.input + " after online loop closure (camera to volume frame)",
+           "stamp tx ty tz qx qy qz qw"});
+    } else {
+      reconstruction.save_trajectory(out_dir + "/trajectory.txt", options.input);
+    }
+    io::write_tum_trajectory(
+        out_dir + "/odometry.txt", odometry,
+        {"odometry of " + options.input + " (tracked poses, before loop closure)",
+         "stamp tx ty tz qx qy qz qw"});
+    written += " odometry.txt";
+  } else {
+    reconstruction.save_trajectory(out_dir + "/trajectory.txt", options.input);
+  }
   log.commit();
   // The ground truth the run was evaluated against, so the folder alone can plot against it.
   if (!prepared.ground_truth.empty()) {

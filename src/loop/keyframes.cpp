@@ -4,16 +4,20 @@
 
 namespace kfx::loop {
 
+bool starts_keyframe(const Pose3d& last_keyframe, const Pose3d& pose, int frames_since,
+                     const KeyframeOptions& options) {
+  return translation_distance_m(last_keyframe, pose) >= options.min_translation_m ||
+         rotation_distance_rad(last_keyframe, pose) >= options.min_rotation_rad ||
+         frames_since >= options.max_gap_frames;
+}
+
 std::vector<int> select_keyframes(const std::vector<Pose3d>& poses,
                                   const KeyframeOptions& options) {
   std::vector<int> keyframes;
   if (poses.empty()) return keyframes;
   keyframes.push_back(0);
   for (int i = 1; i < static_cast<int>(poses.size()); ++i) {
-    const Pose3d& last = poses[keyframes.back()];
-    if (translation_distance_m(last, poses[i]) >= options.min_translation_m ||
-        rotation_distance_rad(last, poses[i]) >= options.min_rotation_rad ||
-        i - keyframes.back() >= options.max_gap_frames) {
+    if (starts_keyframe(poses[keyframes.back()], poses[i], i - keyframes.back(), options)) {
       keyframes.push_back(i);
     }
   }

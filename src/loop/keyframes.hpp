@@ -15,6 +15,11 @@ struct KeyframeOptions {
   int max_gap_frames = 30;          ///< ... or this many poses, whichever comes first
 };
 
+/// True when `pose`, `frames_since` poses after the last keyframe `last_keyframe`, starts a new
+/// keyframe (KeyframeOptions): the one decision of select_keyframes() and of a running closure.
+bool starts_keyframe(const Pose3d& last_keyframe, const Pose3d& pose, int frames_since,
+                     const KeyframeOptions& options);
+
 /// Indices into `poses` (in order) of the keyframes: the first pose, every pose that has moved
 /// enough from the last keyframe (KeyframeOptions), and the last pose.
 std::vector<int> select_keyframes(const std::vector<Pose3d>& poses,

@@ -34,6 +34,14 @@ struct ProximityOptions {
   int keyframe_stride = 3;
 };
 
+/// The older keyframes (indices into `keyframes`, nearest first, at most
+/// max_candidates_per_keyframe) that keyframe `j` is paired with by proximity; the stride is
+/// the caller's (propose_by_proximity() over a finished trajectory, a running closure as each
+/// keyframe arrives).
+std::vector<int> proximity_partners(const std::vector<Pose3d>& poses,
+                                    const std::vector<int>& keyframes, int j,
+                                    const ProximityOptions& options);
+
 /// Candidates from the odometry alone: keyframes whose poses lie near each other and look the
 /// same way (so their views overlap) but are far apart in time. `keyframes` indexes `poses`.
 std::vector<LoopCandidate> propose_by_proximity(const std::vector<Pose3d>& poses,

@@ -2,35 +2,10 @@
 
 #include <sstream>
 
+#include "loop/pose_conversion.hpp"
 #include "pipeline/pipeline.hpp"
 
 namespace kfx::loop {
-
-namespace {
-
-Mat4f to_mat4f(const Pose3d& pose) {
-  const Eigen::Matrix4d m = pose.matrix();
-  Mat4f out = Mat4f::identity();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 4; ++j) out.m[i][j] = static_cast<float>(m(i, j));
-  }
-  return out;
-}
-
-Pose3d to_pose3d(const Mat4f& m) {
-  Eigen::Matrix4d e = Eigen::Matrix4d::Identity();
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 4; ++j) e(i, j) = m.m[i][j];
-  }
-  // The float matrix drifts from orthonormal in its last bits: re-orthonormalise the rotation.
-  const Eigen::Quaterniond q(Eigen::Matrix3d(e.topLeftCorner<3, 3>()));
-  Pose3d p;
-  p.q = q.normalized();
-  p.t = e.topRightCorner<3, 1>();
-  return p;
-}
-
-}  // namespace
 
 PipelineConfig verification_config(const PipelineConfig& run_config) {
   PipelineConfig config = run_config;
@@ -68,15 +43,19 @@ LoopCheck LoopVerifier::verify(const std::vector<PlacedDepth>& old_views,
   // to track against yet) and the second is tracked against that raycast.
   p.set_pose(to_mat4f(T_world_current_guess));
   p.process(current);
-  const FrameReport report = p.process(current);
+  return judge_loop(p.process(current), T_world_current_guess, options);
+}
+
+LoopCheck judge_loop(const FrameReport& report, const Pose3d& T_world_guess,
+                     const VerifyOptions& options) {
   LoopCheck check;
   check.T_world_to = to_pose3d(report.T_world_cam);
   check.inlier_fraction = report.inlier_fraction;
   check.residual_rms_m = report.residual_rms_m;
   check.constraint_min = report.constraint.eigenvalues[0];
   check.icp_iterations = report.icp_iterations;
-  const double moved_m = translation_distance_m(check.T_world_to, T_world_current_guess);
-  const double turned_rad = rotation_distance_rad(check.T_world_to, T_world_current_guess);
+  const double moved_m = translation_distance_m(check.T_world_to, T_world_guess);
+  const double turned_rad = rotation_distance_rad(check.T_world_to, T_world_guess);
   std::ostringstream why;
   if (!report.tracked) {
     why << "ICP failed the tracking accept test";

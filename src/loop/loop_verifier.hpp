@@ -17,7 +17,8 @@
 
 namespace kfx {
 class Pipeline;
-}
+struct FrameReport;
+}  // namespace kfx
 
 namespace kfx::loop {
 
@@ -43,6 +44,11 @@ struct LoopCheck {
   double constraint_min = 0;
   int icp_iterations = 0;
 };
+
+/// The verdict on a tracking result: `report` is the newer keyframe tracked against the older
+/// view's map from `T_world_guess` (LoopVerifier, or a running closure's side map).
+LoopCheck judge_loop(const FrameReport& report, const Pose3d& T_world_guess,
+                     const VerifyOptions& options);
 
 /// One frame of depth at a pose (the older keyframe's neighbourhood).
 struct PlacedDepth {

@@ -18,19 +18,6 @@ std::vector<int> neighbourhood(int pose, int half_width, int pose_count) {
   return out;
 }
 
-/// The odometry's σ between poses a < b grows as √(poses between); a pose inside a weak
-/// stretch counts weak_sigma_factor² times (its σ that many times larger).
-double odometry_steps(int a, int b, const OfflineClosureOptions& options) {
-  double steps = 0;
-  for (int i = a; i < b; ++i) {
-    bool weak = false;
-    for (const auto& [first, last] : options.weak_stretches)
-      weak = weak || (i >= first && i <= last);
-    steps += weak ? options.weak_sigma_factor * options.weak_sigma_factor : 1.0;
-  }
-  return steps;
-}
-
 }  // namespace
 
 ClosurePlan plan_closure(const std::vector<Pose3d>& odometry, const OfflineClosureOptions& options,
@@ -66,17 +53,10 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
   result.keyframes = plan.keyframes;
   result.proposed = static_cast<int>(plan.candidates.size());
   const int n = static_cast<int>(odometry.size());
-  PoseGraph graph;
-  for (int k = 0; k < static_cast<int>(plan.keyframes.size()); ++k) {
-    graph.add_node(k, odometry.at(plan.keyframes[k]));
-  }
-  for (int k = 1; k < static_cast<int>(plan.keyframes.size()); ++k) {
-    const int a = plan.keyframes[k - 1], b = plan.keyframes[k];
-    const double steps = std::sqrt(odometry_steps(a, b, options));
-    graph.add_odometry_edge(k - 1, k, odometry[a].inverse() * odometry[b],
-                            isotropic_information(options.odometry_sigma_m_per_pose * steps,
-                                                  options.odometry_sigma_rad_per_pose * steps));
-  }
+  std::vector<Pose3d> keyframe_odometry;
+  for (int i : plan.keyframes) keyframe_odometry.push_back(odometry.at(i));
+  PoseGraph graph =
+      keyframe_graph(keyframe_odometry, keyframe_odometry, plan.keyframes, options.noise);
   std::vector<size_t> record_of_edge;  // loop edge order → record
   for (const LoopCandidate& c : plan.candidates) {
     LoopRecord record;
@@ -98,7 +78,7 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
       record.in_graph = true;
       graph.add_loop_edge(c.from, c.to,
                           odometry[record.from_pose].inverse() * record.check.T_world_to,
-                          isotropic_information(options.loop_sigma_m, options.loop_sigma_rad));
+                          loop_information(options.noise));
       record_of_edge.push_back(result.loops.size());
     } else {
       ++result.rejected_by_verification;

@@ -11,6 +11,7 @@
 
 #include "loop/appearance_candidates.hpp"
 #include "loop/drift_bound.hpp"
+#include "loop/keyframe_graph.hpp"
 #include "loop/keyframes.hpp"
 #include "loop/loop_candidates.hpp"
 #include "loop/loop_verifier.hpp"
@@ -30,19 +31,8 @@ struct OfflineClosureOptions {
   PoseGraphOptions graph;
   /// The older keyframe's map: its pose and this many poses on either side of it.
   int neighbourhood_poses = 4;
-  /// Odometry's error per pose of the trajectory (an edge spanning n poses gets √n times these):
-  /// what the odometry claims about itself decides which loops look consistent with it.
-  double odometry_sigma_m_per_pose = 0.003;
-  double odometry_sigma_rad_per_pose = 0.002;
-  /// Stretches of poses [first, last] that tracking judged poor or lost (the run's
-  /// stats.json `tracking_states`): there the pose may have slid unnoticed, so their odometry
-  /// is trusted this many times less (its σ per pose multiplied), and a loop's correction
-  /// goes there rather than being spread over the well-tracked path.
-  std::vector<std::pair<int, int>> weak_stretches;
-  double weak_sigma_factor = 30.0;
-  /// A verified loop's error (the ICP against the older map).
-  double loop_sigma_m = 0.01;
-  double loop_sigma_rad = 0.01;
+  /// What the odometry and a verified loop claim about their error.
+  KeyframeGraphNoise noise;
 };
 
 /// The plan: keyframes and candidates, and so which poses' depth verification reads.

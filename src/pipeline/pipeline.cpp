@@ -389,16 +389,7 @@ FrameReport Pipeline::collect() {
                                                    0.5f * (swap_distance_m_ - swap_reach_m_);
     if (filling || moved) swap_due_ = true;
   }
-  report.icp_iterations = track ? state.iterations_run : 0;
-  report.inlier_fraction =
-      track ? state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels)
-            : 0.0;
-  const double inliers = state.accumulator[kAccInliers];
-  report.residual_rms_m =
-      track && inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
-  // On the host from the state both backends return: the GPU's one-thread decision kernels
-  // stay as they were (a 6×6 eigen-decomposition in one device thread would cost the frame).
-  if (track) report.constraint = tracking_constraint(state.accumulator, state.T_world_cam);
+  if (track) fill_tracking_figures(report, state);
   TrackingEvidence evidence;
   evidence.tracking_ran = track;
   evidence.tracked = report.tracked;
@@ -423,6 +414,142 @@ FrameReport Pipeline::collect() {
     report.computation_ms += report.stage_ms[static_cast<int>(s)];
   }
   return report;
+}
+
+void Pipeline::fill_tracking_figures(FrameReport& report, const TrackingState& state) const {
+  report.icp_iterations = state.iterations_run;
+  report.inlier_fraction =
+      state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels);
+  const double inliers = state.accumulator[kAccInliers];
+  report.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
+  // On the host from the state both backends return: the GPU's one-thread decision kernels
+  // stay as they were (a 6×6 eigen-decomposition in one device thread would cost the frame).
+  report.constraint = tracking_constraint(state.accumulator, state.T_world_cam);
+}
+
+void Pipeline::clear_map(int map) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::clear_map() with frames in flight: collect them first");
+  Backend& b = *backend_;
+  const int selected = b.selected_map();
+  b.select_map(map);
+  // reset() empties the selected map only; the camera it also sets is put back by
+  // resume_in_map() before the next frame.
+  b.reset(last_pose_);
+  b.select_map(selected);
+  // The reset forgot the device's frame counter and reference view: the next frame needs a
+  // raycast (resume_in_map() makes one).
+  have_reference_ = false;
+  reference_stale_ = true;
+}
+
+void Pipeline::integrate_into_map(int map, const Mat4f& T_world_cam,
+                                  ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::integrate_into_map() with frames in flight");
+  Backend& b = *backend_;
+  const int selected = b.selected_map();
+  b.select_map(map);
+  b.upload_depth(depth_mm);
+  if (rgb.data != nullptr && (config_.colour.fuse || setup_.photometric)) b.upload_colour(rgb);
+  KFX_CHECK(!config_.colour.fuse || rgb.data != nullptr,
+            "Pipeline::integrate_into_map(): colour fusion is on but no colour image was given");
+  b.stage_pose(T_world_cam);
+  b.begin_frame(kSideIntegrateShape);
+  b.adopt_staged_pose();
+  b.begin_stage(Stage::kPreprocess);
+  b.preprocess(params_.bilateral);
+  b.end_stage(Stage::kPreprocess);
+  b.begin_stage(Stage::kTrack);
+  b.skip_tracking();
+  b.end_stage(Stage::kTrack);
+  b.begin_stage(Stage::kIntegrate);
+  IntegrateParams params = params_.integrate;
+  params.z_stride = 1;
+  // The angle weight reads a tracked frame's normals, which an untracked frame lacks.
+  if (params.weight_mode == IntegrationWeight::kDepthAngle) {
+    params.weight_mode = IntegrationWeight::kDepth;
+  }
+  b.allocate_blocks(params, true);
+  b.integrate(params, true);
+  b.end_stage(Stage::kIntegrate);
+  b.begin_stage(Stage::kRaycast);
+  b.end_stage(Stage::kRaycast);
+  b.begin_stage(Stage::kRender);
+  b.end_stage(Stage::kRender);
+  b.end_frame();
+  (void)b.read_state();
+  b.select_map(selected);
+  have_reference_ = false;
+  reference_stale_ = true;
+}
+
+FrameReport Pipeline::track_in_map(int map, const Mat4f& T_guess,
+                                   ImageView<const uint16_t> depth_mm) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::track_in_map() with frames in flight");
+  Backend& b = *backend_;
+  const int selected = b.selected_map();
+  b.select_map(map);
+  b.upload_depth(depth_mm);
+  b.stage_pose(T_guess);
+  b.begin_frame(kSideTrackShape);
+  b.adopt_staged_pose();
+  b.begin_stage(Stage::kPreprocess);
+  b.preprocess(params_.bilateral);
+  b.end_stage(Stage::kPreprocess);
+  b.begin_stage(Stage::kTrack);
+  b.raycast(params_.raycast);
+  b.build_pyramid(params_.pyramid);
+  // From the guess itself: no motion model, no weak direction of another frame.
+  b.begin_tracking(IcpGuessParams{});
+  const auto& iterations = config_.tracking.iterations_per_level;
+  for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
+    b.icp_level(level, iterations[level], params_.icp);
+  }
+  b.accept_or_revert(params_.accept);
+  b.end_stage(Stage::kTrack);
+  b.begin_stage(Stage::kIntegrate);
+  b.end_stage(Stage::kIntegrate);
+  b.begin_stage(Stage::kRaycast);
+  b.end_stage(Stage::kRaycast);
+  b.begin_stage(Stage::kRender);
+  b.end_stage(Stage::kRender);
+  b.end_frame();
+  const TrackingState state = b.read_state();
+  b.select_map(selected);
+  have_reference_ = false;
+  reference_stale_ = true;
+  FrameReport report;
+  report.index = -1;
+  report.tracking_ran = true;
+  report.tracked = state.tracked != 0;
+  report.T_world_cam = state.T_world_cam;
+  fill_tracking_figures(report, state);
+  return report;
+}
+
+void Pipeline::resume_in_map(int map, const Mat4f& T_world_cam) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::resume_in_map() with frames in flight");
+  Backend& b = *backend_;
+  b.select_map(map);
+  b.set_pose(T_world_cam);
+  b.begin_frame(kResumeShape);
+  b.begin_stage(Stage::kPreprocess);
+  b.end_stage(Stage::kPreprocess);
+  b.begin_stage(Stage::kTrack);
+  b.end_stage(Stage::kTrack);
+  b.begin_stage(Stage::kIntegrate);
+  b.end_stage(Stage::kIntegrate);
+  b.begin_stage(Stage::kRaycast);
+  b.raycast(params_.raycast);
+  b.end_stage(Stage::kRaycast);
+  b.begin_stage(Stage::kRender);
+  b.end_stage(Stage::kRender);
+  b.end_frame();
+  (void)b.read_state();
+  last_pose_ = T_world_cam;
+  camera_m_ = T_world_cam.translation_part();
+  if (relocalise_) relocaliser_.trust_pose(T_world_cam);
+  have_reference_ = true;
+  reference_stale_ = false;
 }
 
 }  // namespace kfx

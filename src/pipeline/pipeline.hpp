@@ -112,6 +112,28 @@ class Pipeline {
   /// Frames submitted but not collected.
   int frames_in_flight() const { return static_cast<int>(in_flight_.size()); }
 
+  /// Work in another map of the backend between frames (no frame in flight), outside the frame
+  /// sequence: loop closure verifies a candidate against an older view fused into a map of its
+  /// own and rebuilds the model at optimised poses beside the one tracked against
+  /// (Backend::create_map). None of these counts as a frame, renders or reaches the relocaliser
+  /// or the tracking judge. They use the backend's one camera and reference view, so after them
+  /// the next frame needs resume_in_map(), which puts both back. The device's frame counter
+  /// (the perforated integration's phase) advances by one for each side frame.
+  /// Empties map `map`.
+  void clear_map(int map);
+  /// Integrates `depth_mm` (input size) at `T_world_cam` into map `map`, every slice, as a
+  /// bootstrap frame; `rgb` is its colour image when colour fusion is on.
+  void integrate_into_map(int map, const Mat4f& T_world_cam, ImageView<const uint16_t> depth_mm,
+                          ImageView<const Rgb8> rgb = {});
+  /// Raycasts map `map` from `T_guess` and tracks `depth_mm` against that view with the frame
+  /// loop's pyramid ICP and accept test (no motion model); the report's pose and figures are
+  /// the result (tracked: the accept test passed).
+  FrameReport track_in_map(int map, const Mat4f& T_guess, ImageView<const uint16_t> depth_mm);
+  /// Frames go on in map `map` (the one tracked against and integrated into from now) with the
+  /// camera at `T_world_cam`: its view is raycast from there at once, so the next frame is
+  /// tracked against it as it would have been against the last frame's raycast.
+  void resume_in_map(int map, const Mat4f& T_world_cam);
+
   /// Moves the camera to `T_world_cam` (volume frame) before the next frame, keeping the map;
   /// no frame may be in flight. Before the first frame of a map that was not loaded it becomes
   /// the first pose (initial_pose(), used again after reset()); otherwise the next frame
@@ -192,6 +214,13 @@ class Pipeline {
   bool pose_given_ = false;
   Mat4f given_pose_;                ///< its pose
   bool given_raycast_view_ = true;  ///< its raycast_view
+
+  /// The report's tracking figures (inliers, residual, constraint) from the backend's state.
+  void fill_tracking_figures(FrameReport& report, const TrackingState& state) const;
+  /// Frame shapes of the side work (bits above the frames' own, Pipeline::submit()).
+  static constexpr int kSideIntegrateShape = 128;
+  static constexpr int kSideTrackShape = 256;
+  static constexpr int kResumeShape = 512;
 
   /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
   /// next frame; decided in collect() (swap_due_).

@@ -10,6 +10,8 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
+#include <memory>
 #include <nlohmann/json.hpp>
 
 #include "eval/rpe.hpp"
@@ -18,6 +20,8 @@
 #include "localise/input_small_depth.hpp"
 #include "loop/appearance_candidates.hpp"
 #include "loop/offline_closure.hpp"
+#include "loop/online_closure.hpp"
+#include "loop/pose_conversion.hpp"
 #include "pipeline/config.hpp"
 #include "pipeline/pipeline.hpp"
 #include "support/cli_runner.hpp"
@@ -72,6 +76,22 @@ double position_rms_m(const std::vector<Pose3d>& a, const std::vector<Pose3d>& b
   return std::sqrt(sum / a.size());
 }
 
+/// Drift that grows along the path (8 cm and 3° by the end, about the vertical through the
+/// first camera).
+std::vector<Pose3d> drifted_poses(const std::vector<Pose3d>& truth) {
+  const int n = static_cast<int>(truth.size());
+  std::vector<Pose3d> drifted(n);
+  const Eigen::Vector3d centre = truth.front().t;
+  for (int i = 0; i < n; ++i) {
+    const double s = static_cast<double>(i) / (n - 1);
+    Pose3d drift;
+    drift.q = Eigen::AngleAxisd(0.05 * s, Eigen::Vector3d::UnitY());
+    drift.t = centre - drift.q * centre + Eigen::Vector3d(0.08 * s, 0, 0);
+    drifted[i] = drift * truth[i];
+  }
+  return drifted;
+}
+
 PipelineConfig small_frames() {
   PipelineConfig config;
   set_config_value(config, "compute_size_ratio", "1");
@@ -85,16 +105,7 @@ PipelineConfig small_frames() {
 TEST(LoopClosure, PullsInjectedDriftBackOnTheRoomsLoop) {
   const TrueRun run =
       read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", small_frames());
-  const int n = static_cast<int>(run.poses.size());
-  std::vector<Pose3d> drifted(n);
-  const Eigen::Vector3d centre = run.poses.front().t;
-  for (int i = 0; i < n; ++i) {
-    const double s = static_cast<double>(i) / (n - 1);
-    Pose3d drift;
-    drift.q = Eigen::AngleAxisd(0.05 * s, Eigen::Vector3d::UnitY());
-    drift.t = centre - drift.q * centre + Eigen::Vector3d(0.08 * s, 0, 0);
-    drifted[i] = drift * run.poses[i];
-  }
+  const std::vector<Pose3d> drifted = drifted_poses(run.poses);
   loop::OfflineClosureOptions options;
   options.proximity.min_frame_gap = 100;
   const loop::ClosurePlan plan = loop::plan_closure(drifted, options);
@@ -286,7 +297,7 @@ TEST(LoopClosure, AWeakStretchTakesTheLoopsCorrection) {
   const auto close = [&](const std::vector<std::pair<int, int>>& weak) {
     loop::OfflineClosureOptions options;
     options.proximity.min_frame_gap = 100;
-    options.weak_stretches = weak;
+    options.noise.weak_stretches = weak;
     const loop::ClosurePlan plan = loop::plan_closure(slid, options);
     return loop::close_loops(
         slid, plan, [&](int i) -> const HostImage<uint16_t>& { return run.depth.at(i); }, verifier,
@@ -437,6 +448,190 @@ TEST(LoopClosure, OptimiseWhoseFusionFailsLeavesTheRunAsItWas) {
     EXPECT_EQ(odometry[i].stamp_s, poses[i].stamp_s);
     for (int c = 0; c < 3; ++c) EXPECT_EQ(odometry[i].t[c], poses[i].t[c]);
   }
+}
+
+// ---- Online loop closure (setting loop_closure=online, src/loop/online_closure.hpp) ----
+
+/// A sequence run through the frame loop with online closure or without (`closure` null); the
+/// optimised trajectory when it closed loops, else the poses the frames had. `odometry`: frames
+/// placed at these poses instead of tracked, as an odometry would place them: once the closure
+/// moves the camera, the later poses move with it (their increments kept). `after_frame` is
+/// called after each frame with the closure (when on) and the frame's number.
+struct OnlineOutcome {
+  std::vector<Pose3d> poses;
+  loop::OnlineClosureFigures figures;
+  bool corrected = false;
+};
+
+OnlineOutcome run_online(
+    const TrueRun& run, const Intrinsics& k, const loop::OnlineClosureOptions* closure_options,
+    const std::vector<Pose3d>* odometry = nullptr,
+    const std::function<void(loop::OnlineLoopClosure&, int)>& after_frame = {}) {
+  Pipeline pipeline(run.config, k, run.width, run.height, BackendKind::kCpu);
+  std::unique_ptr<loop::OnlineLoopClosure> closure;
+  if (closure_options != nullptr) {
+    closure = std::make_unique<loop::OnlineLoopClosure>(pipeline, *closure_options);
+  }
+  OnlineOutcome out;
+  Pose3d moved;  // what the closure did to the camera so far
+  for (size_t i = 0; i < run.depth.size(); ++i) {
+    if (odometry != nullptr) {
+      pipeline.submit_at_pose(loop::to_mat4f(moved * odometry->at(i)), run.depth[i].view(), {},
+                              false);
+    } else {
+      pipeline.submit(run.depth[i]);
+    }
+    const FrameReport report = pipeline.collect();
+    out.poses.push_back(loop::to_pose3d(report.T_world_cam));
+    if (closure) {
+      if (closure->after_frame(report, run.depth[i].view())) {
+        moved = closure->camera_pose() * out.poses.back().inverse() * moved;
+      }
+      if (after_frame) after_frame(*closure, static_cast<int>(i));
+    }
+  }
+  if (closure) {
+    closure->finish();
+    out.figures = closure->figures();
+    out.corrected = closure->corrected();
+    if (closure->trajectory_optimised()) out.poses = closure->optimised();
+  }
+  return out;
+}
+
+Intrinsics scaled_focal(Intrinsics k, float factor) {
+  k.fx *= factor;
+  k.fy *= factor;
+  return k;
+}
+
+// The room's loop with an odometry that drifts (the offline test's drift: 8 cm and 3° by the
+// end, growing along the path), frames fused where it puts them: online closure verifies the
+// loop between frames, solves the graph on its thread, rebuilds the map at the optimised poses
+// and moves the camera, and the trajectory comes back near the truth.
+TEST(LoopClosureOnline, PullsDriftBackWhileRunningOnTheRoomsLoop) {
+  PipelineConfig config = small_frames();
+  set_config_value(config, "volume_resolution", "96");
+  const TrueRun run =
+      read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", config);
+  const std::vector<Pose3d> drifted = drifted_poses(run.poses);
+  loop::OnlineClosureOptions options;
+  options.proximity.min_frame_gap = 100;
+  const OnlineOutcome online = run_online(run, run.k, &options, &drifted);
+  const double before = position_rms_m(drifted, run.poses);
+  const double after = position_rms_m(online.poses, run.poses);
+  std::printf(
+      "room, online: %d keyframes, %d proposed, %d verified, %d accepted, %d solves, %d "
+      "rebuilds; position RMS %.1f mm drifted, %.1f mm online\n",
+      online.figures.keyframes, online.figures.proposed, online.figures.verified,
+      online.figures.accepted, online.figures.solves, online.figures.rebuilds, before * 1000,
+      after * 1000);
+  EXPECT_GE(online.figures.accepted, 1);
+  EXPECT_GE(online.figures.rebuilds, 1);
+  EXPECT_TRUE(online.corrected);
+  EXPECT_LT(after, 0.35 * before);
+}
+
+// The twins with a perfect odometry (frames placed at the true poses): a place recogniser's
+// false loop between the rooms, handed to the running closure as the second room's keyframe
+// arrives, is verified by ICP (the rooms are identical) and switched off by the pose graph;
+// the map is not rebuilt and the trajectory stays the truth. To stay fast the run skips the
+// walk between the rooms: frames 0–44 in the first, 240–261 in the second (at four times the
+// speed frame f + 225 is frame f in the second room).
+TEST(LoopClosureOnline, TwinsFalseLoopSwitchedOffWhileRunning) {
+  PipelineConfig config = small_frames();
+  set_config_value(config, "map_swap", "off");  // the closure rebuilds in a second map
+  TrueRun run = read_true_run(
+      "synthetic:scene=twins,frames=262,width=160,height=120,noise=0,speed=4", config);
+  std::vector<HostImage<uint16_t>> depth;
+  std::vector<Pose3d> truth;  // input frames 0-44, 240-261
+  for (int i = 0; i < 262; ++i) {
+    if (i >= 45 && i < 240) continue;
+    depth.push_back(run.depth[i]);
+    truth.push_back(run.poses[i]);
+  }
+  run.depth = std::move(depth);
+  run.poses = truth;
+  loop::OnlineClosureOptions options;
+  options.keyframes.min_translation_m = 1e9;
+  options.keyframes.min_rotation_rad = 1e9;
+  // Keyframes every 15 frames run: input frames 0, 15, 30, 240, 255, ...
+  options.keyframes.max_gap_frames = 15;
+  Pose3d shift;
+  shift.t = Eigen::Vector3d(-3.72, 0, 0);
+  const Pose3d shift_in_volume = run.volume_from_scene * shift * run.volume_from_scene.inverse();
+  const OnlineOutcome online = run_online(
+      run, run.k, &options, &run.poses, [&](loop::OnlineLoopClosure& closure, int frame) {
+        if (frame != 60) return;  // input frame 255
+        ASSERT_EQ(closure.keyframe_frames().at(2), 30);
+        ASSERT_EQ(closure.keyframe_frames().at(4), 60);
+        loop::LoopCandidate appearance;
+        appearance.from = 2;
+        appearance.to = 4;
+        appearance.T_from_to_guess = truth[30].inverse() * shift_in_volume * truth[60];
+        appearance.source = "appearance";
+        closure.add_candidate(appearance);
+      });
+  ASSERT_EQ(online.figures.loops.size(), 1u);
+  const loop::OnlineLoopRecord& loop = online.figures.loops.front();
+  std::printf("twins online: verified %d (%s; inliers %.2f), chi2 %.0f, inlier %d\n",
+              loop.check.accepted, loop.check.reason.c_str(), loop.check.inlier_fraction,
+              loop.chi2_initial, loop.graph_inlier);
+  EXPECT_TRUE(loop.check.accepted) << "the rooms are identical: ICP should match them";
+  EXPECT_FALSE(loop.graph_inlier);
+  EXPECT_EQ(online.figures.accepted, 0);
+  EXPECT_EQ(online.figures.rebuilds, 0);
+  EXPECT_FALSE(online.corrected);
+  EXPECT_LT(position_rms_m(online.poses, run.poses), 1e-4);
+}
+
+// Off in every preset; off, the run writes what it wrote before the setting existed (no
+// odometry.txt, no loop_closure in stats.json, the same trajectory bytes).
+TEST(LoopClosureOnline, OffInEveryPresetAndOffChangesNothing) {
+  for (const std::string& preset : preset_names()) {
+    EXPECT_EQ(make_preset(preset).tracking.loop_closure, LoopClosureMode::kOff) << preset;
+  }
+  const io::test::TempDir dir("kfx_online_off");
+  const std::string plain = dir.folder("plain"), off = dir.folder("off");
+  const std::string input =
+      "run \"synthetic:frames=12,width=160,height=120\" --backend cpu -q "
+      "--no-mesh --no-report --set volume_resolution=64 ";
+  ASSERT_EQ(test::run_kfx(input + "-o " + plain).exit_code, 0);
+  const test::CommandResult r = test::run_kfx(input + "--set loop_closure=off -o " + off);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(file_text(off + "/trajectory.txt"), file_text(plain + "/trajectory.txt"));
+  EXPECT_FALSE(std::filesystem::exists(off + "/odometry.txt"));
+  nlohmann::json stats;
+  std::ifstream(off + "/stats.json") >> stats;
+  EXPECT_FALSE(stats.contains("loop_closure"));
+}
+
+// `kfx run` with loop_closure=online: odometry.txt beside trajectory.txt, stats.json's counts,
+// and the progress line mentions the loops.
+TEST(LoopClosureOnline, RunWritesOdometryAndCounts) {
+  const io::test::TempDir dir("kfx_online_run");
+  const std::string out = dir.folder("run");
+  const test::CommandResult r = test::run_kfx(
+      "run \"synthetic:frames=30,width=160,height=120,speed=2\" --backend cpu --no-mesh "
+      "--set volume_resolution=96 --set compute_size_ratio=1 --set loop_closure=online "
+      "--set loop_min_gap_frames=20 -o " +
+      out);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("loops "), std::string::npos) << r.output;
+  EXPECT_TRUE(std::filesystem::exists(out + "/odometry.txt"));
+  EXPECT_TRUE(std::filesystem::exists(out + "/report.html"));
+  nlohmann::json stats;
+  std::ifstream(out + "/stats.json") >> stats;
+  ASSERT_TRUE(stats.contains("loop_closure")) << stats.dump();
+  const auto& lc = stats["loop_closure"];
+  EXPECT_EQ(lc["mode"], "online");
+  for (const char* key :
+       {"keyframes", "loops_proposed", "loops_accepted", "loops_rejected", "solves", "map_rebuilds",
+        "pose_graph_solve_ms", "reintegration_ms", "verification_ms", "host_ms"}) {
+    EXPECT_TRUE(lc.contains(key)) << key;
+  }
+  EXPECT_EQ(io::read_tum_trajectory(out + "/odometry.txt").size(),
+            io::read_tum_trajectory(out + "/trajectory.txt").size());
 }
 
 }  // namespace

@@ -25,6 +25,8 @@ void check_tracking(const PipelineConfig& config) {
   KFX_CHECK(tracking.half_sample_range_m > 0, "half_sample_range_m must be > 0");
   KFX_CHECK(tracking.relocalise_keyframes >= 1 && tracking.relocalise_keyframes <= 1000000,
             "relocalise_keyframes must be in 1..1000000, got " << tracking.relocalise_keyframes);
+  KFX_CHECK(tracking.loop_min_gap_frames >= 1,
+            "loop_min_gap_frames must be >= 1, got " << tracking.loop_min_gap_frames);
   KFX_CHECK(tracking.relocalise_ferns >= 1 && tracking.relocalise_ferns <= 10000,
             "relocalise_ferns must be in 1..10000, got " << tracking.relocalise_ferns);
 }
@@ -76,6 +78,18 @@ SettingsSection tracking_section() {
   rows.push_back(integer_row("relocalise_ferns", s,
                              "relocalisation: random ferns (4 depth tests each) per keyframe code",
                              [](C& c) -> int& { return c.tracking.relocalise_ferns; }));
+  rows.push_back(choice_row(
+      "loop_closure", s,
+      "off | online: keep keyframes, verify loops between frames, optimise a pose graph on a "
+      "host thread and rebuild the map at its poses; trajectory.txt optimised, odometry.txt raw "
+      "(kfx run; needs Ceres; docs/loop_closure.md)",
+      Choices<LoopClosureMode>{{"off", LoopClosureMode::kOff},
+                               {"online", LoopClosureMode::kOnline}},
+      [](C& c) -> LoopClosureMode& { return c.tracking.loop_closure; }));
+  rows.push_back(
+      integer_row("loop_min_gap_frames", s,
+                  "loop closure: a loop joins frames at least this many apart in time (>= 1)",
+                  [](C& c) -> int& { return c.tracking.loop_min_gap_frames; }));
   return section;
 }
 

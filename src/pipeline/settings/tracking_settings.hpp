@@ -6,6 +6,12 @@
 
 namespace kfx {
 
+/// Loop closure while a run goes (src/loop/online_closure.hpp, docs/loop_closure.md).
+enum class LoopClosureMode {
+  kOff,     ///< none (the frame loop alone)
+  kOnline,  ///< keyframes, loops verified between frames, a pose graph on a host thread
+};
+
 /// Section `tracking` of PipelineConfig.
 struct TrackingSettings {
   int rate = 1;                                     ///< track frames f with f % rate == 0
@@ -21,6 +27,9 @@ struct TrackingSettings {
   bool relocalise = false;
   int relocalise_keyframes = 1000;  ///< keyframe database capacity
   int relocalise_ferns = 500;       ///< random ferns per keyframe code
+  /// Loop closure (read by the run, not by the frame loop: the pose graph lives above it).
+  LoopClosureMode loop_closure = LoopClosureMode::kOff;
+  int loop_min_gap_frames = 200;  ///< a loop joins frames at least this many apart in time
 };
 
 }  // namespace kfx
