@@ -21,6 +21,12 @@ struct TrackingSettings {
   bool relocalise = false;
   int relocalise_keyframes = 1000;  ///< keyframe database capacity
   int relocalise_ferns = 500;       ///< random ferns per keyframe code
+  /// A good frame becomes a keyframe when this share of ferns differs from its nearest one's.
+  float relocalise_harvest = 0.2f;
+  /// Every frame is located alone in the loaded map from its nearest keyframes, with no memory
+  /// of the previous frame's pose (Pipeline::localise); nothing is integrated.
+  bool relocalise_each_frame = false;
+  int localise_candidates = 5;  ///< nearest keyframes a frame located alone tries
 };
 
 }  // namespace kfx
