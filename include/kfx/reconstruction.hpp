@@ -54,8 +54,8 @@ struct LoadedMap {
 
 /// Where Reconstruction::localise() found one depth image in the map.
 struct Located {
-  bool found = false;   ///< a pose was found (false: not from this image; nothing is guessed)
-  Pose T_world_cam{};   ///< camera to map frame, metres, when found
+  bool found = false;       ///< a pose was found (false: not from this image; nothing is guessed)
+  Pose T_world_cam{};       ///< camera to map frame, metres, when found
   int keyframes_tried = 0;  ///< nearest keyframes tried (setting localise_candidates)
 };
 

@@ -20,7 +20,8 @@ struct LocaliseAttempt {
   float dissimilarity = 1.0f;  ///< share of ferns whose codes differ from the view's
   bool accepted = false;       ///< passed the accept test from the keyframe's pose
   bool confirmed = false;      ///< ... and again from the pose it reached
-  Mat4f T_world_cam = Mat4f::identity();  ///< the pose reached (after the second pass when accepted)
+  Mat4f T_world_cam =
+      Mat4f::identity();       ///< the pose reached (after the second pass when accepted)
   float confirm_step_m = 0;    ///< how far the second pass moved it, metres
   float confirm_step_deg = 0;  ///< ... and turned it, degrees
   double inlier_fraction = 0;  ///< of the last pass

@@ -453,9 +453,8 @@ FrameReport Pipeline::collect() {
   return report;
 }
 
-TrackingState Pipeline::localise_pass(ImageView<const uint16_t> depth_mm,
-                                      ImageView<const Rgb8> rgb, const Mat4f& T_world_cam,
-                                      double& computation_ms) {
+TrackingState Pipeline::localise_pass(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb,
+                                      const Mat4f& T_world_cam, double& computation_ms) {
   // The same stages, in the same order, as a relocalisation attempt frame that integrates
   // nothing and raycasts nothing after tracking (shape 1 | 32), so the GPU replays that graph.
   Backend& b = *backend_;
@@ -491,8 +490,9 @@ TrackingState Pipeline::localise_pass(ImageView<const uint16_t> depth_mm,
 }
 
 Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
-  KFX_CHECK(relocalise_, "localise() locates a view from the keyframe database: it needs "
-                         "setting relocalise=on");
+  KFX_CHECK(relocalise_,
+            "localise() locates a view from the keyframe database: it needs "
+            "setting relocalise=on");
   for (const PendingFrame& p : in_flight_) {
     KFX_CHECK(p.done, "Pipeline::localise() with frames in flight: collect them first");
   }

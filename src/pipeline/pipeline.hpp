@@ -73,7 +73,7 @@ struct Localisation {
   Mat4f T_world_cam = Mat4f::identity();  ///< the pose found (camera to volume frame)
   /// The keyframes tried, nearest first, and what each gave (localise/located_pose.hpp).
   std::vector<LocaliseAttempt> attempts;
-  int chosen = -1;  ///< the attempt whose pose was taken (−1: none)
+  int chosen = -1;            ///< the attempt whose pose was taken (−1: none)
   double computation_ms = 0;  ///< the backend's time over every pass
 };
 

@@ -199,8 +199,10 @@ INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, LocaliseAlone, ::testing::Values(false,
 
 TEST(LocaliseAloneSettings, TheSettingNeedsRelocaliseAndALoadedMap) {
   Sequence sequence(kLoop);
-  EXPECT_THROW(Reconstruction(Settings().backend("cpu").set("volume_resolution", "64").set(
-                                  "relocalise_each_frame", "on"),
+  EXPECT_THROW(Reconstruction(Settings()
+                                  .backend("cpu")
+                                  .set("volume_resolution", "64")
+                                  .set("relocalise_each_frame", "on"),
                               sequence),
                Error);
   Settings s = settings(false);
