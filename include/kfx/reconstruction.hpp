@@ -52,6 +52,13 @@ struct LoadedMap {
   std::string note;
 };
 
+/// Where Reconstruction::localise() found one depth image in the map.
+struct Located {
+  bool found = false;       ///< a pose was found (false: not from this image; nothing is guessed)
+  Pose T_world_cam{};       ///< camera to map frame, metres, when found
+  int keyframes_tried = 0;  ///< nearest keyframes tried (setting localise_candidates)
+};
+
 /// A reconstruction over one backend, its map allocated once at construction.
 class Reconstruction {
  public:
@@ -92,6 +99,15 @@ class Reconstruction {
   FrameResult integrate_at(const SequenceFrame& frame, const Pose& T_world_cam);
   /// Frames submitted and not yet collected.
   int frames_in_flight() const;
+  /// Where in the map is the camera that saw `frame`? Answered from this image alone, with no
+  /// use of the current pose or earlier frames: its nearest keyframes (setting relocalise's
+  /// keyframe database: loaded with the map, or harvested so far) are tried, each verified by
+  /// tracking the image against the map raycast from it (docs/tracking.md, "Located alone").
+  /// Integrates nothing, is not a frame of the trajectory, and leaves the camera where it was.
+  /// Waits for the frames in flight. Throws kfx::Error with setting relocalise off, and on a bad
+  /// frame as process() does.
+  Located localise(const FrameView& frame);
+  Located localise(const SequenceFrame& frame);
 
   /// Starts over: empty map, initial pose, frame 0, trajectory cleared (buffers are kept).
   void reset();

@@ -228,6 +228,21 @@ class Reconstruction(_Reconstruction):
             return self.integrate_frame_at(frame, pose)
         return self.integrate_array_at(frame, pose, stamp, depth_scale, colour, input_index)
 
+    def localise(self, frame: Any, colour: Any = None,
+                 depth_scale: Optional[float] = None) -> Optional[Any]:
+        """Where in the map is the camera that saw ``frame`` (a kfx.Frame or a depth array, as in
+        process())? Answered from this image alone, with no use of the current pose: its
+        nearest keyframes (setting relocalise; loaded with the map or harvested so far) are
+        tried, each verified by tracking the image against the map seen from there. Returns the
+        pose (4x4 float32, camera to map frame) or None when the image cannot be located.
+        Integrates nothing, adds nothing to results(), leaves the camera where it was."""
+        if isinstance(frame, Frame):
+            if colour is not None:
+                raise Error("a kfx.Frame brings its own colour image: give colour= with a "
+                            "depth array only")
+            return self.localise_frame(frame)
+        return self.localise_array(frame, depth_scale, colour)
+
     def mesh(self) -> Mesh:
         """The map as a triangle mesh (marching cubes)."""
         return Mesh(*self.mesh_arrays())

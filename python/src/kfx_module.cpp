@@ -453,6 +453,32 @@ NB_MODULE(_kfx, m) {
           },
           "depth"_a, "pose"_a, "stamp"_a = 0.0, "depth_scale"_a = nb::none(),
           "colour"_a = nb::none(), "input_index"_a = nb::none())
+      .def(
+          "localise_frame",
+          [](kfx::Reconstruction& r, const kfx::SequenceFrame& f) -> std::optional<nb::object> {
+            kfx::Located where;
+            {
+              nb::gil_scoped_release release;
+              where = r.localise(f);
+            }
+            if (!where.found) return std::nullopt;
+            return pose_array(where.T_world_cam);
+          },
+          "frame"_a)
+      .def(
+          "localise_array",
+          [](kfx::Reconstruction& r, const AnyArray& depth, std::optional<double> depth_scale,
+             std::optional<AnyArray> colour) -> std::optional<nb::object> {
+            const kfx::FrameView v = frame_view(depth, 0.0, depth_scale, colour, std::nullopt);
+            kfx::Located where;
+            {
+              nb::gil_scoped_release release;
+              where = r.localise(v);
+            }
+            if (!where.found) return std::nullopt;
+            return pose_array(where.T_world_cam);
+          },
+          "depth"_a, "depth_scale"_a = nb::none(), "colour"_a = nb::none())
       .def("collect", &kfx::Reconstruction::collect, nb::call_guard<nb::gil_scoped_release>(),
            "Waits for the oldest submitted frame and returns its FrameResult.")
       .def_prop_ro("frames_in_flight", &kfx::Reconstruction::frames_in_flight,

@@ -185,6 +185,23 @@ struct Reconstruction::Impl {
     input_indices_in_flight.push_back(frame.input_index);
   }
 
+  /// Checks `frame` as submit() does and locates it alone (Pipeline::localise).
+  Located localise(const FrameView& frame, bool colour_given) {
+    const std::string label = "localise(): frame " + std::to_string(frame_number(frame));
+    KFX_CHECK(frame.depth.width_px == camera.width_px && frame.depth.height_px == camera.height_px,
+              label << ": depth image is " << frame.depth.width_px << "x" << frame.depth.height_px
+                    << ", the reconstruction was made for " << camera.width_px << "x"
+                    << camera.height_px);
+    const ImageView<const uint16_t> mm = api::depth_millimetres(frame.depth, scratch_mm, label);
+    const ImageView<const Rgb8> rgb = colour_view(frame.colour, label, colour_given);
+    const Localisation where = pipeline->localise(mm, rgb);
+    Located out;
+    out.found = where.found;
+    out.keyframes_tried = static_cast<int>(where.attempts.size());
+    if (where.found) out.T_world_cam = api::to_pose(where.T_world_cam);
+    return out;
+  }
+
   FrameResult collect() {
     KFX_CHECK(pipeline->frames_in_flight() > 0, "collect() without a submitted frame");
     last_report = pipeline->collect();
@@ -342,6 +359,14 @@ FrameResult Reconstruction::integrate_at(const SequenceFrame& frame, const Pose&
   impl_->drain();
   impl_->submit(frame.view(), false, &pose);
   return impl_->collect();
+}
+Located Reconstruction::localise(const FrameView& frame) {
+  impl_->drain();
+  return impl_->localise(frame, true);
+}
+Located Reconstruction::localise(const SequenceFrame& frame) {
+  impl_->drain();
+  return impl_->localise(frame.view(), false);
 }
 int Reconstruction::frames_in_flight() const { return impl_->pipeline->frames_in_flight(); }
 

@@ -53,6 +53,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
     RelocaliserSettings r;
     r.fern_count = config_.tracking.relocalise_ferns;
     r.keyframe_capacity = config_.tracking.relocalise_keyframes;
+    r.harvest_dissimilarity = config_.tracking.relocalise_harvest;
     relocaliser_ = Relocaliser(r, small_params_.width_px, small_params_.height_px);
     input_small_ = InputSmallDepth(small_params_, ratio);
   }
@@ -224,6 +225,32 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
                      << "in (load one before the first frame, or set localise_only=off)");
   FrameReport report;
   report.index = f;
+  if (config_.tracking.relocalise_each_frame && !pose_given) {
+    KFX_CHECK(map_loaded_, "frame " << f << ": setting relocalise_each_frame is on, but no map "
+                                    << "was loaded to locate frames in (load one first)");
+    // Located alone, at once: nothing of the frame stays on the backend, and collect() only
+    // hands the report back in order.
+    const Localisation where = localise(depth_mm, rgb);
+    report.tracking_ran = true;
+    report.tracked = where.found;
+    report.relocalisation_attempt = true;
+    report.relocalised = where.found;
+    report.quality = where.found ? TrackingQuality::kGood : TrackingQuality::kLost;
+    if (where.found) last_pose_ = where.T_world_cam;
+    report.T_world_cam = last_pose_;
+    report.stage_ms[static_cast<int>(Stage::kTrack)] = where.computation_ms;
+    report.computation_ms = where.computation_ms;
+    if (where.found) {
+      const LocaliseAttempt& a = where.attempts[static_cast<size_t>(where.chosen)];
+      report.inlier_fraction = a.inlier_fraction;
+      report.residual_rms_m = a.residual_rms_m;
+    }
+    PendingFrame done{report, true, false, false, true};
+    done.done = true;
+    in_flight_.push_back(done);
+    ++frame_;
+    return;
+  }
   // Before anything of the frame: a lost camera's next candidate pose, and whether the frame
   // may be integrated (not until the relocaliser has found the camera).
   // A frame at a given pose is placed, never searched for. A view jump is seen here, on the
@@ -350,6 +377,7 @@ FrameReport Pipeline::collect() {
   KFX_CHECK(!in_flight_.empty(), "Pipeline::collect() without a submitted frame");
   const PendingFrame pending = in_flight_.front();
   in_flight_.pop_front();
+  if (pending.done) return pending.report;
   FrameReport report = pending.report;
   const bool track = pending.track, may_integrate = pending.may_integrate;
   const bool always = pending.always;
@@ -550,6 +578,114 @@ void Pipeline::resume_in_map(int map, const Mat4f& T_world_cam) {
   if (relocalise_) relocaliser_.trust_pose(T_world_cam);
   have_reference_ = true;
   reference_stale_ = false;
+}
+
+TrackingState Pipeline::localise_pass(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb,
+                                      const Mat4f& T_world_cam, double& computation_ms) {
+  // The same stages, in the same order, as a relocalisation attempt frame that integrates
+  // nothing and raycasts nothing after tracking (shape 1 | 32), so the GPU replays that graph.
+  Backend& b = *backend_;
+  b.upload_depth(depth_mm);
+  if (config_.colour.fuse || setup_.photometric) b.upload_colour(rgb);
+  b.stage_pose(T_world_cam);
+  b.begin_frame(1 | 32);
+  b.adopt_staged_pose();
+  b.begin_stage(Stage::kPreprocess);
+  b.preprocess(params_.bilateral);
+  b.make_small_depth(small_params_);
+  b.end_stage(Stage::kPreprocess);
+  b.begin_stage(Stage::kTrack);
+  b.raycast(params_.raycast);
+  b.build_pyramid(params_.pyramid);
+  b.begin_tracking(params_.icp_guess);
+  const auto& iterations = config_.tracking.iterations_per_level;
+  for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
+    b.icp_level(level, iterations[level], params_.icp);
+  }
+  b.accept_or_revert(params_.accept);
+  if (setup_.photometric) b.keep_intensity(false);
+  b.end_stage(Stage::kTrack);
+  for (Stage s : {Stage::kIntegrate, Stage::kRaycast, Stage::kRender}) {
+    b.begin_stage(s);
+    b.end_stage(s);
+  }
+  b.end_frame();
+  const TrackingState state = b.read_state();
+  const auto ms = b.frame_stage_ms();
+  for (Stage s : {Stage::kPreprocess, Stage::kTrack}) computation_ms += ms[static_cast<int>(s)];
+  return state;
+}
+
+Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
+  KFX_CHECK(relocalise_,
+            "localise() locates a view from the keyframe database: it needs "
+            "setting relocalise=on");
+  for (const PendingFrame& p : in_flight_) {
+    KFX_CHECK(p.done, "Pipeline::localise() with frames in flight: collect them first");
+  }
+  if (config_.colour.fuse || setup_.photometric) {
+    KFX_CHECK(rgb.data != nullptr && rgb.size() > 0,
+              "localise(): the image has no colour, and this map "
+                  << (config_.colour.fuse ? "fuses colour" : "tracks with colour"));
+  }
+  Localisation out;
+  const KeyframeDatabase& db = relocaliser_.keyframes();
+  if (db.empty()) return out;
+  Backend& b = *backend_;
+  // The view's code from the backend's small image, made as the keyframes' were (the filtered
+  // compute-size depth): a frame that preprocesses only (shape 0).
+  b.upload_depth(depth_mm);
+  if (config_.colour.fuse || setup_.photometric) b.upload_colour(rgb);
+  b.begin_frame(0);
+  b.begin_stage(Stage::kPreprocess);
+  b.preprocess(params_.bilateral);
+  b.make_small_depth(small_params_);
+  b.end_stage(Stage::kPreprocess);
+  b.begin_stage(Stage::kTrack);
+  b.skip_tracking();
+  if (setup_.photometric) b.keep_intensity(false);
+  b.end_stage(Stage::kTrack);
+  for (Stage s : {Stage::kIntegrate, Stage::kRaycast, Stage::kRender}) {
+    b.begin_stage(s);
+    b.end_stage(s);
+  }
+  b.end_frame();
+  b.read_state();
+  out.computation_ms += b.frame_stage_ms()[static_cast<int>(Stage::kPreprocess)];
+  const HostImage<uint16_t> small = b.read_small_depth();
+  const std::vector<KeyframeMatch> nearest =
+      db.nearest(db.encode(small.view()), config_.tracking.localise_candidates);
+  const double pixels = static_cast<double>(params_.accept.compute_pixels);
+  for (const KeyframeMatch& m : nearest) {
+    LocaliseAttempt a;
+    a.keyframe = m.keyframe;
+    a.dissimilarity = m.dissimilarity;
+    TrackingState state =
+        localise_pass(depth_mm, rgb, db.keyframe(m.keyframe).T_world_cam, out.computation_ms);
+    a.accepted = state.tracked;
+    a.T_world_cam = state.T_world_cam;
+    if (a.accepted) {
+      const Mat4f first = state.T_world_cam;
+      state = localise_pass(depth_mm, rgb, first, out.computation_ms);
+      a.confirmed = state.tracked;
+      a.T_world_cam = state.T_world_cam;
+      pose_difference(first, state.T_world_cam, a.confirm_step_m, a.confirm_step_deg);
+    }
+    const double inliers = state.accumulator[kAccInliers];
+    a.inlier_fraction = inliers / pixels;
+    a.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
+    out.attempts.push_back(a);
+  }
+  const int pick = choose_located_attempt(out.attempts);
+  out.found = pick >= 0;
+  out.chosen = pick;
+  if (out.found) out.T_world_cam = out.attempts[static_cast<size_t>(pick)].T_world_cam;
+  // The camera stays where it was; its reference view is the last pass's, so the next frame
+  // raycasts afresh from the camera's pose.
+  b.set_pose(last_pose_);
+  have_reference_ = false;
+  reference_stale_ = true;
+  return out;
 }
 
 }  // namespace kfx

@@ -14,6 +14,7 @@
 #include "core/image.hpp"
 #include "kernels/tracking_constraint.hpp"
 #include "localise/input_small_depth.hpp"
+#include "localise/located_pose.hpp"
 #include "localise/relocaliser.hpp"
 #include "localise/tracking_judge.hpp"
 #include "map/block_swap.hpp"
@@ -64,6 +65,16 @@ struct FrameReport {
   /// outside the stages and the computation time: read, sort and write back the map).
   int map_swap_passes = 0;
   double map_swap_ms = 0;
+};
+
+/// One depth image located alone in the map (Pipeline::localise).
+struct Localisation {
+  bool found = false;
+  Mat4f T_world_cam = Mat4f::identity();  ///< the pose found (camera to volume frame)
+  /// The keyframes tried, nearest first, and what each gave (localise/located_pose.hpp).
+  std::vector<LocaliseAttempt> attempts;
+  int chosen = -1;            ///< the attempt whose pose was taken (−1: none)
+  double computation_ms = 0;  ///< the backend's time over every pass
 };
 
 /// A KinectFusion pipeline over one backend.
@@ -149,6 +160,15 @@ class Pipeline {
   /// database saved with the map, if any: with setting relocalise on, the camera is then lost
   /// until the relocaliser finds it in the map (nothing is integrated before).
   void adopt_loaded_map(std::optional<KeyframeDatabase> keyframes = std::nullopt);
+  /// Where in the map is the camera that saw `depth_mm` (input size, mm; `rgb` as in submit())?
+  /// Answered from this image alone, with no use of the camera's current pose: each of its
+  /// nearest keyframes (setting localise_candidates) is tried as relocalisation tries one
+  /// (raycast the map from the keyframe's pose, track the image against it, the accept test),
+  /// a pose that passes is tried again from where it ended, and localise/located_pose.hpp
+  /// decides. Integrates nothing; the camera stays where it was (the next frame raycasts the
+  /// map from there afresh, as after set_pose()). Needs setting relocalise and keyframes
+  /// (harvested so far, or loaded with the map); no frame may be in flight.
+  Localisation localise(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb = {});
   /// Relocalisation (setting relocalise): its keyframes and figures; nullptr when off.
   const Relocaliser* relocaliser() const { return relocalise_ ? &relocaliser_ : nullptr; }
   /// True after adopt_loaded_map(), until reset().
@@ -195,6 +215,9 @@ class Pipeline {
   struct PendingFrame {
     FrameReport report;
     bool track, may_integrate, always, attempt;
+    /// Located alone at submit (setting relocalise_each_frame): the report is complete and
+    /// nothing of the frame is left on the backend.
+    bool done = false;
   };
   std::deque<PendingFrame> in_flight_;  ///< submitted, not yet collected
   int frame_ = 0;
@@ -222,6 +245,10 @@ class Pipeline {
   static constexpr int kSideTrackShape = 256;
   static constexpr int kResumeShape = 512;
 
+  /// One pass of localise(): the camera moved to `T_world_cam`, the map raycast from there and
+  /// the uploaded image tracked against it; returns the state after the accept test.
+  TrackingState localise_pass(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb,
+                              const Mat4f& T_world_cam, double& computation_ms);
   /// Moves far blocks to the swap store and near ones back (map/block_swap.hpp), before the
   /// next frame; decided in collect() (swap_due_).
   void swap_pass();

@@ -231,3 +231,26 @@ def test_tracking_state_and_the_camera_saved_with_the_map(frames, tmp_path):
     assert all(x.tracked or not x.integrated for x in later)
     with pytest.raises(kfx.Error, match="orthonormal"):
         loaded.set_pose(np.diag([2.0, 1.0, 1.0, 1.0]).astype(np.float32))
+
+
+def test_localise_one_image_alone_in_a_saved_map(frames, tmp_path):
+    """localise(): where in a saved map the camera that saw one image is, from that image alone;
+    None when it cannot be told; the run itself is left as it was."""
+    r = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64,
+                           relocalise="on")
+    poses = [r.process(f).pose for f in frames]
+    r.save_map(str(tmp_path / "map.kfxtsdf"))
+    loaded = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64,
+                                relocalise="on")
+    loaded.load_map(str(tmp_path / "map.kfxtsdf"))
+    before = loaded.pose
+    for i in (20, 6):
+        pose = loaded.localise(frames[i])
+        assert pose is not None and pose.shape == (4, 4)
+        assert np.linalg.norm(pose[:3, 3] - poses[i][:3, 3]) < 0.05
+    blank = np.zeros((120, 160), np.float32)
+    assert loaded.localise(blank, colour=np.zeros((120, 160, 3), np.uint8)) is None
+    assert loaded.results() == [] and np.array_equal(loaded.pose, before)
+    plain = kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64)
+    with pytest.raises(kfx.Error, match="relocalise=on"):
+        plain.localise(frames[0])

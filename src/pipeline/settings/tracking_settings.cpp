@@ -29,6 +29,13 @@ void check_tracking(const PipelineConfig& config) {
             "loop_min_gap_frames must be >= 1, got " << tracking.loop_min_gap_frames);
   KFX_CHECK(tracking.relocalise_ferns >= 1 && tracking.relocalise_ferns <= 10000,
             "relocalise_ferns must be in 1..10000, got " << tracking.relocalise_ferns);
+  KFX_CHECK(tracking.relocalise_harvest > 0 && tracking.relocalise_harvest <= 1,
+            "relocalise_harvest must be in (0, 1], got " << tracking.relocalise_harvest);
+  KFX_CHECK(tracking.localise_candidates >= 1 && tracking.localise_candidates <= 100,
+            "localise_candidates must be in 1..100, got " << tracking.localise_candidates);
+  KFX_CHECK(!tracking.relocalise_each_frame || tracking.relocalise,
+            "relocalise_each_frame=on locates frames from the keyframe database: it needs "
+            "relocalise=on");
 }
 
 }  // namespace
@@ -90,6 +97,22 @@ SettingsSection tracking_section() {
       integer_row("loop_min_gap_frames", s,
                   "loop closure: a loop joins frames at least this many apart in time (>= 1)",
                   [](C& c) -> int& { return c.tracking.loop_min_gap_frames; }));
+  rows.push_back(number_row(
+      "relocalise_harvest", s,
+      "relocalisation: a well-tracked frame becomes a keyframe when this share of its ferns "
+      "differs from its nearest keyframe's (smaller: more keyframes, nearer candidates)",
+      [](C& c) -> float& { return c.tracking.relocalise_harvest; }));
+  rows.push_back(on_off_row(
+      "relocalise_each_frame", s,
+      "locate every frame alone in the loaded map from its nearest keyframes, with no memory of "
+      "the previous frame's pose, and integrate nothing (on|off; needs relocalise=on and a "
+      "loaded map; docs/tracking.md)",
+      [](C& c) -> bool& { return c.tracking.relocalise_each_frame; }));
+  rows.push_back(integer_row(
+      "localise_candidates", s,
+      "relocalisation: nearest keyframes tried for a frame located alone (relocalise_each_frame, "
+      "Reconstruction::localise)",
+      [](C& c) -> int& { return c.tracking.localise_candidates; }));
   return section;
 }
 

@@ -30,6 +30,12 @@ struct TrackingSettings {
   /// Loop closure (read by the run, not by the frame loop: the pose graph lives above it).
   LoopClosureMode loop_closure = LoopClosureMode::kOff;
   int loop_min_gap_frames = 200;  ///< a loop joins frames at least this many apart in time
+  /// A good frame becomes a keyframe when this share of ferns differs from its nearest one's.
+  float relocalise_harvest = 0.2f;
+  /// Every frame is located alone in the loaded map from its nearest keyframes, with no memory
+  /// of the previous frame's pose (Pipeline::localise); nothing is integrated.
+  bool relocalise_each_frame = false;
+  int localise_candidates = 5;  ///< nearest keyframes a frame located alone tries
 };
 
 }  // namespace kfx
