@@ -47,7 +47,6 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.colour = config_.colour.fuse;
   setup_.photometric = config_.quality.photometric_weight > 0.0f;
   relocalise_ = config_.tracking.relocalise;
-  setup_.small_depth = relocalise_;
   small_params_ = small_depth_params(cw, ch);
   if (relocalise_) {
     RelocaliserSettings r;
@@ -288,8 +287,6 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
 
   b.begin_stage(Stage::kPreprocess);
   b.preprocess(params_.bilateral);
-  // The view's code for the keyframe database: every frame, as any may be harvested or lost.
-  if (relocalise_) b.make_small_depth(small_params_);
   b.end_stage(Stage::kPreprocess);
 
   b.begin_stage(Stage::kTrack);
@@ -406,7 +403,6 @@ FrameReport Pipeline::collect() {
   report.quality = judge_.judge(evidence);
   last_pose_ = state.T_world_cam;
   if (relocalise_) {
-    const HostImage<uint16_t> small = backend_->read_small_depth();
     RelocaliserObservation o;
     o.tracking_ran = track;
     o.tracked = report.tracked;
@@ -414,7 +410,8 @@ FrameReport Pipeline::collect() {
     o.attempt = pending.attempt;
     o.T_world_cam = state.T_world_cam;
     o.frame = report.index;
-    o.small_mm = small.view();
+    o.inlier_fraction = report.inlier_fraction;
+    o.residual_rms_m = report.residual_rms_m;
     report.relocalised = relocaliser_.observe(o);
     // Until it is found, a lost camera stays lost, tracked frames or not (they verify).
     if (relocaliser_.lost_at(report.index)) report.quality = TrackingQuality::kLost;
