@@ -173,7 +173,7 @@ TEST(Relocaliser, HarvestsAndLooksUpTheCodesOfTheSubmittedInputWithNoImageFromTh
   o.tracking_ran = o.tracked = o.good = true;
   for (int f = 0; f < 2; ++f) {
     o.frame = f;
-    o.T_world_cam = Mat4f::translation(Vec3f{static_cast<float>(f), 0, 0});
+    o.T_world_cam = Mat4f::translation(Vec3f{0.05f * static_cast<float>(f), 0, 0});
     EXPECT_FALSE(r.observe(o));
   }
   const KeyframeDatabase& db = r.keyframes();
@@ -189,7 +189,7 @@ TEST(Relocaliser, HarvestsAndLooksUpTheCodesOfTheSubmittedInputWithNoImageFromTh
   // view, a's (frame 0's) first.
   EXPECT_FALSE(r.submitted_view(2, b.view()));
   o.frame = 2;
-  o.T_world_cam = Mat4f::translation(Vec3f{5, 0, 0});
+  o.T_world_cam = Mat4f::translation(Vec3f{0.1f, 0, 0});
   r.observe(o);
   EXPECT_EQ(db.size(), 2);
   EXPECT_FALSE(r.submitted_view(3, a.view()));
@@ -208,7 +208,7 @@ TEST(Relocaliser, HarvestsAndLooksUpTheCodesOfTheSubmittedInputWithNoImageFromTh
     o.attempt = true;
     r.observe(o);
   }
-  EXPECT_EQ(tried_x_m, (std::vector<float>{5.0f, 0.0f, 1.0f}));
+  EXPECT_EQ(tried_x_m, (std::vector<float>{0.1f, 0.0f, 0.05f}));
 }
 
 /// A tracked, good frame at `x_m` with the ICP's figures given.
