@@ -22,7 +22,6 @@
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
-#include "kernels/small_depth.hpp"
 #include "kernels/track.hpp"
 #include "kernels/tracking_state.hpp"
 #include "map/host_block_map.hpp"
@@ -72,8 +71,6 @@ struct BackendSetup {
   /// The undistortion table (pipeline/depth_undistortion.hpp), compute size: the input pixel
   /// each compute pixel reads. Empty: input (x·ratio, y·ratio), as KFusion.
   HostImage<SourcePixel> depth_source_px;
-  /// Relocalisation (setting relocalise): buffers for the small depth image and its read-back.
-  bool small_depth = false;
   int compute_width_px() const { return input_width_px / compute_ratio; }
   int compute_height_px() const { return input_height_px / compute_ratio; }
 };
@@ -181,13 +178,6 @@ class Backend {
   virtual void accept_or_revert(const AcceptParams& params) = 0;
   /// Marks this frame as not tracked (tracking skipped).
   virtual void skip_tracking() = 0;
-  /// Relocalisation (BackendSetup::small_depth): after preprocess(), this frame's small depth
-  /// image (kernels/small_depth.hpp) from its compute-size depth, kept with the frame for
-  /// read_small_depth(). Its sizes depend on the compute size only.
-  virtual void make_small_depth(const SmallDepthParams& params) = 0;
-  /// After read_state(): the small depth image (mm, 0 = none) of the frame it read; empty when
-  /// that frame made none. A copy of a few kilobytes the frame already brought back.
-  virtual HostImage<uint16_t> read_small_depth() = 0;
   /// Relocalisation's candidate pose, or a frame's given pose (Pipeline::submit_at_pose): hands
   /// the backend a camera pose for the next frame's adopt_staged_pose(), in stream order, so
   /// frames may be in flight and the device never waits for the host. Call between

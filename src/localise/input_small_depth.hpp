@@ -1,12 +1,14 @@
 #pragma once
 /// The small depth image of a frame made on the host from its input depth, before the frame is
-/// submitted: so the view-jump test (localise/relocaliser.hpp) can decide, before anything of
-/// the frame is integrated, that the camera jumped (frames missing from the input, the camera
-/// moved while covered). The backend's own small image (made from the filtered compute-size
-/// depth) needs the frame computed and read back first, by when the frame is already fused.
+/// submitted: the one view code relocalisation uses (localise/relocaliser.hpp). So the view-jump
+/// test can decide, before anything of the frame is integrated, that the camera jumped (frames
+/// missing from the input, the camera moved while covered), and keyframes are harvested and
+/// looked up by the same code with nothing made on or copied back from the device: a small
+/// image made there from the filtered depth cost the GPU frame 5–7 % (bench/RESULTS.md,
+/// "Session 24"), and would be known only once the frame is fused.
 /// Same kernel bodies (kernels/small_depth.hpp) on the input depth sampled at the compute size
 /// without the bilateral filter: a view signature, compared only with other frames' made the
-/// same way.
+/// same way (a map's saved keyframes included).
 
 #include <cstdint>
 

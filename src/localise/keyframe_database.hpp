@@ -6,7 +6,7 @@
 /// for keyframe encoding", TVCG 2015; InfiniTAM v3's relocaliser): each fern is a few tests
 /// "is the depth at pixel p beyond d?", its code the tests' bits; two views differ by the share
 /// of ferns whose codes differ. One floor above the frame loop: host code over the small image
-/// the backends read back.
+/// made on the host from each frame's input depth (localise/input_small_depth.hpp).
 
 #include <cstdint>
 #include <string>

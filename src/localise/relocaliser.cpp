@@ -22,6 +22,15 @@ void pose_step(const Mat4f& a, const Mat4f& b, float& metres, float& degrees) {
   degrees = std::acos(c) * 57.29577951f;
 }
 
+/// Whether `frame`'s fit fell apart against a good frame's (inlier fraction `inliers`, residual
+/// RMS `rms_m`): its residual grew past, and its inliers fell below, the settings' ratios. No
+/// good frame yet (0s): never.
+bool fit_fell_apart(const RelocaliserSettings& s, const RelocaliserObservation& frame,
+                    double inliers, double rms_m) {
+  return frame.residual_rms_m > s.view_jump_residual_ratio * rms_m &&
+         frame.inlier_fraction < s.view_jump_inlier_ratio * inliers;
+}
+
 }  // namespace
 
 Relocaliser::Relocaliser(const RelocaliserSettings& settings, int small_width_px,
@@ -36,6 +45,13 @@ void Relocaliser::reset() {
   candidate_ids_.clear();
   failed_ids_.clear();
   last_view_code_.clear();
+  submitted_codes_.clear();
+  last_submitted_frame_ = -1;
+  hold_to_frame_ = -1;
+  doubt_frame_ = -1;
+  last_tracked_ = false;
+  last_inlier_fraction_ = 0;
+  last_residual_rms_m_ = 0;
   view_jumped_ = false;
   lost_from_frame_ = 0;
   attempt_ids_.clear();
@@ -52,6 +68,7 @@ void Relocaliser::reset() {
 void Relocaliser::trust_pose(const Mat4f& T_world_cam) {
   // The camera was put elsewhere on purpose: the next view is no jump.
   last_view_code_.clear();
+  last_tracked_ = false;
   mode_ = Mode::kTracking;
   last_good_pose_ = T_world_cam;
   candidates_.clear();
@@ -76,6 +93,7 @@ void Relocaliser::adopt_keyframes(std::optional<KeyframeDatabase> keyframes) {
 
 void Relocaliser::start_lost(const Mat4f& T_world_cam) {
   last_view_code_.clear();
+  last_tracked_ = false;
   view_jumped_ = false;
   mode_ = Mode::kLost;
   last_good_pose_ = T_world_cam;
@@ -90,24 +108,26 @@ void Relocaliser::start_lost(const Mat4f& T_world_cam) {
 bool Relocaliser::submitted_view(int frame, ImageView<const uint16_t> small_mm, bool placed) {
   const auto start = std::chrono::steady_clock::now();
   std::vector<uint8_t> code = db_.encode(small_mm);
-  bool view_jump = false;
+  bool view_jump = false, doubtful = false;
   if (last_view_code_.size() == code.size()) {
     int differ = 0;
     for (size_t i = 0; i < code.size(); ++i) differ += code[i] != last_view_code_[i];
+    doubtful = differ > settings_.view_doubt_dissimilarity * static_cast<float>(code.size());
     view_jump = differ > settings_.view_jump_dissimilarity * static_cast<float>(code.size());
   }
   // Only a tracking camera turns lost here: a lost or verifying one tries candidates anyway.
   const bool lost_now = view_jump && !placed && mode_ == Mode::kTracking;
   if (lost_now) {
-    // The last good pose is where the camera no longer is; the frames before this one, still in
-    // flight, were tracked and integrated as usual and are collected as such.
-    mode_ = Mode::kLost;
-    view_jumped_ = true;
-    lost_from_frame_ = frame;
-    lost_frames_ = kLastPoseFirstFrames + 1;
-    failed_ids_.clear();
-    choose_candidates(code);
+    // The frames before this one, still in flight, were tracked and integrated as usual and are
+    // collected as such.
+    lose_at_view_jump(frame, code);
+  } else if (doubtful && !placed && mode_ == Mode::kTracking) {
+    // Not integrated until its tracking is seen; the next frame is submitted before that.
+    doubt_frame_ = frame;
+    hold_to_frame_ = frame + 1;
   }
+  last_submitted_frame_ = frame;
+  submitted_codes_.emplace_back(frame, code);
   last_view_code_ = std::move(code);
   host_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -116,7 +136,7 @@ bool Relocaliser::submitted_view(int frame, ImageView<const uint16_t> small_mm, 
 
 RelocaliserPlan Relocaliser::plan() {
   RelocaliserPlan p;
-  p.integrate = mode_ == Mode::kTracking;
+  p.integrate = mode_ == Mode::kTracking && last_submitted_frame_ > hold_to_frame_;
   if (mode_ != Mode::kLost || attempts_in_flight_ > 0 || candidates_.empty()) return p;
   // The best candidate not tried since the view last changed; all tried: start the round again.
   size_t pick = candidates_.size();
@@ -147,8 +167,15 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
     attempt_id = attempt_ids_.empty() ? -2 : attempt_ids_.front();
     if (!attempt_ids_.empty()) attempt_ids_.erase(attempt_ids_.begin());
   }
+  // The frame's code from submitted_view(); frames observed out of turn leave theirs behind.
   std::vector<uint8_t> code;
-  if (frame.small_mm.data != nullptr) code = db_.encode(frame.small_mm);
+  while (!submitted_codes_.empty() && submitted_codes_.front().first < frame.frame) {
+    submitted_codes_.pop_front();
+  }
+  if (!submitted_codes_.empty() && submitted_codes_.front().first == frame.frame) {
+    code = std::move(submitted_codes_.front().second);
+    submitted_codes_.pop_front();
+  }
   bool found = false;
   // A frame submitted before the view jump that made the camera lost: it tracked (or not) in
   // the old view, and the loss's candidates belong to the new one.
@@ -157,6 +184,10 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
     case Mode::kTracking:
       if (before_jump) {
         if (frame.tracked && frame.good && !code.empty()) harvest(frame, code);
+      } else if (frame.tracked && !frame.attempt && frame_jumped(frame)) {
+        // Tracked from the old pose into a view it does not belong to: the frames behind it,
+        // in flight, were tracked on from its pose and belong to the loss too.
+        lose_at_view_jump(frame.frame, code);
       } else if (frame.tracking_ran && !frame.tracked) {
         mode_ = Mode::kLost;
         lost_from_frame_ = frame.frame;
@@ -170,8 +201,11 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
       break;
     case Mode::kLost:
       // After a view jump only an attempt from a keyframe starts a verification: frames that
-      // track on from the suspect pose would verify it.
-      if (frame.tracked && (!view_jumped_ || (frame.attempt && attempt_id >= 0))) {
+      // track on from the suspect pose would verify it. The accept test passes fits far worse
+      // than tracking makes (a residual five times the last good frame's at a pose 10–20 cm
+      // off, bench/RESULTS.md "The view jump the ICP sees"): such a fit verifies nothing.
+      if (frame.tracked && (!view_jumped_ || (frame.attempt && attempt_id >= 0)) &&
+          !fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_)) {
         mode_ = Mode::kVerifying;
         verified_ = 1;
         verify_pose_ = frame.T_world_cam;
@@ -184,7 +218,8 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
       float metres = 0, degrees = 0;
       if (frame.tracked) pose_step(verify_pose_, frame.T_world_cam, metres, degrees);
       if (!frame.tracked || metres > settings_.verify_max_step_m ||
-          degrees > settings_.verify_max_step_deg) {
+          degrees > settings_.verify_max_step_deg ||
+          fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_)) {
         mode_ = Mode::kLost;
         ++lost_frames_;
         if (!code.empty()) choose_candidates(code);
@@ -202,9 +237,38 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
       break;
     }
   }
+  // A doubtful frame that did not jump releases the frames held behind it (those not yet
+  // submitted; one already submitted stays unintegrated).
+  if (frame.frame == doubt_frame_ && mode_ == Mode::kTracking) hold_to_frame_ = frame.frame;
+  last_tracked_ = frame.tracking_ran && frame.tracked;
+  last_pose_ = frame.T_world_cam;
+  // The fit a good frame makes: what a jump's or a candidate's fit is measured against.
+  if (mode_ == Mode::kTracking && last_tracked_ && frame.good) {
+    last_inlier_fraction_ = frame.inlier_fraction;
+    last_residual_rms_m_ = frame.residual_rms_m;
+  }
   host_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
   return found;
+}
+
+bool Relocaliser::frame_jumped(const RelocaliserObservation& frame) const {
+  if (!last_tracked_ || !frame.tracking_ran || !frame.tracked) return false;
+  float metres = 0, degrees = 0;
+  pose_step(last_pose_, frame.T_world_cam, metres, degrees);
+  if (metres > settings_.verify_max_step_m || degrees > settings_.verify_max_step_deg) return true;
+  return fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_);
+}
+
+void Relocaliser::lose_at_view_jump(int frame, const std::vector<uint8_t>& code) {
+  // The last good pose is where the camera no longer is: only keyframes that look like the new
+  // view are candidates.
+  mode_ = Mode::kLost;
+  view_jumped_ = true;
+  lost_from_frame_ = frame;
+  lost_frames_ = kLastPoseFirstFrames + 1;
+  failed_ids_.clear();
+  if (!code.empty()) choose_candidates(code);
 }
 
 void Relocaliser::harvest(const RelocaliserObservation& frame, const std::vector<uint8_t>& code) {

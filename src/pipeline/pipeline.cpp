@@ -47,7 +47,6 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   setup_.colour = config_.colour.fuse;
   setup_.photometric = config_.quality.photometric_weight > 0.0f;
   relocalise_ = config_.tracking.relocalise;
-  setup_.small_depth = relocalise_;
   small_params_ = small_depth_params(cw, ch);
   if (relocalise_) {
     RelocaliserSettings r;
@@ -315,8 +314,6 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
 
   b.begin_stage(Stage::kPreprocess);
   b.preprocess(params_.bilateral);
-  // The view's code for the keyframe database: every frame, as any may be harvested or lost.
-  if (relocalise_) b.make_small_depth(small_params_);
   b.end_stage(Stage::kPreprocess);
 
   b.begin_stage(Stage::kTrack);
@@ -425,7 +422,6 @@ FrameReport Pipeline::collect() {
   report.quality = judge_.judge(evidence);
   last_pose_ = state.T_world_cam;
   if (relocalise_) {
-    const HostImage<uint16_t> small = backend_->read_small_depth();
     RelocaliserObservation o;
     o.tracking_ran = track;
     o.tracked = report.tracked;
@@ -433,7 +429,8 @@ FrameReport Pipeline::collect() {
     o.attempt = pending.attempt;
     o.T_world_cam = state.T_world_cam;
     o.frame = report.index;
-    o.small_mm = small.view();
+    o.inlier_fraction = report.inlier_fraction;
+    o.residual_rms_m = report.residual_rms_m;
     report.relocalised = relocaliser_.observe(o);
     // Until it is found, a lost camera stays lost, tracked frames or not (they verify).
     if (relocaliser_.lost_at(report.index)) report.quality = TrackingQuality::kLost;
@@ -592,7 +589,6 @@ TrackingState Pipeline::localise_pass(ImageView<const uint16_t> depth_mm, ImageV
   b.adopt_staged_pose();
   b.begin_stage(Stage::kPreprocess);
   b.preprocess(params_.bilateral);
-  b.make_small_depth(small_params_);
   b.end_stage(Stage::kPreprocess);
   b.begin_stage(Stage::kTrack);
   b.raycast(params_.raycast);
@@ -632,29 +628,10 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
   const KeyframeDatabase& db = relocaliser_.keyframes();
   if (db.empty()) return out;
   Backend& b = *backend_;
-  // The view's code from the backend's small image, made as the keyframes' were (the filtered
-  // compute-size depth): a frame that preprocesses only (shape 0).
-  b.upload_depth(depth_mm);
-  if (config_.colour.fuse || setup_.photometric) b.upload_colour(rgb);
-  b.begin_frame(0);
-  b.begin_stage(Stage::kPreprocess);
-  b.preprocess(params_.bilateral);
-  b.make_small_depth(small_params_);
-  b.end_stage(Stage::kPreprocess);
-  b.begin_stage(Stage::kTrack);
-  b.skip_tracking();
-  if (setup_.photometric) b.keep_intensity(false);
-  b.end_stage(Stage::kTrack);
-  for (Stage s : {Stage::kIntegrate, Stage::kRaycast, Stage::kRender}) {
-    b.begin_stage(s);
-    b.end_stage(s);
-  }
-  b.end_frame();
-  b.read_state();
-  out.computation_ms += b.frame_stage_ms()[static_cast<int>(Stage::kPreprocess)];
-  const HostImage<uint16_t> small = b.read_small_depth();
+  // The view's code from the host's small image of the input depth, made as the keyframes'
+  // were (localise/input_small_depth.hpp).
   const std::vector<KeyframeMatch> nearest =
-      db.nearest(db.encode(small.view()), config_.tracking.localise_candidates);
+      db.nearest(db.encode(input_small_.make(depth_mm)), config_.tracking.localise_candidates);
   const double pixels = static_cast<double>(params_.accept.compute_pixels);
   for (const KeyframeMatch& m : nearest) {
     LocaliseAttempt a;

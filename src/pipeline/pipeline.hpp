@@ -227,7 +227,7 @@ class Pipeline {
   bool relocalise_ = false;  ///< setting relocalise
   SmallDepthParams small_params_;
   Relocaliser relocaliser_;
-  InputSmallDepth input_small_;  ///< the view-jump test's small image of each submitted frame
+  InputSmallDepth input_small_;  ///< relocalisation's small image of each submitted frame
   Mat4f last_pose_;          ///< the camera after the last collected frame, or as set_pose() put it
   bool map_loaded_ = false;  ///< adopt_loaded_map() was called (until reset())
   /// The camera was moved (set_pose) or the map replaced: the next frame raycasts whatever the

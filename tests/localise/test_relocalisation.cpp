@@ -159,6 +159,195 @@ TEST(KeyframeDatabase, SerialisesAndParsesBackAndRefusesCorruptBytes) {
                          {"m:", "keyframe 1"});
 }
 
+// ---- the relocaliser's codes ----------------------------------------------------------
+
+TEST(Relocaliser, HarvestsAndLooksUpTheCodesOfTheSubmittedInputWithNoImageFromTheBackend) {
+  RelocaliserSettings settings;
+  settings.view_jump_dissimilarity = 1.1f;  // these views differ more than a view jump's share
+  Relocaliser r(settings, 40, 30);
+  const HostImage<uint16_t> a = wall(10, 1000), b = wall(30, 3000);
+  // Two frames in flight, as `kfx run` keeps them: each is observed with its own code.
+  EXPECT_FALSE(r.submitted_view(0, a.view()));
+  EXPECT_FALSE(r.submitted_view(1, b.view()));
+  RelocaliserObservation o;
+  o.tracking_ran = o.tracked = o.good = true;
+  for (int f = 0; f < 2; ++f) {
+    o.frame = f;
+    o.T_world_cam = Mat4f::translation(Vec3f{0.05f * static_cast<float>(f), 0, 0});
+    EXPECT_FALSE(r.observe(o));
+  }
+  const KeyframeDatabase& db = r.keyframes();
+  ASSERT_EQ(db.size(), 2);
+  for (int f = 0; f < 2; ++f) {
+    const auto nearest = db.nearest(db.encode((f == 0 ? a : b).view()), 1);
+    ASSERT_EQ(nearest.size(), 1u);
+    EXPECT_EQ(db.keyframe(nearest[0].keyframe).frame, f);
+    EXPECT_EQ(nearest[0].dissimilarity, 0.0f);
+  }
+  // The camera moves on in b's view (no new keyframe: the same code), then fails in a's: the
+  // attempts try the last good pose, then the keyframes nearest the failed frame's submitted
+  // view, a's (frame 0's) first.
+  EXPECT_FALSE(r.submitted_view(2, b.view()));
+  o.frame = 2;
+  o.T_world_cam = Mat4f::translation(Vec3f{0.1f, 0, 0});
+  r.observe(o);
+  EXPECT_EQ(db.size(), 2);
+  EXPECT_FALSE(r.submitted_view(3, a.view()));
+  o.frame = 3;
+  o.tracked = o.good = false;
+  r.observe(o);
+  EXPECT_TRUE(r.lost());
+  std::vector<float> tried_x_m;
+  for (int f = 4; f < 7; ++f) {
+    EXPECT_FALSE(r.submitted_view(f, a.view()));
+    const RelocaliserPlan plan = r.plan();
+    ASSERT_TRUE(plan.attempt) << "frame " << f;
+    EXPECT_FALSE(plan.integrate);
+    tried_x_m.push_back(plan.T_world_cam.m[0][3]);
+    o.frame = f;
+    o.attempt = true;
+    r.observe(o);
+  }
+  EXPECT_EQ(tried_x_m, (std::vector<float>{0.1f, 0.0f, 0.05f}));
+}
+
+/// A tracked, good frame at `x_m` with the ICP's figures given.
+RelocaliserObservation tracked_at(int frame, float x_m, double inliers = 0.7,
+                                  double rms_m = 0.003) {
+  RelocaliserObservation o;
+  o.tracking_ran = o.tracked = o.good = true;
+  o.frame = frame;
+  o.T_world_cam = Mat4f::translation(Vec3f{x_m, 0, 0});
+  o.inlier_fraction = inliers;
+  o.residual_rms_m = rms_m;
+  return o;
+}
+
+/// A relocaliser with one keyframe, at x 0 m (frame 0), tracking at frame 1 with `a`'s view.
+Relocaliser tracking_one_keyframe(const HostImage<uint16_t>& a) {
+  Relocaliser r(RelocaliserSettings{}, 40, 30);
+  for (int f = 0; f < 2; ++f) {
+    r.submitted_view(f, a.view());
+    r.observe(tracked_at(f, 0.01f * f));
+  }
+  EXPECT_EQ(r.keyframes().size(), 1);
+  return r;
+}
+
+TEST(Relocaliser, ATrackedFrameThatMovedFurtherThanACameraCanIsAViewJump) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  Relocaliser r = tracking_one_keyframe(a);
+  // A step of 3 cm is motion; 70 cm in one frame is the ICP converging in a view it was not in.
+  r.submitted_view(2, a.view());
+  r.submitted_view(3, a.view());
+  r.observe(tracked_at(2, 0.04f));
+  EXPECT_FALSE(r.lost());
+  r.observe(tracked_at(3, 0.74f));
+  EXPECT_TRUE(r.lost());
+  EXPECT_TRUE(r.lost_at(3));
+  EXPECT_FALSE(r.lost_at(2));
+  // The frame in flight behind it tracked on from its pose: lost too, and no verification.
+  r.submitted_view(4, a.view());
+  const RelocaliserPlan plan = r.plan();
+  ASSERT_TRUE(plan.attempt);
+  EXPECT_FALSE(plan.integrate);
+  EXPECT_EQ(plan.T_world_cam.m[0][3], 0.0f) << "the keyframe, not the suspect last pose";
+}
+
+TEST(Relocaliser, ATrackedFrameWhoseFitFellApartIsAViewJumpAndAWorseFitAloneIsNot) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  {
+    Relocaliser r = tracking_one_keyframe(a);
+    r.submitted_view(2, a.view());
+    // Residual 1.5 times, inliers 0.7 times the previous frame's: a harder view, still tracking.
+    r.observe(tracked_at(2, 0.02f, 0.49, 0.0045));
+    EXPECT_FALSE(r.lost());
+    r.submitted_view(3, a.view());
+    // Residual 5 times, inliers 0.3 times: the fit fell apart.
+    r.observe(tracked_at(3, 0.03f, 0.15, 0.0225));
+    EXPECT_TRUE(r.lost_at(3));
+  }
+  {
+    // Either alone is not enough.
+    Relocaliser r = tracking_one_keyframe(a);
+    r.submitted_view(2, a.view());
+    r.observe(tracked_at(2, 0.02f, 0.2, 0.003));
+    r.submitted_view(3, a.view());
+    r.observe(tracked_at(3, 0.03f, 0.2, 0.03));
+    EXPECT_FALSE(r.lost());
+  }
+}
+
+TEST(Relocaliser, ACandidateWhoseFitFellApartVerifiesNothingOneThatFitsAsTrackingDidIsFound) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  Relocaliser r = tracking_one_keyframe(a);  // good frames: inliers 0.7, residual 3 mm
+  r.submitted_view(2, a.view());
+  RelocaliserObservation failed = tracked_at(2, 0.02f, 0.1, 0.02);
+  failed.tracked = failed.good = false;
+  r.observe(failed);
+  ASSERT_TRUE(r.lost());
+  int f = 3;
+  // Candidates that pass the accept test with a residual 5 times and inliers 0.35 times a
+  // good frame's: never found, however many frames agree.
+  for (; f < 9; ++f) {
+    r.submitted_view(f, a.view());
+    RelocaliserObservation o = tracked_at(f, 0.02f, 0.25, 0.015);
+    o.good = false;
+    o.attempt = r.plan().attempt;
+    EXPECT_FALSE(r.observe(o)) << "frame " << f;
+    EXPECT_TRUE(r.lost());
+  }
+  // A fit like tracking's (residual 1.3 times, inliers 0.7 times): verified over 3 frames.
+  int found_at = -1;
+  for (; f < 15 && found_at < 0; ++f) {
+    r.submitted_view(f, a.view());
+    RelocaliserObservation o = tracked_at(f, 0.02f, 0.5, 0.004);
+    o.good = false;
+    o.attempt = r.plan().attempt;
+    if (r.observe(o)) found_at = f;
+  }
+  EXPECT_GE(found_at, 9);
+  EXPECT_LE(found_at, 12);
+  EXPECT_FALSE(r.lost());
+}
+
+TEST(Relocaliser, ADoubtfulViewAndTheFrameBehindItWaitForItsTrackingBeforeIntegrating) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  // b: a's view with a band of its columns moved far, changing a share of the ferns between the
+  // doubt and the jump thresholds.
+  const RelocaliserSettings settings;
+  const KeyframeDatabase db(40, 30, settings.fern_count, 1);
+  const std::vector<uint8_t> code_a = db.encode(a.view());
+  HostImage<uint16_t> b;
+  float share = 0;
+  for (int columns = 1; columns <= 40; ++columns) {
+    b = wall(10, 1000);
+    for (int y = 0; y < 30; ++y) {
+      for (int x = 0; x < columns; ++x) b.view()(x, y) = 3900;
+    }
+    const std::vector<uint8_t> code_b = db.encode(b.view());
+    int differ = 0;
+    for (size_t i = 0; i < code_a.size(); ++i) differ += code_a[i] != code_b[i];
+    share = static_cast<float>(differ) / static_cast<float>(code_a.size());
+    if (share > settings.view_doubt_dissimilarity + 0.03f) break;
+  }
+  ASSERT_GT(share, settings.view_doubt_dissimilarity);
+  ASSERT_LT(share, settings.view_jump_dissimilarity);
+  Relocaliser r = tracking_one_keyframe(a);
+  EXPECT_TRUE(r.plan().integrate);
+  EXPECT_FALSE(r.submitted_view(2, b.view()));
+  EXPECT_FALSE(r.plan().integrate) << "the doubtful frame";
+  EXPECT_FALSE(r.submitted_view(3, b.view()));
+  EXPECT_FALSE(r.plan().integrate) << "the frame submitted behind it";
+  r.observe(tracked_at(2, 0.03f));  // it tracked as a frame does: no jump
+  EXPECT_FALSE(r.lost());
+  EXPECT_FALSE(r.submitted_view(4, b.view()));
+  EXPECT_TRUE(r.plan().integrate);
+  r.observe(tracked_at(3, 0.04f));
+  r.observe(tracked_at(4, 0.05f));
+  EXPECT_FALSE(r.lost());
+}
+
 // ---- the relocaliser on the synthetic room ---------------------------------------------
 
 /// The room at 4x speed: a loop every 75 frames. The jump looks at a side wall from frame 85 to

@@ -22,7 +22,6 @@
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
-#include "kernels/small_depth.hpp"
 #include "kernels/track.hpp"
 #include "map/host_block_map.hpp"
 #include "map/map_set.hpp"
@@ -156,21 +155,9 @@ class CpuBackend final : public Backend {
   void begin_frame(int /*shape*/) override { in_frame_ = true; }
   void end_frame() override {
     in_frame_ = false;
-    finished_.push_back(FinishedFrame{state_, stage_ms_, std::move(small_depth_)});
-    small_depth_ = HostImage<uint16_t>();
+    finished_.push_back(FinishedFrame{state_, stage_ms_});
     stage_ms_.fill(0.0);
   }
-
-  void make_small_depth(const SmallDepthParams& p) override {
-    HostImage<uint16_t> mean(p.width_px, p.height_px);
-    small_depth_ = HostImage<uint16_t>(p.width_px, p.height_px);
-    const SmallDepthMeanArgs m{p, buffers_.depth_m.view(), mean.view()};
-    for_each_pixel(p.width_px, p.height_px, [&](int x, int y) { small_depth_mean_pixel(x, y, m); });
-    const SmallDepthBlurArgs b{mean.view(), small_depth_.view()};
-    for_each_pixel(p.width_px, p.height_px, [&](int x, int y) { small_depth_blur_pixel(x, y, b); });
-  }
-
-  HostImage<uint16_t> read_small_depth() override { return last_small_depth_; }
 
   void stage_pose(const Mat4f& T_world_cam) override { staged_pose_ = T_world_cam; }
   void adopt_staged_pose() override { move_camera(state_, staged_pose_); }
@@ -355,7 +342,6 @@ class CpuBackend final : public Backend {
     const FinishedFrame frame = finished_.front();
     finished_.pop_front();
     last_stage_ms_ = frame.stage_ms;
-    last_small_depth_ = frame.small_depth;
     return frame.state;
   }
 
@@ -673,12 +659,9 @@ class CpuBackend final : public Backend {
   struct FinishedFrame {
     TrackingState state;
     std::array<double, static_cast<int>(Stage::kCount)> stage_ms;
-    HostImage<uint16_t> small_depth;  ///< empty when the frame made none
   };
   std::deque<FinishedFrame> finished_;
-  HostImage<uint16_t> small_depth_;       ///< the current frame's (make_small_depth)
-  HostImage<uint16_t> last_small_depth_;  ///< the frame read_state() read last
-  Mat4f staged_pose_;                     ///< stage_pose()'s, for adopt_staged_pose()
+  Mat4f staged_pose_;  ///< stage_pose()'s, for adopt_staged_pose()
 };
 
 }  // namespace

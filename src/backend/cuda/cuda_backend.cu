@@ -109,15 +109,6 @@ class CudaBackend final : public Backend {
       input_mm_[p] = DeviceBuffer<uint16_t>(input_pixels);
       staging_mm_[p] = PinnedBuffer<uint16_t>(input_pixels);
       state_readback_[p] = PinnedBuffer<TrackingState>(1);
-      if (setup.small_depth) {
-        const SmallDepthParams small = small_depth_params(w, h);
-        small_readback_[p] =
-            PinnedBuffer<uint16_t>(static_cast<size_t>(small.width_px) * small.height_px);
-        if (p == 0) {  // allocated here: no cudaMalloc may run while a frame is recorded
-          small_mean_ = DeviceImage<uint16_t>(small.width_px, small.height_px);
-          small_blurred_ = DeviceImage<uint16_t>(small.width_px, small.height_px);
-        }
-      }
       // A staged pose for relocalisation's attempts and for frames at given poses.
       staged_pose_host_[p] = PinnedBuffer<Mat4f>(1);
       if (setup.colour || setup.photometric) {
@@ -302,33 +293,6 @@ class CudaBackend final : public Backend {
     KFX_CUDA_CHECK(cudaEventRecord(frame_done_[parity_].get(), stream_.get()));
     pending_.push_back(parity_);
     ++frames_submitted_;
-  }
-
-  void make_small_depth(const SmallDepthParams& p) override {
-    if (replaying_) return;
-    KFX_CHECK(small_mean_.width() == p.width_px && small_mean_.height() == p.height_px,
-              "make_small_depth(): the backend was set up without small_depth or for another "
-              "size");
-    const dim3 block(32, 8);
-    const SmallDepthMeanArgs m{p, buffers_.depth_m.view(), small_mean_.view()};
-    launch(pixel_kernel<SmallDepthMeanBody, SmallDepthMeanArgs>,
-           grid_for(p.width_px, p.height_px, block), block, m, p.width_px, p.height_px);
-    const SmallDepthBlurArgs b{small_mean_.view(), small_blurred_.view()};
-    launch(pixel_kernel<SmallDepthBlurBody, SmallDepthBlurArgs>,
-           grid_for(p.width_px, p.height_px, block), block, b, p.width_px, p.height_px);
-    // Into this parity's pinned buffer with the frame (a node of its graph): read back with
-    // the state, never waiting inside a frame.
-    KFX_CUDA_CHECK(cudaMemcpyAsync(small_readback_[parity_].data(), small_blurred_.data(),
-                                   small_blurred_.bytes(), cudaMemcpyDeviceToHost, stream_.get()));
-    small_made_[parity_] = true;
-  }
-
-  HostImage<uint16_t> read_small_depth() override {
-    HostImage<uint16_t> image;
-    if (!small_made_[last_read_parity_]) return image;
-    image = HostImage<uint16_t>(small_mean_.width(), small_mean_.height());
-    std::memcpy(image.data(), small_readback_[last_read_parity_].data(), small_blurred_.bytes());
-    return image;
   }
 
   void stage_pose(const Mat4f& T_world_cam) override {
@@ -797,12 +761,7 @@ class CudaBackend final : public Backend {
   std::array<DeviceBuffer<Rgb8>, 2> input_rgb_;  ///< colour input (colour, photometric), by parity
   std::array<PinnedBuffer<Rgb8>, 2> staging_rgb_;
   std::array<PinnedBuffer<TrackingState>, 2> state_readback_;
-  /// Relocalisation (BackendSetup::small_depth): the small depth image's two passes, its
-  /// read-back by parity, and the pose a relocalisation attempt adopts (host slots by parity).
-  DeviceImage<uint16_t> small_mean_;
-  DeviceImage<uint16_t> small_blurred_;
-  std::array<PinnedBuffer<uint16_t>, 2> small_readback_;
-  std::array<bool, 2> small_made_{false, false};
+  /// The pose a relocalisation attempt or a given-pose frame adopts (host slots by parity).
   std::array<PinnedBuffer<Mat4f>, 2> staged_pose_host_;
   DeviceBuffer<Mat4f> staged_pose_;
   int last_read_parity_ = 0;

@@ -12,7 +12,6 @@
 #include "kernels/preprocess.hpp"
 #include "kernels/raycast.hpp"
 #include "kernels/render.hpp"
-#include "kernels/small_depth.hpp"
 #include "kernels/track.hpp"
 
 namespace kfx::cuda {
@@ -41,16 +40,6 @@ __global__ void pixel_kernel(Args args, int width, int height) {
 struct BilateralBody {
   __device__ void operator()(int x, int y, const BilateralArgs& a) const {
     bilateral_pixel(x, y, a);
-  }
-};
-struct SmallDepthMeanBody {
-  __device__ void operator()(int x, int y, const SmallDepthMeanArgs& a) const {
-    small_depth_mean_pixel(x, y, a);
-  }
-};
-struct SmallDepthBlurBody {
-  __device__ void operator()(int x, int y, const SmallDepthBlurArgs& a) const {
-    small_depth_blur_pixel(x, y, a);
   }
 };
 struct HalfSampleBody {
