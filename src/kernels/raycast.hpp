@@ -301,6 +301,12 @@ enum class RaycastNormals : int {
   kNeighbours = 1,  ///< the hits of the four neighbouring rays (raycast_neighbour_normal_pixel)
 };
 
+/// How the march steps inside the truncation band (setting `raycast_step`).
+enum class RaycastStep : int {
+  kKFusion = 0,  ///< one voxel at a time once a sample reads below kFineStepBelowTsdf (exact)
+  kTsdf = 1,     ///< a step that grows with the sample's tsdf (RaycastParams::tsdf_step_m)
+};
+
 /// Settings of the raycast, derived from the configuration.
 struct RaycastParams {
   Intrinsics k;  ///< compute-size intrinsics (the reference view)
@@ -310,6 +316,11 @@ struct RaycastParams {
   float large_step_m = 0.075f;  ///< 0.75 · mu
   /// Approximations (exact values first):
   float constant_step_m = 0.0f;  ///< > 0: march with this step only (no switch to fine steps)
+  /// > 0 (setting raycast_step=tsdf): after a sample f below kFineStepBelowTsdf the march steps
+  /// max(step_m, tsdf_step_m · f) instead of one voxel, and a bracket wider than a voxel gets one
+  /// more sample at its secant estimate (raycast_ray). tsdf_step_m = factor · mu: f · mu is
+  /// about the distance to the surface along the ray that fused it.
+  float tsdf_step_m = 0.0f;
   RaycastInterp interp = RaycastInterp::kTrilinear;
   /// kNeighbours: raycast_pixel leaves the normal map alone and a second pass
   /// (raycast_neighbour_normal_pixel) writes every pixel's normal from the hits.
@@ -453,6 +464,12 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const int res = map_grid_res(a.volume);
   const float size = map_grid_size_m(a.volume);
   const float vox_per_m = res / size, voxel_m = size / res;
+  const bool tsdf_step = a.tsdf_step_m > 0.0f && !constant_step;
+  // With the tsdf step, once a sample has read below the switch the march reads its samples
+  // without the empty-space test: near the surface they are almost always touched, and a sample
+  // read in untouched space only reads ≥ 0.8, which changes nothing (the same hits, tested or
+  // not). At one sample a batch the test would cost a lookup per sample.
+  bool in_band = false;
   while (t < t_far) {
     // Past the touched range every later sample is untouched: the march would step over them
     // to t_far and miss.
@@ -467,7 +484,8 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
       continue;
     }
     const Vec3f p = origin + direction * t;
-    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m, memo);
+    const UntouchedSample u =
+        in_band ? UntouchedSample{} : untouched_sample(a.volume, p, vox_per_m, memo);
     if (u.untouched) {
       f_t_skipped = true;
       // Fast-forward to the exit of the untouched box without testing each sample.
@@ -506,7 +524,12 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
         break;
       }
       const float batch_step = step;
-      if (f_tt < kFineStepBelowTsdf && !constant_step) step = a.step_m;
+      // The step only changes on samples read below the switch, never on skipped ones (which
+      // are ≥ 0.8), so skipping and the tile ranges keep their bits with either march.
+      if (f_tt < kFineStepBelowTsdf && !constant_step) {
+        step = tsdf_step ? max_f(a.step_m, a.tsdf_step_m * f_tt) : a.step_m;
+        in_band = tsdf_step;
+      }
       f_t = f_tt;
       f_t_skipped = false;
       t += step;
@@ -516,7 +539,20 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   }
   if (!(f_tt < 0.0f)) return 0.0f;
   if (f_t_skipped) f_t = raycast_sample(a, origin + direction * t_prev, memo);
+  const float t_before = t;
   t = t + step * f_tt / (f_t - f_tt);  // secant refinement
+  if (tsdf_step && step > a.step_m) {
+    // The crossing was bracketed by a step wider than the exact march's one voxel, where the
+    // tsdf need not be linear: one more sample at the estimate, and the secant again over the
+    // half of the bracket that holds the sign change (one step of regula falsi).
+    const float f_s = raycast_sample(a, origin + direction * t, memo);
+    if (f_s < 0.0f) {
+      const float t_lo = t_before - step;
+      t = t_lo + (t - t_lo) * f_t / (f_t - f_s);
+    } else if (f_s > 0.0f) {
+      t = t + (t_before - t) * f_s / (f_s - f_tt);
+    }
+  }
   hit = origin + direction * t;
   return t;
 }
@@ -533,8 +569,10 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   // A constant step (approximation) reads one sample at a time: its samples lie centimetres
   // apart, so one read ahead is mostly wasted (14 % off the 5 mm block raycast with `fast`'s
   // settings, no change with fine steps; bench/RESULTS.md, "the block raycast ... taken apart").
+  // So does the tsdf step: it changes after nearly every sample in the band, which drops the
+  // rest of a batch read at the old step.
   const float t_hit =
-      a.constant_step_m > 0.0f
+      a.constant_step_m > 0.0f || a.tsdf_step_m > 0.0f
           ? raycast_ray<1>(a, origin, direction, hit, touched_from_m, touched_to_m)
           : raycast_ray<kRaycastBatch>(a, origin, direction, hit, touched_from_m, touched_to_m);
   if (a.normals == RaycastNormals::kNeighbours) {  // the second pass writes the normal

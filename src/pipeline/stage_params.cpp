@@ -70,6 +70,9 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.raycast.step_m = config.volume.grid_size_m() / static_cast<float>(config.volume.grid_res());
   p.raycast.large_step_m = config.raycast.large_step_mu * config.volume.mu_m;
   p.raycast.constant_step_m = approx.raycast_constant_step_m;
+  p.raycast.tsdf_step_m = approx.raycast_step == RaycastStep::kTsdf
+                              ? approx.raycast_tsdf_step_factor * config.volume.mu_m
+                              : 0.0f;
   p.raycast.interp = approx.raycast_interp;
   p.raycast.normals = approx.raycast_normals;
   p.raycast.block_x_px = approx.raycast_block_px[0];
@@ -85,6 +88,7 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   p.render.volume_ray.far_m = 2.0f * config.raycast.far_m;
   p.render.volume_ray.block_x_px = p.render.volume_ray.block_y_px = 1;
   p.render.volume_ray.constant_step_m = 0.0f;
+  p.render.volume_ray.tsdf_step_m = 0.0f;
   p.render.volume_ray.interp = RaycastInterp::kTrilinear;
   p.render.volume_ray.normals = RaycastNormals::kGradient;
   p.render.volume_ray.normal_span_m = p.render.volume_ray.normal_span_noise = 0.0f;

@@ -156,10 +156,11 @@ void expect_same_maps(const std::string& input, const std::vector<std::string>& 
 const std::string kHardInput = "synthetic:frames=48,width=160,height=120,speed=3,jump=20-23";
 
 /// expect_same_maps under exact's march at the room's voxels and at 1 cm, and under the march's
-/// approximations (constant step, two-value samples, one ray per 2 × 2 pixels).
+/// approximations (constant step, two-value samples, one ray per 2 × 2 pixels; the tsdf step).
 void expect_same_maps_under_every_march(BackendKind backend) {
   expect_same_maps(kHardInput, {}, backend, 48);
   expect_same_maps(kHardInput, {"voxel_size_m=0.01"}, backend, 24);
+  expect_same_maps(kHardInput, {"voxel_size_m=0.01", "raycast_step=tsdf"}, backend, 12);
   expect_same_maps(
       kHardInput,
       {"raycast_constant_step_m=0.05", "raycast_interp=two_value", "raycast_block_px=2,2"}, backend,

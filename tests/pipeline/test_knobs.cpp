@@ -63,6 +63,7 @@ TEST(Knobs, ExactValueIsBitIdenticalAndApproximateValueChangesTheTrajectory) {
       {"raycast_rate", "1", "2"},
       {"raycast_block_px", "1,1", "2,2"},
       {"raycast_constant_step_m", "0", "0.05"},
+      {"raycast_step", "kfusion", "tsdf"},
       {"raycast_interp", "trilinear", "two_value"},
       {"raycast_normals", "gradient", "neighbours"},
       {"pyramid_iterations", "10,5,4", "2"},

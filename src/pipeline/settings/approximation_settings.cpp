@@ -17,6 +17,12 @@ void check_approximations(const PipelineConfig& config) {
     KFX_CHECK(b >= 1 && b <= 16, "raycast_block_px entries must be in 1..16, got " << b);
   }
   KFX_CHECK(approx.raycast_constant_step_m >= 0, "raycast_constant_step_m must be >= 0");
+  KFX_CHECK(approx.raycast_tsdf_step_factor > 0 && approx.raycast_tsdf_step_factor <= 2,
+            "raycast_tsdf_step_factor must be in (0, 2], got " << approx.raycast_tsdf_step_factor);
+  KFX_CHECK(approx.raycast_step == RaycastStep::kKFusion || approx.raycast_constant_step_m == 0,
+            "raycast_step=tsdf takes no raycast_constant_step_m (a constant step has no band to "
+            "step through), got raycast_constant_step_m="
+                << approx.raycast_constant_step_m);
   if (approx.raycast_normals == RaycastNormals::kNeighbours) {
     // Copied pixels would be their own neighbours; a span sets the gradient's, which is not used.
     KFX_CHECK(approx.raycast_block_px[0] == 1 && approx.raycast_block_px[1] == 1,
@@ -94,6 +100,18 @@ SettingsSection approximations_section() {
       number_row("raycast_constant_step_m", s,
                  "raycast: march with this constant step in metres (0 = exact adaptive steps)",
                  [](C& c) -> float& { return c.approx.raycast_constant_step_m; }));
+  rows.push_back(choice_row(
+      "raycast_step", s,
+      "raycast: the march inside the truncation band: kfusion (one voxel a sample, exact) | tsdf "
+      "(max(one voxel, raycast_tsdf_step_factor x tsdf x mu), plus one sample to refine a hit "
+      "bracketed wider than a voxel)",
+      Choices<RaycastStep>{{"kfusion", RaycastStep::kKFusion}, {"tsdf", RaycastStep::kTsdf}},
+      [](C& c) -> RaycastStep& { return c.approx.raycast_step; }));
+  rows.push_back(number_row(
+      "raycast_tsdf_step_factor", s,
+      "raycast_step=tsdf: the band's step as a fraction of the sampled tsdf times mu (0..2; "
+      "smaller is safer and slower)",
+      [](C& c) -> float& { return c.approx.raycast_tsdf_step_factor; }));
   rows.push_back(
       choice_row("raycast_interp", s,
                  "raycast: trilinear (8 voxels, exact) | two_value (nearest x,y; linear in z)",

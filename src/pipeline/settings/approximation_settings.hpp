@@ -23,6 +23,9 @@ struct ApproximationSettings {
   int raycast_rate = 1;                       ///< raycast every N-th frame (ICP reuses the last)
   std::array<int, 2> raycast_block_px{1, 1};  ///< one ray per bx × by block, copied into it
   float raycast_constant_step_m = 0.0f;       ///< > 0: constant march step (no fine steps)
+  RaycastStep raycast_step = RaycastStep::kKFusion;  ///< kfusion (a voxel in the band) | tsdf
+  float raycast_tsdf_step_factor =
+      0.5f;  ///< raycast_step=tsdf: step factor · tsdf · mu in the band
   RaycastInterp raycast_interp = RaycastInterp::kTrilinear;    ///< trilinear | two_value
   RaycastNormals raycast_normals = RaycastNormals::kGradient;  ///< gradient | neighbours
 };
