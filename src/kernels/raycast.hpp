@@ -465,11 +465,6 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const float size = map_grid_size_m(a.volume);
   const float vox_per_m = res / size, voxel_m = size / res;
   const bool tsdf_step = a.tsdf_step_m > 0.0f && !constant_step;
-  // With the tsdf step, once a sample has read below the switch the march reads its samples
-  // without the empty-space test: near the surface they are almost always touched, and a sample
-  // read in untouched space only reads ≥ 0.8, which changes nothing (the same hits, tested or
-  // not). At one sample a batch the test would cost a lookup per sample.
-  bool in_band = false;
   while (t < t_far) {
     // Past the touched range every later sample is untouched: the march would step over them
     // to t_far and miss.
@@ -484,8 +479,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
       continue;
     }
     const Vec3f p = origin + direction * t;
-    const UntouchedSample u =
-        in_band ? UntouchedSample{} : untouched_sample(a.volume, p, vox_per_m, memo);
+    const UntouchedSample u = untouched_sample(a.volume, p, vox_per_m, memo);
     if (u.untouched) {
       f_t_skipped = true;
       // Fast-forward to the exit of the untouched box without testing each sample.
@@ -528,7 +522,6 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
       // are ≥ 0.8), so skipping and the tile ranges keep their bits with either march.
       if (f_tt < kFineStepBelowTsdf && !constant_step) {
         step = tsdf_step ? max_f(a.step_m, a.tsdf_step_m * f_tt) : a.step_m;
-        in_band = tsdf_step;
       }
       f_t = f_tt;
       f_t_skipped = false;
