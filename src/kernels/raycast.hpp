@@ -432,8 +432,11 @@ KFX_HD inline void ray_map_range(const BlockMapView&, Vec3f, Vec3f, float near_m
 /// `touched_from_m`, `touched_to_m`: where along the ray (t, which is camera depth for the
 /// raycast's rays) a sample can read a touched voxel (ray_range.hpp); outside, samples are
 /// advanced over like untouched ones and the march ends once past the range. The defaults
-/// bound nothing.
-template <int Batch = kRaycastBatch, class Map>
+/// bound nothing. `TsdfStep`: the band's step grows with the sample (RaycastParams::tsdf_step_m,
+/// which must then be > 0); a template argument, so that the exact march carries none of its
+/// code (as a runtime branch it cost every ray 1-2 % on the GPU: bench/RESULTS.md, "the knob's
+/// price").
+template <int Batch = kRaycastBatch, bool TsdfStep = false, class Map>
 KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f direction, Vec3f& hit,
                          float touched_from_m = 0.0f, float touched_to_m = 1e30f) {
   const Vec3f inv_dir{1.0f / direction.x, 1.0f / direction.y, 1.0f / direction.z};
@@ -464,7 +467,7 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   const int res = map_grid_res(a.volume);
   const float size = map_grid_size_m(a.volume);
   const float vox_per_m = res / size, voxel_m = size / res;
-  const bool tsdf_step = a.tsdf_step_m > 0.0f && !constant_step;
+  const bool tsdf_step = TsdfStep && !constant_step;
   while (t < t_far) {
     // Past the touched range every later sample is untouched: the march would step over them
     // to t_far and miss.
@@ -550,9 +553,20 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   return t;
 }
 
-/// One raycast pixel: vertex and normal of the first zero crossing, or a miss.
+/// raycast_ray with the march its settings ask for, chosen per ray (the volume render and
+/// tests; the raycast proper chooses per launch: raycast_block).
 template <class Map>
-KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
+KFX_HD inline float raycast_ray_as_set(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f direction,
+                                       Vec3f& hit) {
+  return a.tsdf_step_m > 0.0f && !(a.constant_step_m > 0.0f)
+             ? raycast_ray<1, true>(a, origin, direction, hit)
+             : raycast_ray<kRaycastBatch, false>(a, origin, direction, hit);
+}
+
+/// One raycast pixel: vertex and normal of the first zero crossing, or a miss. `Step`: the
+/// band's march, which must agree with `a.tsdf_step_m` (raycast_step_of).
+template <RaycastStep Step, class Map>
+KFX_HD inline void raycast_pixel_stepping(int x, int y, const RaycastArgsT<Map>& a) {
   const Mat4f& view = a.state->raycast_view;
   const Vec3f origin = view.translation_part();
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
@@ -565,9 +579,12 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   // So does the tsdf step: it changes after nearly every sample in the band, which drops the
   // rest of a batch read at the old step.
   const float t_hit =
-      a.constant_step_m > 0.0f || a.tsdf_step_m > 0.0f
-          ? raycast_ray<1>(a, origin, direction, hit, touched_from_m, touched_to_m)
-          : raycast_ray<kRaycastBatch>(a, origin, direction, hit, touched_from_m, touched_to_m);
+      Step == RaycastStep::kTsdf
+          ? raycast_ray<1, true>(a, origin, direction, hit, touched_from_m, touched_to_m)
+      : a.constant_step_m > 0.0f
+          ? raycast_ray<1, false>(a, origin, direction, hit, touched_from_m, touched_to_m)
+          : raycast_ray<kRaycastBatch, false>(a, origin, direction, hit, touched_from_m,
+                                              touched_to_m);
   if (a.normals == RaycastNormals::kNeighbours) {  // the second pass writes the normal
     a.vertex(x, y) = t_hit > 0.0f ? hit : Vec3f{0.0f, 0.0f, 0.0f};
     return;
@@ -583,6 +600,22 @@ KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
   } else {
     a.vertex(x, y) = Vec3f{0.0f, 0.0f, 0.0f};
     a.normal(x, y) = Vec3f{kInvalidNormal, 0.0f, 0.0f};
+  }
+}
+
+/// Which march the settings `p` ask for (the tsdf step is off under a constant step).
+KFX_HD inline RaycastStep raycast_step_of(const RaycastParams& p) {
+  return p.tsdf_step_m > 0.0f && !(p.constant_step_m > 0.0f) ? RaycastStep::kTsdf
+                                                             : RaycastStep::kKFusion;
+}
+
+/// One raycast pixel with the march chosen from its settings (tests and single rays).
+template <class Map>
+KFX_HD inline void raycast_pixel(int x, int y, const RaycastArgsT<Map>& a) {
+  if (raycast_step_of(a) == RaycastStep::kTsdf) {
+    raycast_pixel_stepping<RaycastStep::kTsdf>(x, y, a);
+  } else {
+    raycast_pixel_stepping<RaycastStep::kKFusion>(x, y, a);
   }
 }
 
@@ -632,10 +665,11 @@ namespace kfx {
 
 /// One ray per block_x × block_y pixel block (raycast perforation): the ray of the block's
 /// top-left pixel, copied into the whole block. With 1 × 1 blocks this is raycast_pixel.
-template <class Map>
+/// `Step`: raycast_step_of(a), chosen by the launch so that each march is its own kernel.
+template <RaycastStep Step, class Map>
 KFX_HD inline void raycast_block(int block_x, int block_y, const RaycastArgsT<Map>& a) {
   const int x0 = block_x * a.block_x_px, y0 = block_y * a.block_y_px;
-  raycast_pixel(x0, y0, a);
+  raycast_pixel_stepping<Step>(x0, y0, a);
   if (a.block_x_px == 1 && a.block_y_px == 1) return;
   const Vec3f v = a.vertex(x0, y0), n = a.normal(x0, y0);
   for (int y = y0; y < mini(y0 + a.block_y_px, a.vertex.height); ++y) {

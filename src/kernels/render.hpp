@@ -125,7 +125,7 @@ KFX_HD inline void render_volume_pixel(int x, int y, const RenderVolumeArgsT<Map
   const Vec3f direction = rotate(view, Vec3f{float(x), float(y), 1.0f});
   Vec3f hit{0.0f, 0.0f, 0.0f};
   Rgba8 c{0, 0, 0, 255};
-  if (raycast_ray(a.ray, origin, direction, hit) > 0.0f) {
+  if (raycast_ray_as_set(a.ray, origin, direction, hit) > 0.0f) {
     const Vec3f g = volume_gradient(a.ray.volume, hit);
     if (length(g) > 0.0f) {
       const float lit = max_f(dot(normalize(g), normalize(a.light_m - hit)), 0.0f);
@@ -167,7 +167,7 @@ KFX_HD inline void render_colour_pixel(int x, int y, const RenderColourArgsT<Map
   Vec3f hit{0.0f, 0.0f, 0.0f};
   Rgba8 c{0, 0, 0, 0};
   Vec3f rgb;
-  if (raycast_ray(a.ray, origin, direction, hit) > 0.0f && model_colour(a, hit, rgb)) {
+  if (raycast_ray_as_set(a.ray, origin, direction, hit) > 0.0f && model_colour(a, hit, rgb)) {
     c = Rgba8{static_cast<uint8_t>(rgb.x + 0.5f), static_cast<uint8_t>(rgb.y + 0.5f),
               static_cast<uint8_t>(rgb.z + 0.5f), 255};
   }

@@ -44,9 +44,10 @@ std::vector<float> hits_t(const RaycastParams& p, const VolumeView& view,
   for (int y = 0; y < kH; ++y) {
     for (int x = 0; x < kW; ++x) {
       Vec3f hit{0.0f, 0.0f, 0.0f};
-      out.push_back(raycast_ray<Batch>(a, state.raycast_view.translation_part(),
-                                       rotate(state.raycast_view, Vec3f{float(x), float(y), 1.0f}),
-                                       hit));
+      const Vec3f origin = state.raycast_view.translation_part();
+      const Vec3f direction = rotate(state.raycast_view, Vec3f{float(x), float(y), 1.0f});
+      out.push_back(p.tsdf_step_m > 0.0f ? raycast_ray<Batch, true>(a, origin, direction, hit)
+                                         : raycast_ray<Batch, false>(a, origin, direction, hit));
     }
   }
   return out;

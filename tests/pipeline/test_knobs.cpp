@@ -390,7 +390,7 @@ TEST(Knobs, RaycastBlocksCopyTheBlockRay) {
   a.normal = n.view();
   a.block_x_px = a.block_y_px = 2;
   for (int y = 0; y < 15; ++y) {
-    for (int x = 0; x < 20; ++x) raycast_block(x, y, a);
+    for (int x = 0; x < 20; ++x) raycast_block<RaycastStep::kKFusion>(x, y, a);
   }
   int hits = 0;
   for (int y = 0; y < 30; ++y) {

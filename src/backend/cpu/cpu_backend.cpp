@@ -54,9 +54,9 @@ void for_each_pixel(int width, int height, Body body) {
 /// (bench/RESULTS.md, "One commit, before and after the restructuring"). `flatten` asks for
 /// that on the host only, so the
 /// kernel body and the CUDA build stay as they are.
-template <class Map>
+template <RaycastStep Step, class Map>
 KFX_CPU_FLATTEN void raycast_row(int block_y, int blocks_x, const RaycastArgsT<Map>& a) {
-  for (int x = 0; x < blocks_x; ++x) raycast_block(x, block_y, a);
+  for (int x = 0; x < blocks_x; ++x) raycast_block<Step>(x, block_y, a);
 }
 
 std::string cpu_model_name() {
@@ -540,8 +540,13 @@ class CpuBackend final : public Backend {
     if (p.tile_bounds) a.ranges = ray_ranges(p, map);
     const int blocks_x = (buffers_.ref_vertex.width() + p.block_x_px - 1) / p.block_x_px;
     const int blocks_y = (buffers_.ref_vertex.height() + p.block_y_px - 1) / p.block_y_px;
+    if (raycast_step_of(p) == RaycastStep::kTsdf) {
 #pragma omp parallel for schedule(dynamic, 2)
-    for (int y = 0; y < blocks_y; ++y) raycast_row(y, blocks_x, a);
+      for (int y = 0; y < blocks_y; ++y) raycast_row<RaycastStep::kTsdf>(y, blocks_x, a);
+    } else {
+#pragma omp parallel for schedule(dynamic, 2)
+      for (int y = 0; y < blocks_y; ++y) raycast_row<RaycastStep::kKFusion>(y, blocks_x, a);
+    }
   }
 
   /// The touched blocks' depth range per tile from the raycast's pose (kernels/ray_range.hpp):

@@ -518,8 +518,13 @@ class CudaBackend final : public Backend {
     const dim3 block(16, 8);
     const int w = (a.vertex.width + p.block_x_px - 1) / p.block_x_px;
     const int h = (a.vertex.height + p.block_y_px - 1) / p.block_y_px;
-    launch(pixel_kernel<RaycastBlockBodyT<Map>, RaycastArgsT<Map>>, grid_for(w, h, block), block, a,
-           w, h);
+    if (raycast_step_of(p) == RaycastStep::kTsdf) {
+      launch(pixel_kernel<RaycastBlockBodyT<Map, RaycastStep::kTsdf>, RaycastArgsT<Map>>,
+             grid_for(w, h, block), block, a, w, h);
+    } else {
+      launch(pixel_kernel<RaycastBlockBodyT<Map, RaycastStep::kKFusion>, RaycastArgsT<Map>>,
+             grid_for(w, h, block), block, a, w, h);
+    }
     if (p.normals != RaycastNormals::kNeighbours) return;
     const RaycastNeighbourNormalArgs n{buffers_.ref_vertex.view(), buffers_.ref_normal.view(),
                                        p.k.handedness()};

@@ -72,11 +72,11 @@ struct KeepIntensityBody {
     keep_intensity_pixel(x, y, a);
   }
 };
-/// `Map`: VolumeView (the dense cube) or BlockMapView.
-template <class Map>
+/// `Map`: VolumeView (the dense cube) or BlockMapView; `Step`: raycast_step_of the settings.
+template <class Map, RaycastStep Step = RaycastStep::kKFusion>
 struct RaycastBlockBodyT {
   __device__ void operator()(int x, int y, const RaycastArgsT<Map>& a) const {
-    raycast_block(x, y, a);
+    raycast_block<Step>(x, y, a);
   }
 };
 using RaycastBlockBody = RaycastBlockBodyT<VolumeView>;
