@@ -6,8 +6,16 @@
 #include "commands.hpp"
 #include "io/trajectory.hpp"
 #include "run_command.hpp"
+#include "staged_run.hpp"
 
 namespace kfx::cli {
+namespace {
+
+/// Where `kfx fuse --overwrite` writes before its outputs replace the earlier ones (hidden: a
+/// killed fusion's leftover is no output of kfx; the next fuse into the folder removes it).
+constexpr const char* kFuseStagingFolder = ".kfx-fuse.partial";
+
+}  // namespace
 
 void add_fuse_command(CLI::App& app) {
   auto* command = app.add_subcommand(
@@ -24,7 +32,8 @@ void add_fuse_command(CLI::App& app) {
       ->check(CLI::ExistingFile);
   command->add_option("-o,--out", outputs->dir, "output folder")->required();
   command->add_flag("--overwrite", outputs->overwrite,
-                    "replace an earlier run in the output folder");
+                    "replace an earlier run in the output folder once the fusion is complete (a "
+                    "fusion that fails leaves it as it was)");
   command->add_flag("!--no-mesh", outputs->mesh, "do not write mesh.ply");
   command->add_flag("--cloud", outputs->cloud, "also write cloud.ply (the last raycast)");
   command->add_flag("--save-volume", outputs->save_volume,
@@ -38,7 +47,14 @@ void add_fuse_command(CLI::App& app) {
     KFX_CHECK(!given.given_poses.empty(), *trajectory << ": no pose in the file");
     given.given_poses_label = *trajectory;
     given.command_name = "kfx fuse";
-    run_sequence(*options, given);
+    // Replacing an earlier run, the fusion writes into a staging folder first: deleting the
+    // earlier outputs before it could fail (an input that yields no frame at the poses, a full
+    // disk, Ctrl-C) would leave neither run.
+    if (given.overwrite) {
+      run_sequence_staged(*options, given, kFuseStagingFolder);
+    } else {
+      run_sequence(*options, given);
+    }
   });
 }
 

@@ -151,8 +151,10 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
   }
 
   // The frame loop's bookkeeping is the library's (kfx::Reconstruction); the run folder's
-  // outputs read the pipeline behind it (stage times, renders, the SLAMBench log).
-  Reconstruction reconstruction(prepared.setup.settings, prepared.setup.camera);
+  // outputs read the pipeline behind it (stage times, renders, the SLAMBench log). This run
+  // drives the online loop closure itself (below), which a public Reconstruction refuses.
+  Reconstruction reconstruction = ReconstructionAccess::for_caller_closing_loops(
+      prepared.setup.settings, prepared.setup.camera);
   // Before anything reads the first pose (slambench.log's origin, trajectory.txt's header).
   if (!outputs.load_map.empty()) {
     const LoadedMap loaded = reconstruction.load_map(outputs.load_map);

@@ -64,7 +64,9 @@ class Reconstruction {
  public:
   /// Validates `settings` for `camera` and allocates the map and buffers on the backend;
   /// throws kfx::Error naming the setting, or the memory that is missing. The setting `camera`
-  /// (fx,fy,cx,cy), when given, replaces the camera's intrinsics.
+  /// (fx,fy,cx,cy), when given, replaces the camera's intrinsics. The setting
+  /// loop_closure=online is refused: a reconstruction closes no loops (online loop closure runs
+  /// in `kfx run`, and `kfx optimise` closes a finished run's: docs/loop_closure.md).
   Reconstruction(const Settings& settings, const Camera& camera);
   /// For frames of `sequence`: resolve_setup(settings, sequence), then as above.
   Reconstruction(const Settings& settings, const Sequence& sequence);
@@ -179,6 +181,7 @@ class Reconstruction {
  private:
   friend struct ReconstructionAccess;
   struct Impl;
+  explicit Reconstruction(std::unique_ptr<Impl> impl);
   std::unique_ptr<Impl> impl_;
 };
 

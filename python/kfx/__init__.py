@@ -163,6 +163,8 @@ class Reconstruction(_Reconstruction):
     ``Reconstruction(camera=kfx.Camera(...), **settings)`` for frames you bring as numpy arrays;
     with both, the camera's intrinsics (and lens) replace the sequence's.
     One reconstruction is used from one thread at a time; several may run side by side.
+    It closes no loops: ``loop_closure="online"`` raises kfx.Error (online loop closure runs in
+    ``kfx run``, and ``kfx optimise`` closes a finished run's loops: docs/loop_closure.md).
     """
 
     def __init__(self, sequence: Optional[_Sequence] = None, *, camera: Optional[Camera] = None,

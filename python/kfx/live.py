@@ -40,8 +40,8 @@ def _realsense() -> Any:
                   if kfx.has_openni2() else
                   "this kfx was built without OpenNI2 either (Debian's libopenni2-dev), which "
                   "would read an OpenNI2 device instead")
-        raise kfx.Error("kfx live needs the PyPI package 'pyrealsense2' "
-                        "(pip install kfx[realsense]) for a RealSense camera; it is not "
+        raise kfx.Error("a RealSense camera needs the PyPI package 'pyrealsense2' "
+                        "(pip install kfx[realsense]); it is not "
                         f"installed for {sys.executable}. For an OpenNI2 device (Kinect v1, "
                         f"Xtion, Orbbec), {openni}") from error
     return pyrealsense2
@@ -186,7 +186,7 @@ class Camera(_LiveSource):
         config = rs.config()
         if from_file:
             if not os.path.isfile(from_file):
-                raise kfx.Error(f"kfx live: recording '{from_file}' does not exist")
+                raise kfx.Error(f"recording '{from_file}' does not exist")
             config.enable_device_from_file(from_file, repeat_playback=False)
         else:
             if serial:
@@ -199,7 +199,7 @@ class Camera(_LiveSource):
             profile = self._pipeline.start(config)
         except RuntimeError as error:
             where = f"recording '{from_file}'" if from_file else "a RealSense camera"
-            raise kfx.Error(f"kfx live: cannot start {where}: {error}") from error
+            raise kfx.Error(f"cannot start {where}: {error}") from error
         device = profile.get_device()
         self._playback = device.as_playback() if from_file else None
         if self._playback is not None:
@@ -326,7 +326,7 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
     pace unless ``real_time`` is False). ``viewer`` (a kfx.viewer.Viewer) is fed each frame off
     the frame loop; ``on_frame`` gets each FrameResult, ``on_start`` the camera once it runs."""
     if queue_size < 1:
-        raise kfx.Error("kfx live: the queue holds at least one frame")
+        raise kfx.Error("the queue holds at least one frame")
     out_dir = pathlib.Path(out)
     stop = stop or threading.Event()
     camera: _LiveSource
@@ -371,7 +371,7 @@ def run(out: str, from_file: str = "", serial: str = "", backend: str = "auto",
             if frame is None:
                 stats.stopped_by = camera.end_reason or "camera stopped"
                 if camera.error is not None:
-                    raise kfx.Error(f"kfx live: the camera failed: {camera.error}")
+                    raise kfx.Error(f"the camera failed: {camera.error}")
                 break
             started = started or time.monotonic()
             result = reconstruction.process(frame.depth, frame.stamp, depth_scale,

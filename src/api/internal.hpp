@@ -37,6 +37,10 @@ struct SequenceAccess {
 /// The pipeline behind a Reconstruction, for the CLI's run outputs (per-stage times, the
 /// SLAMBench log, energy on the backend's device). Frames still go through the Reconstruction.
 struct ReconstructionAccess {
+  /// A reconstruction whose caller closes loops itself: `kfx run` drives src/loop/'s
+  /// OnlineLoopClosure around it (or fuses at given poses, where no loop is closed), so the
+  /// setting loop_closure=online is accepted here; the public constructors refuse it.
+  static Reconstruction for_caller_closing_loops(const Settings& settings, const Camera& camera);
   static Pipeline& pipeline(Reconstruction& reconstruction);
   /// The internal report of the last collected frame (stage times, renders made).
   static const FrameReport& last_report(const Reconstruction& reconstruction);

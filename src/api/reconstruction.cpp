@@ -64,9 +64,19 @@ struct Reconstruction::Impl {
   std::optional<Pose> placed_pose;
 
   /// `from_input`: keys of `settings` that the input recommended rather than the user set.
+  /// `caller_closes_loops`: as ReconstructionAccess::for_caller_closing_loops().
   Impl(const Settings& settings, const Camera& given,
-       const std::vector<std::string>& from_input = {})
+       const std::vector<std::string>& from_input = {}, bool caller_closes_loops = false)
       : config(api::make_config(settings)) {
+    // Online loop closure is the loop room's (src/loop/, on Ceres), a floor above this library,
+    // which links neither: a reconstruction made here would run without it and say nothing. So
+    // the setting is refused, before anything is allocated, unless the caller drives the
+    // closure itself (kfx run).
+    KFX_CHECK(caller_closes_loops || config.tracking.loop_closure == LoopClosureMode::kOff,
+              "setting loop_closure=online: a reconstruction made through the library API "
+              "(kfx::Reconstruction, Python's kfx.Reconstruction) does not close loops; online "
+              "loop closure runs in `kfx run INPUT --set loop_closure=online`, and `kfx optimise "
+              "RUN_DIR` closes the loops of a finished run: set loop_closure=off here");
     camera = given;
     const auto& k = config.input.camera_px;
     if (k[0] != 0 || k[1] != 0) {  // the setting `camera` replaces the camera's intrinsics
@@ -321,6 +331,8 @@ struct Reconstruction::Impl {
 Reconstruction::Reconstruction(const Settings& settings, const Camera& camera)
     : impl_(std::make_unique<Impl>(settings, camera)) {}
 
+Reconstruction::Reconstruction(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
 Reconstruction::Reconstruction(const Settings& settings, const Sequence& sequence) {
   const ResolvedSetup setup = resolve_setup(settings, sequence);
   impl_ = std::make_unique<Impl>(setup.settings, setup.camera, setup.settings_from_input);
@@ -572,6 +584,11 @@ int Reconstruction::compute_height_px() const {
 std::string Reconstruction::backend_name() const { return impl_->pipeline->backend().name(); }
 std::string Reconstruction::device_name() const { return impl_->pipeline->backend().device_name(); }
 
+Reconstruction ReconstructionAccess::for_caller_closing_loops(const Settings& settings,
+                                                              const Camera& camera) {
+  return Reconstruction(
+      std::make_unique<Reconstruction::Impl>(settings, camera, std::vector<std::string>{}, true));
+}
 Pipeline& ReconstructionAccess::pipeline(Reconstruction& r) { return *r.impl_->pipeline; }
 const FrameReport& ReconstructionAccess::last_report(const Reconstruction& r) {
   return r.impl_->last_report;

@@ -5,7 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
 #include <string>
+#include <vector>
 
 #include "io/trajectory.hpp"
 #include "kfx/kfx.hpp"
@@ -73,6 +77,54 @@ TEST(FuseAtPoses, CliFusesAtARunsTrajectory) {
                     fused + "2");
   EXPECT_NE(r.exit_code, 0);
   EXPECT_NE(r.output.find("missing.txt"), std::string::npos) << r.output;
+}
+
+std::string read_bytes(const std::filesystem::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::ostringstream s;
+  s << in.rdbuf();
+  return s.str();
+}
+
+TEST(FuseAtPoses, CliOverwriteReplacesTheEarlierOutputsOnlyWhenTheFusionSucceeds) {
+  const auto dir = test::fresh_test_dir("kfx_fuse_");
+  const std::string run = (dir / "run").string(), fused = (dir / "fused").string();
+  const std::string fuse =
+      std::string("fuse '") + kInput +
+      "' --backend cpu -q --no-report --set volume_resolution=64 --trajectory ";
+  auto r = test::run_kfx(std::string("run '") + kInput +
+                         "' --backend cpu -q --no-report --set volume_resolution=64 -o " + run);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  r = test::run_kfx(fuse + run + "/trajectory.txt --cloud -o " + fused);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  const std::vector<std::string> names = {"trajectory.txt", "stats.json",    "mesh.ply",
+                                          "cloud.ply",      "slambench.log", "config.txt"};
+  std::vector<std::string> before;
+  for (const auto& name : names) before.push_back(read_bytes(dir / "fused" / name));
+  ASSERT_FALSE(before[0].empty());
+
+  // A trajectory whose one stamp is no frame's: the fusion fails after it has started.
+  {
+    std::ofstream nowhere((dir / "nowhere.txt").string());
+    nowhere << "1000.0 0 0 0 0 0 0 1\n";
+  }
+  r = test::run_kfx(fuse + (dir / "nowhere.txt").string() + " --overwrite -o " + fused);
+  ASSERT_NE(r.exit_code, 0) << r.output;
+  EXPECT_NE(r.output.find("no frame"), std::string::npos) << r.output;
+  for (size_t i = 0; i < names.size(); ++i) {
+    EXPECT_TRUE(read_bytes(dir / "fused" / names[i]) == before[i]) << names[i] << " changed";
+  }
+  EXPECT_FALSE(std::filesystem::exists(dir / "fused" / ".kfx-fuse.partial"));
+
+  // One that succeeds replaces them: its own poses, and no cloud it did not write.
+  const auto poses = io::read_tum_trajectory(run + "/trajectory.txt");
+  io::write_tum_trajectory((dir / "half.txt").string(),
+                           std::vector<io::StampedPose>(poses.begin(), poses.begin() + 6), {});
+  r = test::run_kfx(fuse + (dir / "half.txt").string() + " --overwrite -o " + fused);
+  ASSERT_EQ(r.exit_code, 0) << r.output;
+  EXPECT_EQ(io::read_tum_trajectory(fused + "/trajectory.txt").size(), 6u);
+  EXPECT_FALSE(std::filesystem::exists(dir / "fused" / "cloud.ply"));
+  EXPECT_FALSE(std::filesystem::exists(dir / "fused" / ".kfx-fuse.partial"));
 }
 
 }  // namespace

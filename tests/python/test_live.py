@@ -8,7 +8,9 @@ import os
 import signal
 import subprocess
 import sys
+import threading
 import time
+from types import SimpleNamespace
 
 import numpy as np
 import pytest
@@ -125,3 +127,43 @@ def test_kfx_live_says_which_dependency_is_missing(tmp_path, monkeypatch):
                             text=True)
     assert result.returncode == 1
     assert f"cannot run '{missing}'" in result.stderr and "KFX_PYTHON" in result.stderr
+
+
+class _RealSenseWithoutCamera:
+    """pyrealsense2 as it behaves with no camera plugged in: the pipeline refuses to start."""
+
+    class stream:  # noqa: N801 (pyrealsense2's names)
+        depth, color = "depth", "color"
+
+    class format:  # noqa: N801
+        z16, rgb8 = "z16", "rgb8"
+
+    class config:  # noqa: N801
+        def enable_stream(self, *args):
+            pass
+
+        def enable_device(self, serial):
+            pass
+
+    class pipeline:  # noqa: N801
+        def start(self, config):
+            raise RuntimeError("No device connected")
+
+
+@pytest.mark.parametrize("realsense, args, said", [
+    (_RealSenseWithoutCamera, [], "cannot start a RealSense camera: No device connected"),
+    (_RealSenseWithoutCamera, ["--from-file", "none.db3"], "recording 'none.db3' does not exist"),
+    (_RealSenseWithoutCamera, ["--queue", "0"], "the queue holds at least one frame"),
+    (None, [], "a RealSense camera needs the PyPI package 'pyrealsense2'"),  # not installed
+])
+def test_kfx_live_says_an_error_once_after_its_prefix(tmp_path, monkeypatch, capsys, realsense,
+                                                      args, said):
+    import kfx.live  # noqa: PLC0415
+
+    monkeypatch.setitem(sys.modules, "pyrealsense2", realsense)
+    # main() would take SIGINT and SIGTERM from pytest for the rest of the session.
+    monkeypatch.setattr(kfx.live, "_StopOnSignal", lambda: SimpleNamespace(event=threading.Event()))
+    monkeypatch.chdir(tmp_path)
+    assert kfx.live.main(["--out", str(tmp_path / "out")] + args) == 1
+    err = capsys.readouterr().err
+    assert err.startswith(f"kfx live: error: {said}") and err.count("kfx live:") == 1, err

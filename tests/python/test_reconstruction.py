@@ -144,6 +144,22 @@ def test_camera_and_settings(frames):
     assert "volume_resolution" in keys and "icp_robust" in keys
 
 
+def test_online_loop_closure_is_refused_not_ignored():
+    """A Reconstruction closes no loops: loop_closure=online is an error naming the setting and
+    where loops are closed, not a run without them."""
+    camera = kfx.Camera(160, 120, fx=100.0, fy=100.0, cx=79.5, cy=59.5)
+    refused = r"setting loop_closure=online: .* does not close loops; online loop closure runs " \
+              r"in `kfx run"
+    with pytest.raises(kfx.Error, match=refused):
+        kfx.Reconstruction(kfx.open(INPUT), backend="cpu", volume_resolution=64,
+                           loop_closure="online")
+    with pytest.raises(kfx.Error, match=refused):
+        kfx.Reconstruction(camera=camera, settings=kfx.make_settings(
+            "exact", "cpu", volume_resolution=64, loop_closure="online"))
+    assert kfx.Reconstruction(camera=camera, backend="cpu", volume_resolution=64,
+                              loop_closure="off").frame_count == 0
+
+
 def test_several_reconstructions_at_once(frames):
     import threading
 

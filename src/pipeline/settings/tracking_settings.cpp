@@ -89,7 +89,8 @@ SettingsSection tracking_section() {
       "loop_closure", s,
       "off | online: keep keyframes, verify loops between frames, optimise a pose graph on a "
       "host thread and rebuild the map at its poses; trajectory.txt optimised, odometry.txt raw "
-      "(kfx run; needs Ceres; docs/loop_closure.md)",
+      "(kfx run only, with Ceres: kfx::Reconstruction and Python's kfx.Reconstruction refuse "
+      "online; docs/loop_closure.md)",
       Choices<LoopClosureMode>{{"off", LoopClosureMode::kOff},
                                {"online", LoopClosureMode::kOnline}},
       [](C& c) -> LoopClosureMode& { return c.tracking.loop_closure; }));
