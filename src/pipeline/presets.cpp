@@ -78,16 +78,16 @@ PipelineConfig make_preset(const std::string& name) {
     // after it), on the GPU (docs/presets.md; bench/RESULTS.md). The accept test judges the
     // fit-weighted residual: the plain RMS of far, noisy depth rejected frames of tum_fr1_rpy
     // that the fit tracked.
-    // Its speed (issue 43): the raycast steps by the sampled tsdf inside the band (0.75 · tsdf ·
-    // mu) and the ICP reads one pixel of each 2×2, which took 40 % off its frame at 640x480 on the
-    // H200 and held its ATE on the shared sequences whole and the eighteen synthetic rooms that
-    // chose it (bench/RESULTS.md, "fine's speed"). Rates of 2 (integration, raycast) were
-    // measured too: the raycast's broke the fast rooms.
+    // Its speed (issue 43): inside the band the raycast steps by the sampled tsdf (0.75 · tsdf ·
+    // mu), which took 13-33 % off its frame at 640x480 on the H200 and held its ATE on the
+    // shared sequences whole and the eighteen synthetic rooms that chose it (bench/RESULTS.md,
+    // "fine's speed"). ICP on one pixel of each 2x2 cost icl_office_kt0 4 % of ATE, and a
+    // raycast every 2nd frame broke the fast rooms: neither is here.
     c = make_preset("quality");
     for (const char* a :
          {"volume=blocks", "voxel_size_m=0.005", "compute_size_ratio=1", "icp_noise_weight=nguyen",
           "icp_noise_floor_m=0.002", "raycast_normal_span_noise=2.5", "accept_rms_weighted=on",
-          "raycast_step=tsdf", "raycast_tsdf_step_factor=0.75", "icp_stride_px=2"}) {
+          "raycast_step=tsdf", "raycast_tsdf_step_factor=0.75"}) {
       set_config_assignment(c, a);
     }
     return c;

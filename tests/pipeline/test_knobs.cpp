@@ -111,11 +111,10 @@ TEST(Knobs, PresetsParseAndDifferFromExact) {
   EXPECT_TRUE(fine.quality.accept_rms_weighted);
   EXPECT_EQ(fine.approx.raycast_step, RaycastStep::kTsdf);
   EXPECT_FLOAT_EQ(fine.approx.raycast_tsdf_step_factor, 0.75f);
-  EXPECT_EQ(fine.approx.icp_stride_px, 2);
   for (const char* a :
        {"volume=dense", "voxel_size_m=0", "compute_size_ratio=2", "icp_noise_weight=off",
         "icp_noise_floor_m=0", "raycast_normal_span_noise=0", "accept_rms_weighted=off",
-        "raycast_step=kfusion", "raycast_tsdf_step_factor=0.5", "icp_stride_px=1"}) {
+        "raycast_step=kfusion", "raycast_tsdf_step_factor=0.5"}) {
     set_config_assignment(fine, a);
   }
   EXPECT_EQ(fine.dump(), quality.dump());
