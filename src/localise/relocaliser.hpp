@@ -155,11 +155,11 @@ class Relocaliser {
   RelocaliserSettings settings_;
   KeyframeDatabase db_;
   Mode mode_ = Mode::kTracking;
-  Mat4f last_good_pose_;
-  std::vector<Mat4f> candidates_;        ///< poses to try, best first
-  std::vector<int> candidate_ids_;       ///< their keyframes (−1: the last good pose)
-  std::vector<int> failed_ids_;          ///< candidates tried since the view last changed
-  std::vector<uint8_t> last_view_code_;  ///< the last submitted frame's input-depth code
+  Mat4f last_good_pose_ = Mat4f::identity();  ///< the owner sets the start pose (trust_pose)
+  std::vector<Mat4f> candidates_;             ///< poses to try, best first
+  std::vector<int> candidate_ids_;            ///< their keyframes (−1: the last good pose)
+  std::vector<int> failed_ids_;               ///< candidates tried since the view last changed
+  std::vector<uint8_t> last_view_code_;       ///< the last submitted frame's input-depth code
   /// The codes of the frames submitted and not yet observed, oldest first, by frame number.
   std::deque<std::pair<int, std::vector<uint8_t>>> submitted_codes_;
   int last_submitted_frame_ = -1;

@@ -66,6 +66,9 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   const auto& f = config_.volume.init_pose_factor;
   const float size = config_.volume.size_m;
   initial_pose_ = Mat4f::translation(Vec3f{f[0] * size, f[1] * size, f[2] * size});
+  // The relocaliser's fallback candidate is the last good pose: until a frame tracks, that is
+  // where the camera starts (a loss right after the bootstrap frames tries it).
+  if (relocalise_) relocaliser_.trust_pose(initial_pose_);
 
   params_ = make_stage_params(config_, compute_k_, cw, ch);
   params_.integrate.colour_camera = make_colour_camera(config_, input_intrinsics);
@@ -117,6 +120,7 @@ void Pipeline::reset() {
   have_reference_ = false;
   judge_.restart(false);
   relocaliser_.reset();
+  if (relocalise_) relocaliser_.trust_pose(initial_pose_);
   last_pose_ = initial_pose_;
   map_loaded_ = false;
   reference_stale_ = false;
