@@ -156,12 +156,7 @@ std::vector<loop::LoopCandidate> appearance_candidates(const RunOptions& options
       read_depth_of_poses(reader, stamped, keyframes, options, trajectory_path);
   std::vector<HostImage<uint16_t>> small;
   for (int pose : keyframes) {
-    const ImageView<const uint16_t> made = maker.make(depth.at(pose).view());
-    HostImage<uint16_t> copy(made.width, made.height);
-    for (int y = 0; y < made.height; ++y) {
-      for (int x = 0; x < made.width; ++x) copy(x, y) = made(x, y);
-    }
-    small.push_back(std::move(copy));
+    small.push_back(maker.make_copy(depth.at(pose).view()));
     depth.erase(pose);
   }
   return loop::propose_by_appearance(small, keyframes, appearance);
