@@ -566,7 +566,7 @@ TEST(LoopClosureOnline, TwinsFalseLoopSwitchedOffWhileRunning) {
         closure.add_candidate(appearance);
       });
   ASSERT_EQ(online.figures.loops.size(), 1u);
-  const loop::OnlineLoopRecord& loop = online.figures.loops.front();
+  const loop::LoopRecord& loop = online.figures.loops.front();
   std::printf("twins online: verified %d (%s; inliers %.2f), chi2 %.0f, inlier %d\n",
               loop.check.accepted, loop.check.reason.c_str(), loop.check.inlier_fraction,
               loop.chi2_initial, loop.graph_inlier);
