@@ -17,8 +17,8 @@ struct LoopRecord {
   std::string source;                      ///< who proposed it ("proximity", "appearance", ...)
   LoopCheck check;                         ///< the geometric verification
   LoopCorrection correction;               ///< what a verified loop asks of the raw odometry
-  bool in_graph = false;      ///< verified and within the drift bound: a loop edge
-  bool graph_inlier = false;  ///< the (latest) solve that saw it kept it
+  bool in_graph = false;                   ///< verified and within the drift bound: a loop edge
+  bool graph_inlier = false;               ///< the (latest) solve that saw it kept it
   double chi2_initial = 0, chi2_final = 0;
 };
 
