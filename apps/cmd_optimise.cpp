@@ -23,6 +23,7 @@
 #include "kernels/small_depth.hpp"
 #include "localise/input_small_depth.hpp"
 #include "loop/appearance_candidates.hpp"
+#include "loop/loop_record_json.hpp"
 #include "loop/offline_closure.hpp"
 #endif
 
@@ -156,12 +157,7 @@ std::vector<loop::LoopCandidate> appearance_candidates(const RunOptions& options
       read_depth_of_poses(reader, stamped, keyframes, options, trajectory_path);
   std::vector<HostImage<uint16_t>> small;
   for (int pose : keyframes) {
-    const ImageView<const uint16_t> made = maker.make(depth.at(pose).view());
-    HostImage<uint16_t> copy(made.width, made.height);
-    for (int y = 0; y < made.height; ++y) {
-      for (int x = 0; x < made.width; ++x) copy(x, y) = made(x, y);
-    }
-    small.push_back(std::move(copy));
+    small.push_back(maker.make_copy(depth.at(pose).view()));
     depth.erase(pose);
   }
   return loop::propose_by_appearance(small, keyframes, appearance);
@@ -266,25 +262,6 @@ void optimise(const OptimiseOptions& opt) {
             << result.accepted << ", rejected " << result.rejected_by_verification
             << " by verification and " << result.rejected_by_graph << " by the pose graph\n";
 
-  nlohmann::json loops = nlohmann::json::array();
-  for (const loop::LoopRecord& r : result.loops) {
-    loops.push_back({{"from_stamp_s", stamped[r.from_pose].stamp_s},
-                     {"to_stamp_s", stamped[r.to_pose].stamp_s},
-                     {"from_pose", r.from_pose},
-                     {"to_pose", r.to_pose},
-                     {"source", r.candidate.source},
-                     {"verified", r.check.accepted},
-                     {"rejection", r.check.accepted ? r.correction.reason : r.check.reason},
-                     {"path_m", r.correction.path_m},
-                     {"correction_m", r.correction.translation_m},
-                     {"correction_rad", r.correction.rotation_rad},
-                     {"inlier_fraction", r.check.inlier_fraction},
-                     {"residual_rms_m", r.check.residual_rms_m},
-                     {"constraint_min", r.check.constraint_min},
-                     {"accepted", r.in_graph && r.graph_inlier},
-                     {"chi2_initial", r.chi2_initial},
-                     {"chi2_final", r.chi2_final}});
-  }
   // The fusion writes into a staging folder inside the output folder; only a complete result
   // replaces the earlier outputs there (in place: the run's, whose trajectory.txt is the raw
   // odometry until odometry.txt arrives). A failed or interrupted fusion leaves them as they were.
@@ -333,7 +310,7 @@ void optimise(const OptimiseOptions& opt) {
       {"loops_rejected_by_pose_graph", result.rejected_by_graph},
       {"pose_graph_solve_s", result.solve_time_s},
       {"gnc_steps", result.gnc_steps},
-      {"loops", loops}};
+      {"loops", loop::loop_records_json(result.loops, stamped, true)}};
   // Optimised before: the odometry's ATE is the one that run recorded.
   if (stats.contains("loop_closure") && stats["loop_closure"].contains("odometry_ate_rmse_m")) {
     closure_json["odometry_ate_rmse_m"] = stats["loop_closure"]["odometry_ate_rmse_m"];

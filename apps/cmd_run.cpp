@@ -44,6 +44,7 @@
 #include "run_summary.hpp"
 #include "warning_stretches.hpp"
 #ifdef KFX_HAVE_LOOP
+#include "loop/loop_record_json.hpp"
 #include "loop/online_closure.hpp"
 #include "loop/pose_conversion.hpp"
 #endif
@@ -402,22 +403,6 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
       }
     }
     const loop::OnlineClosureFigures& lc = closure->figures();
-    nlohmann::json loops = nlohmann::json::array();
-    for (const loop::OnlineLoopRecord& r : lc.loops) {
-      loops.push_back({{"from_stamp_s", trajectory.at(r.from_frame).stamp_s},
-                       {"to_stamp_s", trajectory.at(r.to_frame).stamp_s},
-                       {"from_pose", r.from_frame},
-                       {"to_pose", r.to_frame},
-                       {"source", r.source},
-                       {"verified", r.check.accepted},
-                       {"rejection", r.check.accepted ? r.correction.reason : r.check.reason},
-                       {"inlier_fraction", r.check.inlier_fraction},
-                       {"residual_rms_m", r.check.residual_rms_m},
-                       {"constraint_min", r.check.constraint_min},
-                       {"accepted", r.in_graph && r.graph_inlier},
-                       {"chi2_initial", r.chi2_initial},
-                       {"chi2_final", r.chi2_final}});
-    }
     closure_json = {{"mode", "online"},
                     {"odometry", "odometry.txt"},
                     {"keyframes", lc.keyframes},
@@ -437,7 +422,7 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
                     {"host_ms", lc.frame_work_ms},
                     {"max_frame_host_ms", lc.max_frame_work_ms},
                     {"trajectory_optimised", closure->trajectory_optimised()},
-                    {"loops", loops}};
+                    {"loops", loop::loop_records_json(lc.loops, trajectory, false)}};
     if (!options.quiet) {
       std::cerr << name << ": loop closure: " << lc.keyframes << " keyframes, loops proposed "
                 << lc.proposed << ", accepted " << lc.accepted << ", rejected "

@@ -43,47 +43,20 @@ class OniReader : public Reader {
     KFX_CHECK(device_.hasSensor(openni::SENSOR_DEPTH) &&
                   depth_.create(device_, openni::SENSOR_DEPTH) == openni::STATUS_OK,
               "OpenNI2 recording '" << path_ << "' has no depth stream");
-    const openni::VideoMode mode = depth_.getVideoMode();
-    width_ = mode.getResolutionX();
-    height_ = mode.getResolutionY();
-    depth_format_ = mode.getPixelFormat();
-    KFX_CHECK(width_ > 0 && height_ > 0,
-              "OpenNI2 recording '" << path_ << "': its depth stream has no image size");
-    KFX_CHECK(openni2::is_read_depth_format(depth_format_),
-              "OpenNI2 recording '" << path_ << "': depth in pixel format "
-                                    << static_cast<int>(depth_format_)
-                                    << " is not read (millimetres and 100 µm are)");
-    // The camera from the recorded field of view, as OpenNI2 itself maps pixels to points.
-    intrinsics_ = openni2::intrinsics_from_field_of_view(
-        depth_, width_, height_, "OpenNI2 recording '" + path_ + "'", &hfov_, &vfov_);
+    const std::string what = "OpenNI2 recording '" + path_ + "'";
+    depth_mode_ = openni2::read_depth_mode(depth_, what);
     frames_ = playback_->getNumberOfFrames(depth_);
     KFX_CHECK(frames_ > 0, "OpenNI2 recording '" << path_ << "' holds no depth frame");
     if (device_.hasSensor(openni::SENSOR_COLOR) &&
         colour_.create(device_, openni::SENSOR_COLOR) == openni::STATUS_OK) {
-      const openni::VideoMode colour_mode = colour_.getVideoMode();
-      KFX_CHECK(colour_mode.getPixelFormat() == openni::PIXEL_FORMAT_RGB888,
-                "OpenNI2 recording '" << path_ << "': colour in pixel format "
-                                      << static_cast<int>(colour_mode.getPixelFormat())
-                                      << " is not read (RGB888 and JPEG are)");
-      KFX_CHECK(colour_mode.getResolutionX() == width_ && colour_mode.getResolutionY() == height_,
-                "OpenNI2 recording '" << path_ << "': colour " << colour_mode.getResolutionX()
-                                      << "x" << colour_mode.getResolutionY()
-                                      << " is not the depth's size " << width_ << "x" << height_
-                                      << "; kfx reads registered colour only");
+      openni2::check_colour_mode(colour_, depth_mode_.width_px, depth_mode_.height_px, what, "");
       has_colour_ = playback_->getNumberOfFrames(colour_) > 0;
       if (!has_colour_) colour_.destroy();
     }
     // Frame by frame, each when it is asked for (no frame is dropped, whatever the pace), once.
     playback_->setSpeed(-1.0f);
     playback_->setRepeatEnabled(false);
-    KFX_CHECK(depth_.start() == openni::STATUS_OK,
-              "OpenNI2 recording '" << path_ << "': its depth stream does not start ("
-                                    << last_error() << ")");
-    if (has_colour_) {
-      KFX_CHECK(colour_.start() == openni::STATUS_OK,
-                "OpenNI2 recording '" << path_ << "': its colour stream does not start ("
-                                      << last_error() << ")");
-    }
+    openni2::start_streams(depth_, has_colour_ ? &colour_ : nullptr, what);
   }
 
   ~OniReader() override {
@@ -104,30 +77,32 @@ class OniReader : public Reader {
     where << path_ << " frame " << index;
     openni::VideoFrameRef depth;
     read(depth_, depth, "depth", index);
-    const int expected = width_ * height_ * 2;
-    if (depth.getWidth() != width_ || depth.getHeight() != height_ ||
+    const int expected = depth_mode_.width_px * depth_mode_.height_px * 2;
+    if (depth.getWidth() != depth_mode_.width_px || depth.getHeight() != depth_mode_.height_px ||
         depth.getDataSize() < expected) {
       std::ostringstream message;
       message << "bad frame in OpenNI2 recording '" << path_ << "', depth frame " << index << ": "
               << depth.getDataSize() << " bytes of " << depth.getWidth() << "x" << depth.getHeight()
-              << " where " << expected << " bytes of " << width_ << "x" << height_
-              << " were expected";
+              << " where " << expected << " bytes of " << depth_mode_.width_px << "x"
+              << depth_mode_.height_px << " were expected";
       return {ReadStatus::kBadFrame, message.str()};
     }
-    openni2::copy_depth_mm(depth, depth_format_, width_, height_, frame.depth_mm);
+    openni2::copy_depth_mm(depth, depth_mode_.format, depth_mode_.width_px, depth_mode_.height_px,
+                           frame.depth_mm);
     frame.rgb = HostImage<Rgb8>();
     if (has_colour_ && index < playback_->getNumberOfFrames(colour_)) {
       openni::VideoFrameRef colour;
       read(colour_, colour, "colour", index);
-      if (colour.getWidth() != width_ || colour.getHeight() != height_ ||
-          colour.getDataSize() < width_ * height_ * 3) {
+      if (colour.getWidth() != depth_mode_.width_px ||
+          colour.getHeight() != depth_mode_.height_px ||
+          colour.getDataSize() < depth_mode_.width_px * depth_mode_.height_px * 3) {
         std::ostringstream message;
         message << "bad frame in OpenNI2 recording '" << path_ << "', colour frame " << index
                 << ": " << colour.getDataSize() << " bytes of " << colour.getWidth() << "x"
                 << colour.getHeight();
         return {ReadStatus::kBadFrame, message.str()};
       }
-      openni2::copy_rgb(colour, width_, height_, frame.rgb);
+      openni2::copy_rgb(colour, depth_mode_.width_px, depth_mode_.height_px, frame.rgb);
     }
     frame.stamp_s = static_cast<double>(depth.getTimestamp()) * 1e-6;
     frame.index = index;
@@ -135,21 +110,22 @@ class OniReader : public Reader {
     return {};
   }
 
-  int width_px() const override { return width_; }
-  int height_px() const override { return height_; }
+  int width_px() const override { return depth_mode_.width_px; }
+  int height_px() const override { return depth_mode_.height_px; }
   int frame_count() const override { return frames_; }
-  std::optional<Intrinsics> default_intrinsics() const override { return intrinsics_; }
+  std::optional<Intrinsics> default_intrinsics() const override { return depth_mode_.intrinsics; }
   std::string intrinsics_source() const override {
     std::ostringstream text;
-    text << "the recording's field of view (" << hfov_ << " x " << vfov_ << " rad)";
+    text << "the recording's field of view (" << depth_mode_.hfov_rad << " x "
+         << depth_mode_.vfov_rad << " rad)";
     return text.str();
   }
   bool has_colour() const override { return has_colour_; }
   std::vector<StampedPose> ground_truth() const override { return {}; }
   std::string description() const override {
     std::ostringstream text;
-    text << "OpenNI2 recording " << path_ << " (" << frames_ << " frames, " << width_ << "x"
-         << height_ << (has_colour_ ? ", colour" : ", depth only") << ")";
+    text << "OpenNI2 recording " << path_ << " (" << frames_ << " frames, " << depth_mode_.width_px
+         << "x" << depth_mode_.height_px << (has_colour_ ? ", colour" : ", depth only") << ")";
     return text.str();
   }
 
@@ -173,10 +149,8 @@ class OniReader : public Reader {
   openni::VideoStream depth_, colour_;
   openni::Device device_;
   openni::PlaybackControl* playback_ = nullptr;
-  openni::PixelFormat depth_format_ = openni::PIXEL_FORMAT_DEPTH_1_MM;
-  Intrinsics intrinsics_;
-  float hfov_ = 0.0f, vfov_ = 0.0f;
-  int width_ = 0, height_ = 0, frames_ = 0, index_ = 0;
+  openni2::DepthStreamMode depth_mode_;  ///< size, format and camera of the depth stream
+  int frames_ = 0, index_ = 0;
   bool has_colour_ = false;
 };
 

@@ -150,17 +150,7 @@ class OpenNI2DeviceReader : public Reader {
         // Keep the camera's own mode; the checks below say if kfx cannot read it.
       }
     }
-    const openni::VideoMode mode = depth_.getVideoMode();
-    width_ = mode.getResolutionX();
-    height_ = mode.getResolutionY();
-    fps_ = mode.getFps();
-    depth_format_ = mode.getPixelFormat();
-    KFX_CHECK(width_ > 0 && height_ > 0, what_ << ": its depth stream has no image size");
-    KFX_CHECK(openni2::is_read_depth_format(depth_format_),
-              what_ << ": depth in pixel format " << static_cast<int>(depth_format_)
-                    << " is not read (millimetres and 100 µm are)");
-    intrinsics_ =
-        openni2::intrinsics_from_field_of_view(depth_, width_, height_, what_, &hfov_, &vfov_);
+    depth_mode_ = openni2::read_depth_mode(depth_, what_);
     if (playback_) recorded_frames_ = playback_->getNumberOfFrames(depth_);
     if (choice_.colour && device_.hasSensor(openni::SENSOR_COLOR) &&
         colour_.create(device_, openni::SENSOR_COLOR) == openni::STATUS_OK) {
@@ -172,12 +162,7 @@ class OpenNI2DeviceReader : public Reader {
       // otherwise each comes when asked for, none missed.
       playback_->setSpeed(choice_.real_time ? 1.0f : -1.0f);
     }
-    KFX_CHECK(depth_.start() == openni::STATUS_OK,
-              what_ << ": its depth stream does not start (" << last_error() << ")");
-    if (has_colour_) {
-      KFX_CHECK(colour_.start() == openni::STATUS_OK,
-                what_ << ": its colour stream does not start (" << last_error() << ")");
-    }
+    openni2::start_streams(depth_, has_colour_ ? &colour_ : nullptr, what_);
   }
 
   ~OpenNI2DeviceReader() override {
@@ -225,15 +210,16 @@ class OpenNI2DeviceReader : public Reader {
     const int index = index_of(number);
     std::ostringstream where;
     where << what_ << " frame " << index;
-    if (depth.getWidth() != width_ || depth.getHeight() != height_ ||
-        depth.getDataSize() < width_ * height_ * 2) {
+    if (depth.getWidth() != depth_mode_.width_px || depth.getHeight() != depth_mode_.height_px ||
+        depth.getDataSize() < depth_mode_.width_px * depth_mode_.height_px * 2) {
       std::ostringstream message;
       message << "bad frame from " << where.str() << ": depth of " << depth.getDataSize()
-              << " bytes, " << depth.getWidth() << "x" << depth.getHeight() << " where " << width_
-              << "x" << height_ << " was expected";
+              << " bytes, " << depth.getWidth() << "x" << depth.getHeight() << " where "
+              << depth_mode_.width_px << "x" << depth_mode_.height_px << " was expected";
       return {ReadStatus::kBadFrame, message.str()};
     }
-    openni2::copy_depth_mm(depth, depth_format_, width_, height_, frame.depth_mm);
+    openni2::copy_depth_mm(depth, depth_mode_.format, depth_mode_.width_px, depth_mode_.height_px,
+                           frame.depth_mm);
     frame.rgb = HostImage<Rgb8>();
     if (has_colour_) {
       read_colour(static_cast<double>(depth.getTimestamp()) * 1e-6, index);
@@ -245,18 +231,19 @@ class OpenNI2DeviceReader : public Reader {
     return {};
   }
 
-  int width_px() const override { return width_; }
-  int height_px() const override { return height_; }
+  int width_px() const override { return depth_mode_.width_px; }
+  int height_px() const override { return depth_mode_.height_px; }
   /// Known only for a recording read frame by frame: at its pace, or from a camera, how many
   /// frames arrive depends on how fast they are read.
   int frame_count() const override {
     return playback_ && !choice_.real_time ? recorded_frames_ : -1;
   }
-  std::optional<Intrinsics> default_intrinsics() const override { return intrinsics_; }
+  std::optional<Intrinsics> default_intrinsics() const override { return depth_mode_.intrinsics; }
   std::string intrinsics_source() const override {
     std::ostringstream text;
-    text << (playback_ ? "the recording's" : "the device's") << " field of view (" << hfov_ << " x "
-         << vfov_ << " rad), as OpenNI2 maps pixels to points";
+    text << (playback_ ? "the recording's" : "the device's") << " field of view ("
+         << depth_mode_.hfov_rad << " x " << depth_mode_.vfov_rad
+         << " rad), as OpenNI2 maps pixels to points";
     return text.str();
   }
   bool has_colour() const override { return has_colour_; }
@@ -270,7 +257,8 @@ class OpenNI2DeviceReader : public Reader {
     } else {
       text << "OpenNI2 device " << name_ << " (";
     }
-    text << width_ << "x" << height_ << " at " << fps_ << " Hz"
+    text << depth_mode_.width_px << "x" << depth_mode_.height_px << " at " << depth_mode_.fps
+         << " Hz"
          << (!has_colour_  ? ", depth only"
              : registered_ ? ", colour registered by the device"
              : playback_   ? ", colour"
@@ -297,14 +285,8 @@ class OpenNI2DeviceReader : public Reader {
       }
       device_.setDepthColorSyncEnabled(true);
     }
-    const openni::VideoMode mode = colour_.getVideoMode();
-    KFX_CHECK(mode.getPixelFormat() == openni::PIXEL_FORMAT_RGB888,
-              what_ << ": colour in pixel format " << static_cast<int>(mode.getPixelFormat())
-                    << " is not read (RGB888 and JPEG are); '?colour=off' reads depth only");
-    KFX_CHECK(mode.getResolutionX() == width_ && mode.getResolutionY() == height_,
-              what_ << ": colour " << mode.getResolutionX() << "x" << mode.getResolutionY()
-                    << " is not the depth's size " << width_ << "x" << height_
-                    << "; kfx reads registered colour only ('?colour=off' reads depth only)");
+    openni2::check_colour_mode(colour_, depth_mode_.width_px, depth_mode_.height_px, what_,
+                               "'?colour=off' reads depth only");
     has_colour_ = !playback_ || playback_->getNumberOfFrames(colour_) > 0;
     if (!has_colour_) colour_.destroy();
   }
@@ -313,7 +295,7 @@ class OpenNI2DeviceReader : public Reader {
   /// (up to a frame's time) for one that is not older than the depth by half a frame. Frame by
   /// frame the recording's colour frame comes right after its depth frame.
   void read_colour(double stamp_s, int index) {
-    const double period_s = 1.0 / (fps_ > 0 ? fps_ : 30);
+    const double period_s = 1.0 / (depth_mode_.fps > 0 ? depth_mode_.fps : 30);
     const bool paced = !playback_ || choice_.real_time;
     const int budget_ms = latest_colour_.empty() || !paced
                               ? kFirstFrameTimeoutMs
@@ -326,9 +308,10 @@ class OpenNI2DeviceReader : public Reader {
       const int left_ms = std::max(0, budget_ms - spent_ms);
       openni::VideoFrameRef colour;
       if (wait(colour_, left_ms) && colour_.readFrame(&colour) == openni::STATUS_OK &&
-          colour.isValid() && colour.getWidth() == width_ && colour.getHeight() == height_ &&
-          colour.getDataSize() >= width_ * height_ * 3) {
-        openni2::copy_rgb(colour, width_, height_, latest_colour_);
+          colour.isValid() && colour.getWidth() == depth_mode_.width_px &&
+          colour.getHeight() == depth_mode_.height_px &&
+          colour.getDataSize() >= depth_mode_.width_px * depth_mode_.height_px * 3) {
+        openni2::copy_rgb(colour, depth_mode_.width_px, depth_mode_.height_px, latest_colour_);
         colour_stamp_s_ = static_cast<double>(colour.getTimestamp()) * 1e-6;
         if (!paced || colour_stamp_s_ >= stamp_s - period_s / 2) return;
       }
@@ -361,12 +344,10 @@ class OpenNI2DeviceReader : public Reader {
   openni::VideoStream depth_, colour_;
   openni::Device device_;
   openni::PlaybackControl* playback_ = nullptr;
-  openni::PixelFormat depth_format_ = openni::PIXEL_FORMAT_DEPTH_1_MM;
-  Intrinsics intrinsics_;
+  openni2::DepthStreamMode depth_mode_;  ///< size, format and camera of the depth stream
   HostImage<Rgb8> latest_colour_;
   double colour_stamp_s_ = 0.0;
-  float hfov_ = 0.0f, vfov_ = 0.0f;
-  int width_ = 0, height_ = 0, fps_ = 0, recorded_frames_ = 0;
+  int recorded_frames_ = 0;
   int first_number_ = 0, last_number_ = 0;
   bool first_ = true, has_colour_ = false, registered_ = false;
 };

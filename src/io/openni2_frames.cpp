@@ -46,6 +46,47 @@ bool is_read_depth_format(openni::PixelFormat format) {
   return format == openni::PIXEL_FORMAT_DEPTH_1_MM || format == openni::PIXEL_FORMAT_DEPTH_100_UM;
 }
 
+DepthStreamMode read_depth_mode(const openni::VideoStream& depth, const std::string& what) {
+  const openni::VideoMode mode = depth.getVideoMode();
+  DepthStreamMode out;
+  out.width_px = mode.getResolutionX();
+  out.height_px = mode.getResolutionY();
+  out.fps = mode.getFps();
+  out.format = mode.getPixelFormat();
+  KFX_CHECK(out.width_px > 0 && out.height_px > 0, what << ": its depth stream has no image size");
+  KFX_CHECK(is_read_depth_format(out.format), what << ": depth in pixel format "
+                                                   << static_cast<int>(out.format)
+                                                   << " is not read (millimetres and 100 µm are)");
+  // The camera from the field of view, as OpenNI2 itself maps pixels to points.
+  out.intrinsics = intrinsics_from_field_of_view(depth, out.width_px, out.height_px, what,
+                                                 &out.hfov_rad, &out.vfov_rad);
+  return out;
+}
+
+void check_colour_mode(const openni::VideoStream& colour, int width_px, int height_px,
+                       const std::string& what, const std::string& colour_off_hint) {
+  const openni::VideoMode mode = colour.getVideoMode();
+  KFX_CHECK(mode.getPixelFormat() == openni::PIXEL_FORMAT_RGB888,
+            what << ": colour in pixel format " << static_cast<int>(mode.getPixelFormat())
+                 << " is not read (RGB888 and JPEG are)"
+                 << (colour_off_hint.empty() ? "" : "; " + colour_off_hint));
+  KFX_CHECK(mode.getResolutionX() == width_px && mode.getResolutionY() == height_px,
+            what << ": colour " << mode.getResolutionX() << "x" << mode.getResolutionY()
+                 << " is not the depth's size " << width_px << "x" << height_px
+                 << "; kfx reads registered colour only"
+                 << (colour_off_hint.empty() ? "" : " (" + colour_off_hint + ")"));
+}
+
+void start_streams(openni::VideoStream& depth, openni::VideoStream* colour,
+                   const std::string& what) {
+  KFX_CHECK(depth.start() == openni::STATUS_OK,
+            what << ": its depth stream does not start (" << last_error() << ")");
+  if (colour != nullptr) {
+    KFX_CHECK(colour->start() == openni::STATUS_OK,
+              what << ": its colour stream does not start (" << last_error() << ")");
+  }
+}
+
 void copy_depth_mm(const openni::VideoFrameRef& frame, openni::PixelFormat format, int width_px,
                    int height_px, HostImage<uint16_t>& out) {
   out = HostImage<uint16_t>(width_px, height_px);

@@ -44,6 +44,29 @@ Intrinsics intrinsics_from_field_of_view(const openni::VideoStream& stream, int 
 /// True for the depth pixel formats kfx reads (1 mm and 100 µm units).
 bool is_read_depth_format(openni::PixelFormat format);
 
+/// A depth stream's video mode, as kfx reads it.
+struct DepthStreamMode {
+  int width_px = 0, height_px = 0;
+  int fps = 0;
+  openni::PixelFormat format = openni::PIXEL_FORMAT_DEPTH_1_MM;
+  Intrinsics intrinsics;  ///< intrinsics_from_field_of_view()
+  float hfov_rad = 0.0f, vfov_rad = 0.0f;
+};
+
+/// The video mode `depth` delivers, checked: an image size, a depth format kfx reads, a field
+/// of view. Throws naming `what` ("OpenNI2 recording 'x.oni'") and what is wrong.
+DepthStreamMode read_depth_mode(const openni::VideoStream& depth, const std::string& what);
+
+/// Checks that `colour` delivers what kfx reads beside a depth of `width_px` × `height_px`:
+/// RGB888 at the same size (registered colour). Throws naming `what`; `colour_off_hint`, when
+/// not empty, says how to read the depth alone.
+void check_colour_mode(const openni::VideoStream& colour, int width_px, int height_px,
+                       const std::string& what, const std::string& colour_off_hint);
+
+/// Starts `depth`, then `colour` when given; throws naming `what` and OpenNI2's reason.
+void start_streams(openni::VideoStream& depth, openni::VideoStream* colour,
+                   const std::string& what);
+
 /// Copies a depth frame of `width_px` × `height_px` into `out` in millimetres (100 µm units to
 /// the nearest millimetre). The caller checked the frame's size.
 void copy_depth_mm(const openni::VideoFrameRef& frame, openni::PixelFormat format, int width_px,

@@ -30,4 +30,9 @@ ImageView<const uint16_t> InputSmallDepth::make(ImageView<const uint16_t> depth_
   return small_mm_.view();
 }
 
+HostImage<uint16_t> InputSmallDepth::make_copy(ImageView<const uint16_t> depth_mm) {
+  make(depth_mm);
+  return small_mm_;
+}
+
 }  // namespace kfx

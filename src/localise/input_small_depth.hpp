@@ -26,6 +26,9 @@ class InputSmallDepth {
   /// The small image of `depth_mm` (input size, millimetres, 0 for none); valid until the
   /// next call.
   ImageView<const uint16_t> make(ImageView<const uint16_t> depth_mm);
+  /// The same small image in an image of its own, for callers that keep several (offline
+  /// loop candidates code every keyframe's at once).
+  HostImage<uint16_t> make_copy(ImageView<const uint16_t> depth_mm);
 
  private:
   SmallDepthParams p_;

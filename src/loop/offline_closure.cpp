@@ -60,7 +60,9 @@ OfflineClosureResult close_loops(const std::vector<Pose3d>& odometry, const Clos
   std::vector<size_t> record_of_edge;  // loop edge order → record
   for (const LoopCandidate& c : plan.candidates) {
     LoopRecord record;
-    record.candidate = c;
+    record.from_keyframe = c.from;
+    record.to_keyframe = c.to;
+    record.source = c.source;
     record.from_pose = plan.keyframes.at(c.from);
     record.to_pose = plan.keyframes.at(c.to);
     std::vector<PlacedDepth> old_views;

@@ -14,6 +14,7 @@
 #include "loop/keyframe_graph.hpp"
 #include "loop/keyframes.hpp"
 #include "loop/loop_candidates.hpp"
+#include "loop/loop_record.hpp"
 #include "loop/loop_verifier.hpp"
 #include "loop/pose_graph.hpp"
 
@@ -46,18 +47,6 @@ struct ClosurePlan {
 /// (appearance), in keyframe indices of the same selection (select_keyframes(odometry)).
 ClosurePlan plan_closure(const std::vector<Pose3d>& odometry, const OfflineClosureOptions& options,
                          const std::vector<LoopCandidate>& extra = {});
-
-/// One candidate's fate.
-struct LoopRecord {
-  LoopCandidate candidate;
-  int from_pose = 0;  ///< trajectory indices of the two keyframes
-  int to_pose = 0;
-  LoopCheck check;            ///< the geometric verification
-  LoopCorrection correction;  ///< what a verified loop asks of the odometry
-  bool in_graph = false;      ///< verified, so it became a loop edge
-  bool graph_inlier = false;  ///< the robust solve kept it
-  double chi2_initial = 0, chi2_final = 0;
-};
 
 /// What the closure returns.
 struct OfflineClosureResult {

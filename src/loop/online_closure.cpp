@@ -136,11 +136,11 @@ void OnlineLoopClosure::verify_next() {
   const Pose3d guess = c.T_from_to_guess ? from.est * *c.T_from_to_guess : to.est;
   const FrameReport tracked =
       pipeline_.track_in_map(verify_map_, to_mat4f(guess), to.depth_mm.view());
-  OnlineLoopRecord record;
+  LoopRecord record;
   record.from_keyframe = c.from;
   record.to_keyframe = c.to;
-  record.from_frame = from.frame;
-  record.to_frame = to.frame;
+  record.from_pose = from.frame;
+  record.to_pose = to.frame;
   record.source = c.source;
   record.check = judge_loop(tracked, guess, options_.verify);
   if (record.check.accepted) {
@@ -168,7 +168,7 @@ PoseGraph OnlineLoopClosure::graph() const {
   }
   PoseGraph g = keyframe_graph(initial, odometry, keyframe_frames_, options_.noise);
   for (size_t e = 0; e < loop_records_.size(); ++e) {
-    const OnlineLoopRecord& r = figures_.loops[loop_records_[e]];
+    const LoopRecord& r = figures_.loops[loop_records_[e]];
     g.add_loop_edge(r.from_keyframe, r.to_keyframe, loop_measurements_[e],
                     loop_information(options_.noise));
   }
@@ -184,7 +184,7 @@ void OnlineLoopClosure::take_result(const PoseGraphResult& result) {
   figures_.solve_ms += result.solve_time_s * 1000.0;
   // The solve saw the first result.loops.size() loop edges, in the order they were added.
   for (size_t e = 0; e < result.loops.size(); ++e) {
-    OnlineLoopRecord& r = figures_.loops[loop_records_.at(e)];
+    LoopRecord& r = figures_.loops[loop_records_.at(e)];
     r.graph_inlier = result.loops[e].inlier;
     r.chi2_initial = result.loops[e].chi2_initial;
     r.chi2_final = result.loops[e].chi2_final;

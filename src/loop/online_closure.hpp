@@ -18,6 +18,7 @@
 #include "loop/keyframe_graph.hpp"
 #include "loop/keyframes.hpp"
 #include "loop/loop_candidates.hpp"
+#include "loop/loop_record.hpp"
 #include "loop/loop_verifier.hpp"
 #include "loop/pose_graph.hpp"
 #include "loop/pose_graph_worker.hpp"
@@ -56,18 +57,6 @@ struct OnlineClosureOptions {
 /// (OnlineClosureOptions::rebuild_min_shift_voxels): where most of a room's surface lies.
 inline constexpr double kRebuildLeverM = 2.0;
 
-/// One candidate's fate.
-struct OnlineLoopRecord {
-  int from_keyframe = 0, to_keyframe = 0;
-  int from_frame = 0, to_frame = 0;  ///< the frames (in the order after_frame() saw them)
-  std::string source;                ///< who proposed it
-  LoopCheck check;
-  LoopCorrection correction;  ///< what a verified loop asks of the raw odometry
-  bool in_graph = false;      ///< verified and within the drift bound: a loop edge
-  bool graph_inlier = false;  ///< the latest solve that saw it kept it
-  double chi2_initial = 0, chi2_final = 0;
-};
-
 /// What the closure did, for stats.json.
 struct OnlineClosureFigures {
   int keyframes = 0;
@@ -86,7 +75,8 @@ struct OnlineClosureFigures {
   /// time on its thread.
   double verify_ms = 0, reintegrate_ms = 0, frame_work_ms = 0, solve_ms = 0;
   double max_frame_work_ms = 0;  ///< the most one frame spent in the closure
-  std::vector<OnlineLoopRecord> loops;
+  /// Their from_pose and to_pose are frames, in the order after_frame() saw them.
+  std::vector<LoopRecord> loops;
 };
 
 /// The online closure of one run's pipeline. Not thread-safe: the frame loop's thread calls it.

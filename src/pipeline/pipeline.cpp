@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <utility>
 
 #include "backend/block_map_mesh.hpp"
 #include "backend/memory_budget.hpp"
@@ -147,15 +149,13 @@ void Pipeline::set_pose(const Mat4f& T_world_cam, bool trusted) {
     initial_pose_ = T_world_cam;
     return;
   }
-  have_reference_ = false;
-  reference_stale_ = true;
+  forget_reference();
 }
 
 void Pipeline::adopt_loaded_map(std::optional<KeyframeDatabase> keyframes) {
   KFX_CHECK(in_flight_.empty(), "Pipeline::adopt_loaded_map() with frames in flight");
   map_loaded_ = true;
-  have_reference_ = false;
-  reference_stale_ = true;
+  forget_reference();
   judge_.restart(true);
   if (relocalise_) {
     relocaliser_.adopt_keyframes(std::move(keyframes));
@@ -301,8 +301,7 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
     // Nothing needs this frame's view: the reference left behind is another pose's, so the
     // next frame to be tracked is not; it raycasts a fresh view instead (as after set_pose()).
     report.raycast = false;
-    have_reference_ = false;
-    reference_stale_ = true;
+    forget_reference();
   }
   if (report.raycast) {
     have_reference_ = true;
@@ -326,13 +325,7 @@ void Pipeline::submit(ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> 
     have_reference_ = true;
   }
   if (track) {
-    b.build_pyramid(params_.pyramid);
-    b.begin_tracking(params_.icp_guess);
-    const auto& iterations = config_.tracking.iterations_per_level;
-    for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
-      b.icp_level(level, iterations[level], params_.icp);
-    }
-    b.accept_or_revert(params_.accept);
+    track_levels(params_.icp_guess);
   } else {
     b.skip_tracking();
   }
@@ -456,96 +449,101 @@ void Pipeline::fill_tracking_figures(FrameReport& report, const TrackingState& s
   report.constraint = tracking_constraint(state.accumulator, state.T_world_cam);
 }
 
-void Pipeline::clear_map(int map) {
-  KFX_CHECK(in_flight_.empty(), "Pipeline::clear_map() with frames in flight: collect them first");
-  Backend& b = *backend_;
-  const int selected = b.selected_map();
-  b.select_map(map);
-  // reset() empties the selected map only; the camera it also sets is put back by
-  // resume_in_map() before the next frame.
-  b.reset(last_pose_);
-  b.select_map(selected);
-  // The reset forgot the device's frame counter and reference view: the next frame needs a
-  // raycast (resume_in_map() makes one).
+void Pipeline::forget_reference() {
   have_reference_ = false;
   reference_stale_ = true;
 }
 
-void Pipeline::integrate_into_map(int map, const Mat4f& T_world_cam,
-                                  ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
-  KFX_CHECK(in_flight_.empty(), "Pipeline::integrate_into_map() with frames in flight");
+void Pipeline::track_levels(const IcpGuessParams& guess) {
   Backend& b = *backend_;
-  const int selected = b.selected_map();
-  b.select_map(map);
-  b.upload_depth(depth_mm);
-  if (rgb.data != nullptr && (config_.colour.fuse || setup_.photometric)) b.upload_colour(rgb);
-  KFX_CHECK(!config_.colour.fuse || rgb.data != nullptr,
-            "Pipeline::integrate_into_map(): colour fusion is on but no colour image was given");
-  b.stage_pose(T_world_cam);
-  b.begin_frame(kSideIntegrateShape);
-  b.adopt_staged_pose();
-  b.begin_stage(Stage::kPreprocess);
-  b.preprocess(params_.bilateral);
-  b.end_stage(Stage::kPreprocess);
-  b.begin_stage(Stage::kTrack);
-  b.skip_tracking();
-  b.end_stage(Stage::kTrack);
-  b.begin_stage(Stage::kIntegrate);
-  IntegrateParams params = params_.integrate;
-  params.z_stride = 1;
-  // The angle weight reads a tracked frame's normals, which an untracked frame lacks.
-  if (params.weight_mode == IntegrationWeight::kDepthAngle) {
-    params.weight_mode = IntegrationWeight::kDepth;
-  }
-  b.allocate_blocks(params, true);
-  b.integrate(params, true);
-  b.end_stage(Stage::kIntegrate);
-  b.begin_stage(Stage::kRaycast);
-  b.end_stage(Stage::kRaycast);
-  b.begin_stage(Stage::kRender);
-  b.end_stage(Stage::kRender);
-  b.end_frame();
-  (void)b.read_state();
-  b.select_map(selected);
-  have_reference_ = false;
-  reference_stale_ = true;
-}
-
-FrameReport Pipeline::track_in_map(int map, const Mat4f& T_guess,
-                                   ImageView<const uint16_t> depth_mm) {
-  KFX_CHECK(in_flight_.empty(), "Pipeline::track_in_map() with frames in flight");
-  Backend& b = *backend_;
-  const int selected = b.selected_map();
-  b.select_map(map);
-  b.upload_depth(depth_mm);
-  b.stage_pose(T_guess);
-  b.begin_frame(kSideTrackShape);
-  b.adopt_staged_pose();
-  b.begin_stage(Stage::kPreprocess);
-  b.preprocess(params_.bilateral);
-  b.end_stage(Stage::kPreprocess);
-  b.begin_stage(Stage::kTrack);
-  b.raycast(params_.raycast);
   b.build_pyramid(params_.pyramid);
-  // From the guess itself: no motion model, no weak direction of another frame.
-  b.begin_tracking(IcpGuessParams{});
+  b.begin_tracking(guess);
   const auto& iterations = config_.tracking.iterations_per_level;
   for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
     b.icp_level(level, iterations[level], params_.icp);
   }
   b.accept_or_revert(params_.accept);
-  b.end_stage(Stage::kTrack);
-  b.begin_stage(Stage::kIntegrate);
-  b.end_stage(Stage::kIntegrate);
-  b.begin_stage(Stage::kRaycast);
-  b.end_stage(Stage::kRaycast);
-  b.begin_stage(Stage::kRender);
-  b.end_stage(Stage::kRender);
-  b.end_frame();
-  const TrackingState state = b.read_state();
+}
+
+void Pipeline::in_side_map(int map, const std::function<void()>& work) {
+  Backend& b = *backend_;
+  const int selected = b.selected_map();
+  b.select_map(map);
+  work();
   b.select_map(selected);
-  have_reference_ = false;
-  reference_stale_ = true;
+  // The side work raycast another map or pose into the backend's reference view, or forgot it
+  // (reset()).
+  forget_reference();
+}
+
+TrackingState Pipeline::run_side_frame(const SideFrame& frame) {
+  Backend& b = *backend_;
+  const std::optional<SideDepth>& depth = frame.depth;
+  if (depth) {
+    b.upload_depth(depth->depth_mm);
+    if (depth->rgb.data != nullptr && (config_.colour.fuse || setup_.photometric)) {
+      b.upload_colour(depth->rgb);
+    }
+    b.stage_pose(depth->T_world_cam);
+  }
+  b.begin_frame(frame.shape);
+  if (depth) b.adopt_staged_pose();
+  b.begin_stage(Stage::kPreprocess);
+  if (depth) b.preprocess(params_.bilateral);
+  b.end_stage(Stage::kPreprocess);
+  const std::pair<Stage, const std::function<void()>*> stages[] = {
+      {Stage::kTrack, &frame.track},
+      {Stage::kIntegrate, &frame.integrate},
+      {Stage::kRaycast, &frame.raycast},
+      {Stage::kRender, nullptr}};
+  for (const auto& [stage, work] : stages) {
+    b.begin_stage(stage);
+    if (work != nullptr && *work) (*work)();
+    b.end_stage(stage);
+  }
+  b.end_frame();
+  return b.read_state();
+}
+
+void Pipeline::clear_map(int map) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::clear_map() with frames in flight: collect them first");
+  // reset() empties the selected map only; the camera it also sets is put back by
+  // resume_in_map() before the next frame. It forgets the device's frame counter and reference
+  // view too: the next frame needs a raycast (resume_in_map() makes one).
+  in_side_map(map, [this] { backend_->reset(last_pose_); });
+}
+
+void Pipeline::integrate_into_map(int map, const Mat4f& T_world_cam,
+                                  ImageView<const uint16_t> depth_mm, ImageView<const Rgb8> rgb) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::integrate_into_map() with frames in flight");
+  KFX_CHECK(!config_.colour.fuse || rgb.data != nullptr,
+            "Pipeline::integrate_into_map(): colour fusion is on but no colour image was given");
+  SideFrame frame{kSideIntegrateShape, SideDepth{depth_mm, rgb, T_world_cam}};
+  frame.track = [this] { backend_->skip_tracking(); };
+  frame.integrate = [this] {
+    IntegrateParams params = params_.integrate;
+    params.z_stride = 1;
+    // The angle weight reads a tracked frame's normals, which an untracked frame lacks.
+    if (params.weight_mode == IntegrationWeight::kDepthAngle) {
+      params.weight_mode = IntegrationWeight::kDepth;
+    }
+    backend_->allocate_blocks(params, true);
+    backend_->integrate(params, true);
+  };
+  in_side_map(map, [&] { (void)run_side_frame(frame); });
+}
+
+FrameReport Pipeline::track_in_map(int map, const Mat4f& T_guess,
+                                   ImageView<const uint16_t> depth_mm) {
+  KFX_CHECK(in_flight_.empty(), "Pipeline::track_in_map() with frames in flight");
+  SideFrame frame{kSideTrackShape, SideDepth{depth_mm, {}, T_guess}};
+  frame.track = [this] {
+    backend_->raycast(params_.raycast);
+    // From the guess itself: no motion model, no weak direction of another frame.
+    track_levels(IcpGuessParams{});
+  };
+  TrackingState state;
+  in_side_map(map, [&] { state = run_side_frame(frame); });
   FrameReport report;
   report.index = -1;
   report.tracking_ran = true;
@@ -560,20 +558,9 @@ void Pipeline::resume_in_map(int map, const Mat4f& T_world_cam) {
   Backend& b = *backend_;
   b.select_map(map);
   b.set_pose(T_world_cam);
-  b.begin_frame(kResumeShape);
-  b.begin_stage(Stage::kPreprocess);
-  b.end_stage(Stage::kPreprocess);
-  b.begin_stage(Stage::kTrack);
-  b.end_stage(Stage::kTrack);
-  b.begin_stage(Stage::kIntegrate);
-  b.end_stage(Stage::kIntegrate);
-  b.begin_stage(Stage::kRaycast);
-  b.raycast(params_.raycast);
-  b.end_stage(Stage::kRaycast);
-  b.begin_stage(Stage::kRender);
-  b.end_stage(Stage::kRender);
-  b.end_frame();
-  (void)b.read_state();
+  SideFrame frame{kResumeShape, std::nullopt};
+  frame.raycast = [this] { backend_->raycast(params_.raycast); };
+  (void)run_side_frame(frame);
   last_pose_ = T_world_cam;
   camera_m_ = T_world_cam.translation_part();
   if (relocalise_) relocaliser_.trust_pose(T_world_cam);
@@ -585,33 +572,14 @@ TrackingState Pipeline::localise_pass(ImageView<const uint16_t> depth_mm, ImageV
                                       const Mat4f& T_world_cam, double& computation_ms) {
   // The same stages, in the same order, as a relocalisation attempt frame that integrates
   // nothing and raycasts nothing after tracking (shape 1 | 32), so the GPU replays that graph.
-  Backend& b = *backend_;
-  b.upload_depth(depth_mm);
-  if (config_.colour.fuse || setup_.photometric) b.upload_colour(rgb);
-  b.stage_pose(T_world_cam);
-  b.begin_frame(1 | 32);
-  b.adopt_staged_pose();
-  b.begin_stage(Stage::kPreprocess);
-  b.preprocess(params_.bilateral);
-  b.end_stage(Stage::kPreprocess);
-  b.begin_stage(Stage::kTrack);
-  b.raycast(params_.raycast);
-  b.build_pyramid(params_.pyramid);
-  b.begin_tracking(params_.icp_guess);
-  const auto& iterations = config_.tracking.iterations_per_level;
-  for (int level = static_cast<int>(iterations.size()) - 1; level >= 0; --level) {
-    b.icp_level(level, iterations[level], params_.icp);
-  }
-  b.accept_or_revert(params_.accept);
-  if (setup_.photometric) b.keep_intensity(false);
-  b.end_stage(Stage::kTrack);
-  for (Stage s : {Stage::kIntegrate, Stage::kRaycast, Stage::kRender}) {
-    b.begin_stage(s);
-    b.end_stage(s);
-  }
-  b.end_frame();
-  const TrackingState state = b.read_state();
-  const auto ms = b.frame_stage_ms();
+  SideFrame frame{1 | 32, SideDepth{depth_mm, rgb, T_world_cam}};
+  frame.track = [this] {
+    backend_->raycast(params_.raycast);
+    track_levels(params_.icp_guess);
+    if (setup_.photometric) backend_->keep_intensity(false);
+  };
+  const TrackingState state = run_side_frame(frame);
+  const auto ms = backend_->frame_stage_ms();
   for (Stage s : {Stage::kPreprocess, Stage::kTrack}) computation_ms += ms[static_cast<int>(s)];
   return state;
 }
@@ -664,8 +632,7 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
   // The camera stays where it was; its reference view is the last pass's, so the next frame
   // raycasts afresh from the camera's pose.
   b.set_pose(last_pose_);
-  have_reference_ = false;
-  reference_stale_ = true;
+  forget_reference();
   return out;
 }
 

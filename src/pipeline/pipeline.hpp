@@ -6,6 +6,7 @@
 #include <array>
 #include <chrono>
 #include <deque>
+#include <functional>
 #include <memory>
 #include <optional>
 
@@ -244,6 +245,35 @@ class Pipeline {
   static constexpr int kSideIntegrateShape = 128;
   static constexpr int kSideTrackShape = 256;
   static constexpr int kResumeShape = 512;
+
+  /// What a side frame starts from: `depth_mm` (and `rgb` where given and colour is fused or
+  /// tracked with) uploaded, `T_world_cam` staged and adopted first, the depth preprocessed.
+  struct SideDepth {
+    ImageView<const uint16_t> depth_mm;
+    ImageView<const Rgb8> rgb;
+    Mat4f T_world_cam;
+  };
+  /// A frame outside the frame loop's own sequence (integrate, track or resume in a side map, a
+  /// pass of localise()): the five stages in order, each running what is given for it and
+  /// nothing where none is, so the CUDA backend records each shape as a graph of its own.
+  struct SideFrame {
+    SideFrame(int frame_shape, std::optional<SideDepth> from) : shape(frame_shape), depth(from) {}
+    int shape;  ///< the frame's shape: a side shape above, or the frame it replays
+    /// None: the frame starts at the camera's pose and preprocesses nothing.
+    std::optional<SideDepth> depth;
+    std::function<void()> track, integrate, raycast;  ///< each stage's work (none: nothing)
+  };
+  /// Runs `frame` on the selected map; returns the state it left.
+  TrackingState run_side_frame(const SideFrame& frame);
+  /// Runs `work` with `map` selected, then selects the map that was selected before; the
+  /// reference view is then not this map's (forget_reference()).
+  void in_side_map(int map, const std::function<void()>& work);
+  /// The reference view belongs to another pose or map: the next frame is not tracked against
+  /// it, and raycasts a fresh one whatever the raycast rate says.
+  void forget_reference();
+  /// Pyramid ICP of the preprocessed frame against the reference view from `guess`, coarse to
+  /// fine, then the accept test (the tracking stage of every frame that tracks).
+  void track_levels(const IcpGuessParams& guess);
 
   /// One pass of localise(): the camera moved to `T_world_cam`, the map raycast from there and
   /// the uploaded image tracked against it; returns the state after the accept test.

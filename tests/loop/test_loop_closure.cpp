@@ -179,14 +179,7 @@ std::vector<HostImage<uint16_t>> keyframe_small_images(const TrueRun& run,
                                                        const std::vector<int>& keyframes) {
   InputSmallDepth maker(small_depth_params(run.width, run.height), 1);
   std::vector<HostImage<uint16_t>> out;
-  for (int pose : keyframes) {
-    const ImageView<const uint16_t> made = maker.make(run.depth.at(pose).view());
-    HostImage<uint16_t> copy(made.width, made.height);
-    for (int y = 0; y < made.height; ++y) {
-      for (int x = 0; x < made.width; ++x) copy(x, y) = made(x, y);
-    }
-    out.push_back(std::move(copy));
-  }
+  for (int pose : keyframes) out.push_back(maker.make_copy(run.depth.at(pose).view()));
   return out;
 }
 
@@ -573,7 +566,7 @@ TEST(LoopClosureOnline, TwinsFalseLoopSwitchedOffWhileRunning) {
         closure.add_candidate(appearance);
       });
   ASSERT_EQ(online.figures.loops.size(), 1u);
-  const loop::OnlineLoopRecord& loop = online.figures.loops.front();
+  const loop::LoopRecord& loop = online.figures.loops.front();
   std::printf("twins online: verified %d (%s; inliers %.2f), chi2 %.0f, inlier %d\n",
               loop.check.accepted, loop.check.reason.c_str(), loop.check.inlier_fraction,
               loop.chi2_initial, loop.graph_inlier);
