@@ -310,7 +310,7 @@ void optimise(const OptimiseOptions& opt) {
       {"loops_rejected_by_pose_graph", result.rejected_by_graph},
       {"pose_graph_solve_s", result.solve_time_s},
       {"gnc_steps", result.gnc_steps},
-      {"loops", loop::loop_records_json(result.loops, stamped, true)}};
+      {"loops", loop::loop_records_json(result.loops, stamped)}};
   // Optimised before: the odometry's ATE is the one that run recorded.
   if (stats.contains("loop_closure") && stats["loop_closure"].contains("odometry_ate_rmse_m")) {
     closure_json["odometry_ate_rmse_m"] = stats["loop_closure"]["odometry_ate_rmse_m"];

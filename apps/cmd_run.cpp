@@ -422,7 +422,7 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
                     {"host_ms", lc.frame_work_ms},
                     {"max_frame_host_ms", lc.max_frame_work_ms},
                     {"trajectory_optimised", closure->trajectory_optimised()},
-                    {"loops", loop::loop_records_json(lc.loops, trajectory, false)}};
+                    {"loops", loop::loop_records_json(lc.loops, trajectory)}};
     if (!options.quiet) {
       std::cerr << name << ": loop closure: " << lc.keyframes << " keyframes, loops proposed "
                 << lc.proposed << ", accepted " << lc.accepted << ", rejected "

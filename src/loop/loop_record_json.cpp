@@ -3,8 +3,7 @@
 namespace kfx::loop {
 
 nlohmann::json loop_records_json(const std::vector<LoopRecord>& loops,
-                                 const std::vector<io::StampedPose>& trajectory,
-                                 bool with_correction) {
+                                 const std::vector<io::StampedPose>& trajectory) {
   nlohmann::json out = nlohmann::json::array();
   for (const LoopRecord& r : loops) {
     nlohmann::json loop = {{"from_stamp_s", trajectory.at(r.from_pose).stamp_s},
@@ -21,11 +20,9 @@ nlohmann::json loop_records_json(const std::vector<LoopRecord>& loops,
                            {"accepted", r.in_graph && r.graph_inlier},
                            {"chi2_initial", r.chi2_initial},
                            {"chi2_final", r.chi2_final}};
-    if (with_correction) {
-      loop["path_m"] = r.correction.path_m;
-      loop["correction_m"] = r.correction.translation_m;
-      loop["correction_rad"] = r.correction.rotation_rad;
-    }
+    loop["path_m"] = r.correction.path_m;
+    loop["correction_m"] = r.correction.translation_m;
+    loop["correction_rad"] = r.correction.rotation_rad;
     out.push_back(loop);
   }
   return out;

@@ -623,6 +623,14 @@ TEST(LoopClosureOnline, RunWritesOdometryAndCounts) {
         "pose_graph_solve_ms", "reintegration_ms", "verification_ms", "host_ms"}) {
     EXPECT_TRUE(lc.contains(key)) << key;
   }
+  // The room's loop closes within the 30 frames; its record says what it asked of the odometry,
+  // as kfx optimise's records do.
+  ASSERT_FALSE(lc["loops"].empty()) << lc.dump();
+  for (const auto& loop : lc["loops"]) {
+    for (const char* key : {"path_m", "correction_m", "correction_rad", "verified", "source"}) {
+      EXPECT_TRUE(loop.contains(key)) << key << " in " << loop.dump();
+    }
+  }
   EXPECT_EQ(io::read_tum_trajectory(out + "/odometry.txt").size(),
             io::read_tum_trajectory(out + "/trajectory.txt").size());
 }
