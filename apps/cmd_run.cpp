@@ -440,6 +440,11 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
     for (const auto& line : energy->summary_lines())
       std::cerr << name << ": energy " << line << "\n";
   }
+  KFX_CHECK(pipeline.frame_count() > 0 || frames_without_pose == 0,
+            options.input << ": none of the " << frames_without_pose
+                          << " frames read has a pose in " << outputs.given_poses_label
+                          << " (stamps within " << kGivenPoseStampToleranceS
+                          << " s): nothing to fuse");
   KFX_CHECK(pipeline.frame_count() > 0, options.input << ": no frame could be read");
   KFX_CHECK(frames_with_depth > 0, options.input << ": no frame of the " << pipeline.frame_count()
                                                  << " read has any valid depth (all pixels are 0)");
