@@ -16,9 +16,9 @@
 #include "eval/rpe.hpp"
 #include "io/reader.hpp"
 #include "io/trajectory.hpp"
-#include "output/run_folder.hpp"
 #include "pipeline/config.hpp"
 #include "run_command.hpp"
+#include "staged_run.hpp"
 #ifdef KFX_HAVE_LOOP
 #include "kernels/small_depth.hpp"
 #include "localise/input_small_depth.hpp"
@@ -46,30 +46,6 @@ namespace fs = std::filesystem;
 /// Where the fused pass writes before its outputs replace the earlier ones (hidden: a killed
 /// run's leftover is no output of kfx; the next optimise removes it).
 constexpr const char* kStagingFolder = ".kfx-optimise.partial";
-
-/// Removes the staging folder when the fusion fails (and the output folder, when this command
-/// created it and it is left empty): the earlier outputs stay as they were.
-class StagingCleanup {
- public:
-  StagingCleanup(std::string staging, std::string out_dir)
-      : staging_(std::move(staging)), out_dir_(std::move(out_dir)), existed_(fs::exists(out_dir_)) {
-    std::error_code ec;
-    fs::remove_all(staging_, ec);  // a killed optimise's leftover
-    KFX_CHECK(!ec, "cannot remove the leftover '" << staging_ << "': " << ec.message());
-  }
-  ~StagingCleanup() {
-    if (std::uncaught_exceptions() == 0) return;
-    std::error_code ec;
-    fs::remove_all(staging_, ec);
-    if (!existed_ && fs::is_empty(out_dir_, ec) && !ec) fs::remove(out_dir_, ec);
-  }
-  StagingCleanup(const StagingCleanup&) = delete;
-  StagingCleanup& operator=(const StagingCleanup&) = delete;
-
- private:
-  std::string staging_, out_dir_;
-  bool existed_;
-};
 
 loop::Pose3d to_pose3d(const io::StampedPose& p) {
   return loop::Pose3d::from_matrix(eval::to_isometry(p).matrix());
@@ -265,11 +241,8 @@ void optimise(const OptimiseOptions& opt) {
   // The fusion writes into a staging folder inside the output folder; only a complete result
   // replaces the earlier outputs there (in place: the run's, whose trajectory.txt is the raw
   // odometry until odometry.txt arrives). A failed or interrupted fusion leaves them as they were.
-  const std::string staging = out_dir + "/" + kStagingFolder;
   RunOutputs outputs;
-  outputs.dir = staging;
-  outputs.final_dir = out_dir;
-  outputs.overwrite = true;
+  outputs.dir = out_dir;
   outputs.cloud = fs::exists(opt.run_dir + "/cloud.ply");
   outputs.save_volume =
       fs::exists(opt.run_dir + "/map.kfxblocks") || fs::exists(opt.run_dir + "/volume.kfxtsdf");
@@ -326,9 +299,7 @@ void optimise(const OptimiseOptions& opt) {
         {"odometry of " + input + " (kfx run's trajectory, before loop closure)",
          "stamp tx ty tz qx qy qz qw"});
   };
-  const StagingCleanup cleanup(staging, out_dir);
-  run_sequence(options, outputs);
-  output::replace_run_outputs(staging, out_dir);
+  run_sequence_staged(options, outputs, kStagingFolder);
 }
 #else
 void optimise(const OptimiseOptions&) {
