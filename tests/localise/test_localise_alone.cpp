@@ -11,6 +11,7 @@
 #include "api/internal.hpp"
 #include "kfx/kfx.hpp"
 #include "localise/located_pose.hpp"
+#include "support/pose_compare.hpp"
 #include "support/test_dir.hpp"
 
 namespace kfx {
@@ -107,16 +108,6 @@ Settings settings(bool blocks) {
   return s;
 }
 
-void pose_error(const Pose& a, const Pose& b, float& metres, float& degrees) {
-  metres = std::hypot(a[3] - b[3], a[7] - b[7], a[11] - b[11]);
-  double trace = 0;  // trace(Raᵀ Rb)
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) trace += a[4 * j + i] * b[4 * j + i];
-  }
-  degrees = static_cast<float>(std::acos(std::min(1.0, std::max(-1.0, (trace - 1) / 2))) *
-                               57.29577951308232);
-}
-
 /// The uninterrupted run's poses (the truth here) and the map saved after its first loop.
 struct MappedRoom {
   std::vector<SequenceFrame> frames;
@@ -131,11 +122,9 @@ const MappedRoom& mapped_room(bool blocks) {
   MappedRoom& room = rooms[blocks];
   const auto dir = test::fresh_test_dir(blocks ? "kfx_alone_blocks_" : "kfx_alone_dense_");
   room.map_path = (dir / (blocks ? "map.kfxblocks" : "map.kfxtsdf")).string();
+  room.frames = test::read_all_frames(kLoop);
   Sequence sequence(kLoop);
-  SequenceFrame frame;
-  while (sequence.next(frame) == ReadStatus::kOk) room.frames.push_back(frame);
-  Sequence again(kLoop);
-  Reconstruction r(settings(blocks), again);
+  Reconstruction r(settings(blocks), sequence);
   for (int i = 0; i < static_cast<int>(room.frames.size()); ++i) {
     room.poses.push_back(r.process(room.frames[i]).T_world_cam);
     if (i + 1 == kMapFrames) r.save_map(room.map_path);
@@ -157,7 +146,7 @@ TEST_P(LocaliseAlone, EachViewOfTheSecondLoopIsFoundFromItsImageAloneInAnyOrder)
     ASSERT_TRUE(where.found) << "frame " << i;
     EXPECT_GE(where.keyframes_tried, 1);
     float metres = 0, degrees = 0;
-    pose_error(where.T_world_cam, room.poses[static_cast<size_t>(i)], metres, degrees);
+    test::pose_error(where.T_world_cam, room.poses[static_cast<size_t>(i)], metres, degrees);
     EXPECT_LT(metres, kWithinM) << "frame " << i;
     EXPECT_LT(degrees, kWithinDeg) << "frame " << i;
   }
@@ -193,7 +182,7 @@ TEST(LocaliseAloneDense, TheSettingLocatesEveryFrameOfARunAloneAndIntegratesNoth
     EXPECT_FALSE(r.integrated) << "frame " << i;
     EXPECT_EQ(r.tracking_quality, TrackingQuality::kGood) << "frame " << i;
     float metres = 0, degrees = 0;
-    pose_error(r.T_world_cam, room.poses[static_cast<size_t>(i)], metres, degrees);
+    test::pose_error(r.T_world_cam, room.poses[static_cast<size_t>(i)], metres, degrees);
     EXPECT_LT(metres, kWithinM) << "frame " << i;
     EXPECT_LT(degrees, kWithinDeg) << "frame " << i;
   }

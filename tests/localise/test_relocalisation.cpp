@@ -19,6 +19,7 @@
 #include "output/keyframe_section.hpp"
 #include "output/volume_file.hpp"
 #include "support/io_test_support.hpp"
+#include "support/pose_compare.hpp"
 #include "support/test_dir.hpp"
 
 namespace kfx {
@@ -370,14 +371,6 @@ Settings reloc_settings(bool blocks, bool relocalise = true) {
   return s;
 }
 
-std::vector<SequenceFrame> read_all(const char* input) {
-  Sequence sequence(input);
-  std::vector<SequenceFrame> frames;
-  SequenceFrame frame;
-  while (sequence.next(frame) == ReadStatus::kOk) frames.push_back(frame);
-  return frames;
-}
-
 /// The uninterrupted run of kLoop, per map kind, run once and shared by the tests below: its
 /// poses are where tracking against this map puts the camera (the map's own drift included,
 /// several centimetres at 64³), and its map saved after the first loop.
@@ -396,7 +389,7 @@ const UncutRun& uncut_run(bool blocks) {
   run.map_path = (dir / (blocks ? "map.kfxblocks" : "map.kfxtsdf")).string();
   Sequence sequence(kLoop);
   Reconstruction r(reloc_settings(blocks), sequence);
-  const auto frames = read_all(kLoop);
+  const auto frames = test::read_all_frames(kLoop);
   for (int i = 0; i < static_cast<int>(frames.size()); ++i) {
     run.poses.push_back(r.process(frames[i]).T_world_cam);
     if (i + 1 == kLoopFrames) {
@@ -407,21 +400,11 @@ const UncutRun& uncut_run(bool blocks) {
   return run;
 }
 
-void pose_error(const Pose& a, const Pose& b, float& metres, float& degrees) {
-  metres = std::hypot(a[3] - b[3], a[7] - b[7], a[11] - b[11]);
-  double trace = 0;  // trace(Raᵀ Rb)
-  for (int i = 0; i < 3; ++i) {
-    for (int j = 0; j < 3; ++j) trace += a[4 * j + i] * b[4 * j + i];
-  }
-  degrees = static_cast<float>(std::acos(std::min(1.0, std::max(-1.0, (trace - 1) / 2))) *
-                               57.29577951308232);
-}
-
 class Relocalisation : public ::testing::TestWithParam<bool> {};
 
 TEST_P(Relocalisation, AKidnappedCameraIsFoundWithinFiveFramesNearTheTruth) {
   const bool blocks = GetParam();
-  const auto frames = read_all(kKidnap);
+  const auto frames = test::read_all_frames(kKidnap);
   Sequence sequence(kKidnap);
   Reconstruction run(reloc_settings(blocks), sequence);
   int found_at = -1;
@@ -443,12 +426,12 @@ TEST_P(Relocalisation, AKidnappedCameraIsFoundWithinFiveFramesNearTheTruth) {
   EXPECT_LE(found_at, kJumpLast + kFramesToFind);
   float metres = 0, degrees = 0;
   const UncutRun& uncut = uncut_run(blocks);
-  pose_error(run.trajectory()[found_at].T_world_cam, uncut.poses[found_at], metres, degrees);
+  test::pose_error(run.trajectory()[found_at].T_world_cam, uncut.poses[found_at], metres, degrees);
   EXPECT_LT(metres, kFoundWithinM);
   EXPECT_LT(degrees, kFoundWithinDeg);
   // And it keeps tracking from there, where the uninterrupted run is.
   EXPECT_TRUE(run.trajectory().back().tracked);
-  pose_error(run.pose(), uncut.poses[frames.size() - 1], metres, degrees);
+  test::pose_error(run.pose(), uncut.poses[frames.size() - 1], metres, degrees);
   EXPECT_LT(metres, kFoundWithinM);
 }
 
@@ -464,10 +447,10 @@ TEST(Relocalisation, ALossBeforeAnyFrameTrackedTriesWhereTheCameraStarted) {
                          .set("voxel_size_m", "0.01"),
                      sequence);
   const Pose start = run.pose();
-  for (const SequenceFrame& frame : read_all(input)) {
+  for (const SequenceFrame& frame : test::read_all_frames(input)) {
     const FrameResult r = run.process(frame);
     float metres = 0, degrees = 0;
-    pose_error(r.T_world_cam, start, metres, degrees);
+    test::pose_error(r.T_world_cam, start, metres, degrees);
     // The camera moves 9 cm in eight frames, and tracking this coarse slides up to 0.6 m for a
     // frame; a pose from nowhere (the identity, or memory never written) lies metres off, or is
     // not a number.
@@ -486,7 +469,7 @@ class RelocalisationMap : public ::testing::TestWithParam<bool> {};
 
 TEST_P(RelocalisationMap, SavedWithTheMapReloadedAndUsedToLocateANewRun) {
   const bool blocks = GetParam();
-  const auto frames = read_all(kLoop);
+  const auto frames = test::read_all_frames(kLoop);
   Sequence sequence(kLoop);
   const UncutRun& uncut = uncut_run(blocks);
   const std::string& path = uncut.map_path;
@@ -514,8 +497,8 @@ TEST_P(RelocalisationMap, SavedWithTheMapReloadedAndUsedToLocateANewRun) {
   ASSERT_GE(found_at, start) << "never relocalised";
   EXPECT_LE(found_at, start + kFramesToFind);
   float metres = 0, degrees = 0;
-  pose_error(loaded.trajectory()[found_at - start].T_world_cam, uncut.poses[found_at], metres,
-             degrees);
+  test::pose_error(loaded.trajectory()[found_at - start].T_world_cam, uncut.poses[found_at], metres,
+                   degrees);
   EXPECT_LT(metres, kFoundWithinM);
   EXPECT_LT(degrees, kFoundWithinDeg);
 }
@@ -525,7 +508,7 @@ INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, RelocalisationMap, ::testing::Values(fa
 
 TEST(RelocalisationMapFile, AnOlderFileLoadsAndSaysItCannotRelocalise) {
   const auto dir = test::fresh_test_dir("kfx_reloc_map_");
-  const auto frames = read_all(kLoop);
+  const auto frames = test::read_all_frames(kLoop);
   Sequence sequence(kLoop);
   Reconstruction first(reloc_settings(false, false), sequence);
   for (int i = 0; i < 10; ++i) first.process(frames[i]);
@@ -547,7 +530,7 @@ TEST(RelocalisationMapFile, AnOlderFileLoadsAndSaysItCannotRelocalise) {
 
 TEST(RelocalisationMapFile, ACorruptOrTruncatedKeyframeSectionIsAnErrorNamingTheFile) {
   const auto dir = test::fresh_test_dir("kfx_reloc_map_");
-  const auto frames = read_all(kLoop);
+  const auto frames = test::read_all_frames(kLoop);
   Sequence sequence(kLoop);
   for (bool blocks : {false, true}) {
     Reconstruction r(reloc_settings(blocks), sequence);
