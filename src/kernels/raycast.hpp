@@ -553,12 +553,18 @@ KFX_HD float raycast_ray(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f directi
   return t;
 }
 
+/// Which march the settings `p` ask for (the tsdf step is off under a constant step).
+KFX_HD inline RaycastStep raycast_step_of(const RaycastParams& p) {
+  return p.tsdf_step_m > 0.0f && !(p.constant_step_m > 0.0f) ? RaycastStep::kTsdf
+                                                             : RaycastStep::kKFusion;
+}
+
 /// raycast_ray with the march its settings ask for, chosen per ray (the volume render and
 /// tests; the raycast proper chooses per launch: raycast_block).
 template <class Map>
 KFX_HD inline float raycast_ray_as_set(const RaycastArgsT<Map>& a, Vec3f origin, Vec3f direction,
                                        Vec3f& hit) {
-  return a.tsdf_step_m > 0.0f && !(a.constant_step_m > 0.0f)
+  return raycast_step_of(a) == RaycastStep::kTsdf
              ? raycast_ray<1, true>(a, origin, direction, hit)
              : raycast_ray<kRaycastBatch, false>(a, origin, direction, hit);
 }
@@ -601,12 +607,6 @@ KFX_HD inline void raycast_pixel_stepping(int x, int y, const RaycastArgsT<Map>&
     a.vertex(x, y) = Vec3f{0.0f, 0.0f, 0.0f};
     a.normal(x, y) = Vec3f{kInvalidNormal, 0.0f, 0.0f};
   }
-}
-
-/// Which march the settings `p` ask for (the tsdf step is off under a constant step).
-KFX_HD inline RaycastStep raycast_step_of(const RaycastParams& p) {
-  return p.tsdf_step_m > 0.0f && !(p.constant_step_m > 0.0f) ? RaycastStep::kTsdf
-                                                             : RaycastStep::kKFusion;
 }
 
 /// One raycast pixel with the march chosen from its settings (tests and single rays).
