@@ -31,6 +31,35 @@ bool fit_fell_apart(const RelocaliserSettings& s, const RelocaliserObservation& 
          frame.inlier_fraction < s.view_jump_inlier_ratio * inliers;
 }
 
+/// Whether an attempt's pose is refused before any verification: its ICP ended farther than
+/// candidate_reach_m from the candidate it started at, or left a residual RMS past
+/// view_jump_residual_ratio times the last good frame's `rms_m`, whatever its inliers. A frame
+/// tracked on from a good pose may fit worse for a while (a fast turn); a candidate that fits
+/// so is a wrong minimum more often than not, and taking one fuses a view at the wrong place.
+/// Measured (bench/RESULTS.md, "Attempts that end far from their candidate"): right attempts
+/// on the cut real sequences left 0.8–1.7 times the last good residual, a false one on
+/// icl_office_kt0 5.9 times with 0.7 times the inliers.
+bool attempt_refused(const RelocaliserSettings& s, const RelocaliserObservation& frame,
+                     const Mat4f& candidate, double inliers, double rms_m) {
+  float metres = 0, degrees = 0;
+  pose_step(candidate, frame.T_world_cam, metres, degrees);
+  return metres > s.candidate_reach_m ||
+         (rms_m > 0 && (frame.residual_rms_m > s.view_jump_residual_ratio * rms_m ||
+                        frame.inlier_fraction < s.view_jump_inlier_ratio * inliers));
+}
+
+/// Whether a frame of a lost camera's attempt or verification disagrees with the map: more of
+/// its pixels paired too far away than the floor and the ratio to the last good frame's
+/// `too_far` allow (RelocaliserSettings::candidate_too_far_*). No good frame yet (`rms_m` 0, a
+/// loaded map): never, as the share a good fit leaves differs from scene to scene (0.002 on
+/// icl_office_kt0, 0.02–0.04 on the noisy synthetic room).
+bool disagrees_with_map(const RelocaliserSettings& s, const RelocaliserObservation& frame,
+                        double too_far, double rms_m) {
+  return rms_m > 0 &&
+         frame.too_far_fraction >
+             std::max<double>(s.candidate_too_far_floor, s.candidate_too_far_ratio * too_far);
+}
+
 }  // namespace
 
 Relocaliser::Relocaliser(const RelocaliserSettings& settings, int small_width_px,
@@ -52,9 +81,12 @@ void Relocaliser::reset() {
   last_tracked_ = false;
   last_inlier_fraction_ = 0;
   last_residual_rms_m_ = 0;
+  last_too_far_fraction_ = 0;
   view_jumped_ = false;
   lost_from_frame_ = 0;
   attempt_ids_.clear();
+  attempt_starts_.clear();
+  last_attempt_refused_ = false;
   pending_attempt_id_ = -2;
   attempts_in_flight_ = 0;
   lost_frames_ = 0;
@@ -75,6 +107,7 @@ void Relocaliser::trust_pose(const Mat4f& T_world_cam) {
   candidate_ids_.clear();
   failed_ids_.clear();
   verified_ = 0;
+  last_attempt_refused_ = false;
 }
 
 void Relocaliser::adopt_keyframes(std::optional<KeyframeDatabase> keyframes) {
@@ -103,6 +136,7 @@ void Relocaliser::start_lost(const Mat4f& T_world_cam) {
   lost_frames_ = 0;
   verified_ = 0;
   lost_from_frame_ = 0;
+  last_attempt_refused_ = false;
 }
 
 bool Relocaliser::submitted_view(int frame, ImageView<const uint16_t> small_mm, bool placed) {
@@ -153,6 +187,7 @@ RelocaliserPlan Relocaliser::plan() {
   p.T_world_cam = candidates_[pick];
   pending_attempt_id_ = candidate_ids_[pick];
   attempt_ids_.push_back(pending_attempt_id_);
+  attempt_starts_.push_back(p.T_world_cam);
   failed_ids_.push_back(pending_attempt_id_);
   ++attempts_in_flight_;
   return p;
@@ -161,11 +196,18 @@ RelocaliserPlan Relocaliser::plan() {
 bool Relocaliser::observe(const RelocaliserObservation& frame) {
   const auto start = std::chrono::steady_clock::now();
   int attempt_id = -2;
+  bool refused = false;
   if (frame.attempt) {
     --attempts_in_flight_;
     ++attempts_;
-    attempt_id = attempt_ids_.empty() ? -2 : attempt_ids_.front();
-    if (!attempt_ids_.empty()) attempt_ids_.erase(attempt_ids_.begin());
+    if (!attempt_ids_.empty()) {
+      attempt_id = attempt_ids_.front();
+      attempt_ids_.erase(attempt_ids_.begin());
+      refused = attempt_refused(settings_, frame, attempt_starts_.front(), last_inlier_fraction_,
+                                last_residual_rms_m_);
+      attempt_starts_.erase(attempt_starts_.begin());
+    }
+    last_attempt_refused_ = refused;
   }
   // The frame's code from submitted_view(); frames observed out of turn leave theirs behind.
   std::vector<uint8_t> code;
@@ -199,13 +241,18 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
         if (!code.empty()) harvest(frame, code);
       }
       break;
-    case Mode::kLost:
+    case Mode::kLost: {
       // After a view jump only an attempt from a keyframe starts a verification: frames that
-      // track on from the suspect pose would verify it. The accept test passes fits far worse
-      // than tracking makes (a residual five times the last good frame's at a pose 10–20 cm
-      // off, bench/RESULTS.md "The view jump the ICP sees"): such a fit verifies nothing.
-      if (frame.tracked && (!view_jumped_ || (frame.attempt && attempt_id >= 0)) &&
-          !fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_)) {
+      // track on from the suspect pose would verify it; nor do frames tracked on from an
+      // attempt refused (attempt_refused()). The accept test passes fits far worse than
+      // tracking makes (a residual five times the last good frame's at a pose 10–20 cm off,
+      // bench/RESULTS.md "The view jump the ICP sees"), and fits that pair much of the view
+      // with map points far away (disagrees_with_map()): such fits verify nothing.
+      const bool may_verify = frame.attempt ? !refused && (!view_jumped_ || attempt_id >= 0)
+                                            : !view_jumped_ && !last_attempt_refused_;
+      if (frame.tracked && may_verify &&
+          !fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_) &&
+          !disagrees_with_map(settings_, frame, last_too_far_fraction_, last_residual_rms_m_)) {
         mode_ = Mode::kVerifying;
         verified_ = 1;
         verify_pose_ = frame.T_world_cam;
@@ -214,12 +261,14 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
         if (!code.empty()) choose_candidates(code);
       }
       break;
+    }
     case Mode::kVerifying: {
       float metres = 0, degrees = 0;
       if (frame.tracked) pose_step(verify_pose_, frame.T_world_cam, metres, degrees);
       if (!frame.tracked || metres > settings_.verify_max_step_m ||
           degrees > settings_.verify_max_step_deg ||
-          fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_)) {
+          fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_) ||
+          disagrees_with_map(settings_, frame, last_too_far_fraction_, last_residual_rms_m_)) {
         mode_ = Mode::kLost;
         ++lost_frames_;
         if (!code.empty()) choose_candidates(code);
@@ -246,6 +295,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
   if (mode_ == Mode::kTracking && last_tracked_ && frame.good) {
     last_inlier_fraction_ = frame.inlier_fraction;
     last_residual_rms_m_ = frame.residual_rms_m;
+    last_too_far_fraction_ = frame.too_far_fraction;
   }
   host_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

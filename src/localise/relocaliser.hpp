@@ -65,18 +65,39 @@ struct RelocaliserSettings {
   /// the accept test passed 10–20 cm off.
   float view_jump_residual_ratio = 2.5f;
   float view_jump_inlier_ratio = 0.6f;
+  /// Farthest an attempt's ICP may take the camera from its candidate's pose, metres, for the
+  /// pose it reached to start a verification. A candidate is tried because its view looks
+  /// like the frame's, so the camera is near it; ICP that ends far away slid along the scene
+  /// (a wall fits at many poses) into a wrong minimum that the accept test and the frames
+  /// tracked on from it can pass. Measured (bench/RESULTS.md, "Attempts that end far from
+  /// their candidate"): right attempts on the cut real sequences ended 0.03–0.14 m from their
+  /// keyframe, the office's false ones 1.2 and 1.5 m, the rejected ones on tum_fr1_rpy
+  /// 0.65–0.98 m. The angle is not bounded: a right attempt turned 37°.
+  float candidate_reach_m = 0.5f;
+  /// A frame that starts or continues a verification disagrees with the map when the share of
+  /// its pixels that the ICP paired with a map point farther than its distance threshold (10 cm
+  /// in KFusion) exceeds both this floor and candidate_too_far_ratio times the last good frame's
+  /// share: a pose that fits one wall while the rest of the view lies in the wrong place. The
+  /// inliers and residual of such a pose can look like good tracking's (a wall fits at many
+  /// poses). Measured (bench/RESULTS.md, "Attempts that end far from their candidate"): good
+  /// tracking 0.002 (median) on icl_office_kt0, 0.008–0.011 on tum_fr1_xyz and tum_fr1_rpy;
+  /// right relocalisations up to 0.019 at up to 2 times the last good frame's; the office's
+  /// false ones 0.012–0.19 at 6–90 times.
+  float candidate_too_far_floor = 0.01f;
+  float candidate_too_far_ratio = 4.0f;
 };
 
 /// What the relocaliser reads of one collected frame.
 struct RelocaliserObservation {
   bool tracking_ran = false;
-  bool tracked = false;        ///< the accept test passed
-  bool good = false;           ///< the tracking state is good (not poor, not lost)
-  bool attempt = false;        ///< the frame was an attempt (plan().attempt)
-  Mat4f T_world_cam;           ///< pose after the frame
-  int frame = 0;               ///< the pipeline's frame number
-  double inlier_fraction = 0;  ///< the ICP's last iteration's inliers / compute pixels
-  double residual_rms_m = 0;   ///< ... and its residual RMS over them, metres
+  bool tracked = false;         ///< the accept test passed
+  bool good = false;            ///< the tracking state is good (not poor, not lost)
+  bool attempt = false;         ///< the frame was an attempt (plan().attempt)
+  Mat4f T_world_cam;            ///< pose after the frame
+  int frame = 0;                ///< the pipeline's frame number
+  double inlier_fraction = 0;   ///< the ICP's last iteration's inliers / compute pixels
+  double residual_rms_m = 0;    ///< ... and its residual RMS over them, metres
+  double too_far_fraction = 0;  ///< ... and its pixels paired too far away / compute pixels
 };
 
 /// What the next submitted frame does.
@@ -174,10 +195,15 @@ class Relocaliser {
   Mat4f last_pose_;
   double last_inlier_fraction_ = 0;
   double last_residual_rms_m_ = 0;
+  double last_too_far_fraction_ = 0;
   bool view_jumped_ = false;  ///< lost at a view jump: the last good pose is suspect
   int lost_from_frame_ = 0;   ///< the view jump's frame: frames before it are not part of the loss
-  int pending_attempt_id_ = -2;   ///< the candidate of the last attempt planned
-  std::vector<int> attempt_ids_;  ///< the candidates of the attempts in flight, in order
+  /// The last attempt collected was refused (attempt_refused()): the frames tracked on from
+  /// its pose until the next attempt is collected verify nothing either.
+  bool last_attempt_refused_ = false;
+  int pending_attempt_id_ = -2;        ///< the candidate of the last attempt planned
+  std::vector<int> attempt_ids_;       ///< the candidates of the attempts in flight, in order
+  std::vector<Mat4f> attempt_starts_;  ///< ... and the poses they start from
   int attempts_in_flight_ = 0;
   int lost_frames_ = 0;  ///< lost frames collected since the loss
   int verified_ = 0;     ///< accepted frames in the verification so far

@@ -428,6 +428,7 @@ FrameReport Pipeline::collect() {
     o.frame = report.index;
     o.inlier_fraction = report.inlier_fraction;
     o.residual_rms_m = report.residual_rms_m;
+    o.too_far_fraction = report.too_far_fraction;
     report.relocalised = relocaliser_.observe(o);
     // Until it is found, a lost camera stays lost, tracked frames or not (they verify).
     if (relocaliser_.lost_at(report.index)) report.quality = TrackingQuality::kLost;
@@ -442,6 +443,8 @@ void Pipeline::fill_tracking_figures(FrameReport& report, const TrackingState& s
   report.icp_iterations = state.iterations_run;
   report.inlier_fraction =
       state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels);
+  report.too_far_fraction =
+      state.accumulator[kAccTooFar] / static_cast<double>(params_.accept.compute_pixels);
   const double inliers = state.accumulator[kAccInliers];
   report.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
   // On the host from the state both backends return: the GPU's one-thread decision kernels

@@ -36,6 +36,10 @@ struct FrameReport {
   double computation_ms = 0;   ///< preprocess + track + integrate + raycast
   int icp_iterations = 0;      ///< ICP iterations run (all levels)
   double inlier_fraction = 0;  ///< inliers / compute pixels at the last iteration
+  /// Pixels whose point lay farther than the ICP's distance threshold from the raycast's point
+  /// it was paired with, at the last iteration, per compute pixel: the view and the map
+  /// disagree there.
+  double too_far_fraction = 0;
   /// sqrt(Σe² / inliers) of the last ICP iteration, metres (the accept test's RMS; 0 when
   /// tracking did not run or had no inliers).
   double residual_rms_m = 0;

@@ -213,14 +213,15 @@ TEST(Relocaliser, HarvestsAndLooksUpTheCodesOfTheSubmittedInputWithNoImageFromTh
 }
 
 /// A tracked, good frame at `x_m` with the ICP's figures given.
-RelocaliserObservation tracked_at(int frame, float x_m, double inliers = 0.7,
-                                  double rms_m = 0.003) {
+RelocaliserObservation tracked_at(int frame, float x_m, double inliers = 0.7, double rms_m = 0.003,
+                                  double too_far = 0.002) {
   RelocaliserObservation o;
   o.tracking_ran = o.tracked = o.good = true;
   o.frame = frame;
   o.T_world_cam = Mat4f::translation(Vec3f{x_m, 0, 0});
   o.inlier_fraction = inliers;
   o.residual_rms_m = rms_m;
+  o.too_far_fraction = too_far;
   return o;
 }
 
@@ -304,6 +305,77 @@ TEST(Relocaliser, ACandidateWhoseFitFellApartVerifiesNothingOneThatFitsAsTrackin
     r.submitted_view(f, a.view());
     RelocaliserObservation o = tracked_at(f, 0.02f, 0.5, 0.004);
     o.good = false;
+    o.attempt = r.plan().attempt;
+    if (r.observe(o)) found_at = f;
+  }
+  EXPECT_GE(found_at, 9);
+  EXPECT_LE(found_at, 12);
+  EXPECT_FALSE(r.lost());
+}
+
+/// Tracking at frame 1 as tracking_one_keyframe(), then lost at frame 2 (the accept test failed).
+Relocaliser lost_at_frame_two(const HostImage<uint16_t>& a) {
+  Relocaliser r = tracking_one_keyframe(a);
+  r.submitted_view(2, a.view());
+  RelocaliserObservation failed = tracked_at(2, 0.02f, 0.1, 0.02);
+  failed.tracked = failed.good = false;
+  r.observe(failed);
+  EXPECT_TRUE(r.lost());
+  return r;
+}
+
+TEST(Relocaliser, AnAttemptThatEndedFarFromItsCandidateVerifiesNothingNorDoFramesTrackedOnFromIt) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  Relocaliser r = lost_at_frame_two(a);
+  // Each attempt's ICP ends 0.8 m from the candidate it started at, with a fit as good as
+  // tracking's; the frame submitted behind it tracks on from there, as well. Neither counts.
+  int f = 3;
+  for (; f < 15; f += 2) {
+    r.submitted_view(f, a.view());
+    const RelocaliserPlan attempt = r.plan();
+    ASSERT_TRUE(attempt.attempt) << "frame " << f;
+    r.submitted_view(f + 1, a.view());
+    ASSERT_FALSE(r.plan().attempt) << "an attempt is in flight";
+    RelocaliserObservation o = tracked_at(f, attempt.T_world_cam.m[0][3] + 0.8f);
+    o.attempt = true;
+    EXPECT_FALSE(r.observe(o)) << "frame " << f;
+    EXPECT_FALSE(r.observe(tracked_at(f + 1, attempt.T_world_cam.m[0][3] + 0.81f)))
+        << "frame " << f + 1;
+    EXPECT_TRUE(r.lost());
+  }
+  // Attempts that end 10 cm from their candidate: verified over 3 frames.
+  int found_at = -1;
+  for (; f < 25 && found_at < 0; ++f) {
+    r.submitted_view(f, a.view());
+    const RelocaliserPlan plan = r.plan();
+    RelocaliserObservation o = tracked_at(f, 0.1f);
+    o.attempt = plan.attempt;
+    if (r.observe(o)) found_at = f;
+  }
+  EXPECT_GE(found_at, 17);
+  EXPECT_LE(found_at, 18);
+  EXPECT_FALSE(r.lost());
+}
+
+TEST(Relocaliser, ACandidateThatPairsMuchOfItsViewWithMapPointsFarAwayVerifiesNothing) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  Relocaliser r = lost_at_frame_two(a);  // good frames: 0.2 % of pixels paired too far away
+  int f = 3;
+  // Inliers and residual as good tracking's, but 5 % of the pixels paired with map points
+  // beyond the ICP's distance threshold (25 times the good frames' share): a wall that fits at
+  // a wrong pose while the rest of the view lies elsewhere. Never found.
+  for (; f < 9; ++f) {
+    r.submitted_view(f, a.view());
+    RelocaliserObservation o = tracked_at(f, 0.02f, 0.7, 0.003, 0.05);
+    o.attempt = r.plan().attempt;
+    EXPECT_FALSE(r.observe(o)) << "frame " << f;
+    EXPECT_TRUE(r.lost());
+  }
+  // The same fit with 0.4 % paired too far away (below the 1 % floor): found.
+  int found_at = -1;
+  for (; f < 15 && found_at < 0; ++f) {
+    r.submitted_view(f, a.view());
+    RelocaliserObservation o = tracked_at(f, 0.02f, 0.7, 0.003, 0.004);
     o.attempt = r.plan().attempt;
     if (r.observe(o)) found_at = f;
   }
