@@ -180,6 +180,7 @@ void run_sequence(const RunOptions& options, const RunOutputs& outputs) {
   if (online_closure) {
     loop::OnlineClosureOptions closure_options;
     closure_options.proximity.min_frame_gap = pipeline.config().tracking.loop_min_gap_frames;
+    closure_options.appearance.min_frame_gap = pipeline.config().tracking.loop_min_gap_frames;
     closure = std::make_unique<loop::OnlineLoopClosure>(pipeline, closure_options);
   }
 #endif

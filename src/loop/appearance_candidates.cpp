@@ -5,6 +5,38 @@
 
 namespace kfx::loop {
 
+AppearanceMatcher::AppearanceMatcher(int width_px, int height_px, const AppearanceOptions& options,
+                                     int capacity)
+    : options_(options),
+      database_(width_px, height_px, options.fern_count, capacity),
+      last_with_candidates_(-options.keyframe_stride) {}
+
+std::vector<LoopCandidate> AppearanceMatcher::add(ImageView<const uint16_t> small_mm,
+                                                  int pose_index) {
+  KFX_CHECK(small_mm.width == database_.width_px() && small_mm.height == database_.height_px(),
+            "appearance candidates: a small image of " << small_mm.width << "x" << small_mm.height
+                                                       << " among ones of " << database_.width_px()
+                                                       << "x" << database_.height_px());
+  const int j = static_cast<int>(codes_.size());
+  codes_.push_back(database_.encode(small_mm));
+  poses_.push_back(pose_index);
+  while (filed_ < j && pose_index - poses_[filed_] >= options_.min_frame_gap) {
+    Keyframe older;
+    older.frame = filed_;
+    database_.add(codes_[filed_], older);
+    ++filed_;
+  }
+  std::vector<LoopCandidate> out;
+  if (database_.empty() || j - last_with_candidates_ < options_.keyframe_stride) return out;
+  for (const KeyframeMatch& m :
+       database_.nearest(codes_[j], options_.max_candidates_per_keyframe)) {
+    if (m.dissimilarity > options_.max_dissimilarity) break;  // nearest first
+    out.push_back({database_.keyframe(m.keyframe).frame, j, Pose3d::identity(), "appearance"});
+  }
+  if (!out.empty()) last_with_candidates_ = j;
+  return out;
+}
+
 std::vector<LoopCandidate> propose_by_appearance(const std::vector<HostImage<uint16_t>>& small_mm,
                                                  const std::vector<int>& keyframes,
                                                  const AppearanceOptions& options) {
@@ -13,32 +45,10 @@ std::vector<LoopCandidate> propose_by_appearance(const std::vector<HostImage<uin
                                       << " keyframes");
   std::vector<LoopCandidate> out;
   if (small_mm.empty()) return out;
-  const int count = static_cast<int>(keyframes.size());
-  KeyframeDatabase database(small_mm[0].width(), small_mm[0].height(), options.fern_count, count);
-  std::vector<std::vector<uint8_t>> codes;
-  codes.reserve(small_mm.size());
-  for (const HostImage<uint16_t>& image : small_mm) {
-    KFX_CHECK(image.width() == database.width_px() && image.height() == database.height_px(),
-              "propose_by_appearance: small images of different sizes");
-    codes.push_back(database.encode(image.view()));
-  }
-  int filed = 0;  // keyframes in the database: those old enough for the current one
-  int last_with_candidates = -options.keyframe_stride;
-  for (int j = 0; j < count; ++j) {
-    while (filed < j && keyframes[j] - keyframes[filed] >= options.min_frame_gap) {
-      Keyframe older;
-      older.frame = filed;
-      database.add(codes[filed], older);
-      ++filed;
-    }
-    if (database.empty() || j - last_with_candidates < options.keyframe_stride) continue;
-    bool any = false;
-    for (const KeyframeMatch& m : database.nearest(codes[j], options.max_candidates_per_keyframe)) {
-      if (m.dissimilarity > options.max_dissimilarity) break;  // nearest first
-      out.push_back({database.keyframe(m.keyframe).frame, j, Pose3d::identity(), "appearance"});
-      any = true;
-    }
-    if (any) last_with_candidates = j;
+  AppearanceMatcher matcher(small_mm[0].width(), small_mm[0].height(), options,
+                            static_cast<int>(keyframes.size()));
+  for (size_t k = 0; k < small_mm.size(); ++k) {
+    for (const LoopCandidate& c : matcher.add(small_mm[k].view(), keyframes[k])) out.push_back(c);
   }
   return out;
 }

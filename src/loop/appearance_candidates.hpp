@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "core/image.hpp"
+#include "localise/keyframe_database.hpp"
 #include "loop/loop_candidates.hpp"
 
 namespace kfx::loop {
@@ -29,6 +30,26 @@ struct AppearanceOptions {
   /// proximity's: a view that looks alike may still be too weak a view to verify (a plain
   /// wall), and its neighbour is the next chance.
   int keyframe_stride = 2;
+};
+
+/// The same pairing one keyframe at a time, for a run that keeps keyframes as it goes (the
+/// online closure): each keyframe is coded as it comes and filed for later ones once a newer
+/// keyframe is min_frame_gap poses after it.
+class AppearanceMatcher {
+ public:
+  /// For small images of width × height pixels; room for `capacity` filed keyframes.
+  AppearanceMatcher(int width_px, int height_px, const AppearanceOptions& options, int capacity);
+  /// The next keyframe (index: the count added before it), taken at pose index `pose_index`
+  /// (increasing), and its small image: the candidates pairing it with older keyframes.
+  std::vector<LoopCandidate> add(ImageView<const uint16_t> small_mm, int pose_index);
+
+ private:
+  AppearanceOptions options_;
+  KeyframeDatabase database_;
+  std::vector<std::vector<uint8_t>> codes_;
+  std::vector<int> poses_;
+  int filed_ = 0;  ///< keyframes in the database: those old enough for the latest one
+  int last_with_candidates_;
 };
 
 /// Candidates from the keyframes' views alone. `small_mm[k]` is keyframe k's small depth image

@@ -75,6 +75,7 @@ bool OnlineLoopClosure::after_frame(const FrameReport& report, ImageView<const u
     ++figures_.keyframes;
     if (rebuild_.active) rebuild_.targets.push_back(rebuild_.correction_after * pose);
     propose(static_cast<int>(keyframes_.size()) - 1);
+    if (options_.by_appearance) propose_by_appearance(depth_mm, frame);
   }
   if (auto result = worker_.try_take()) take_result(*result);
   // One piece of side work per frame at most: a share of a rebuild, or one verification.
@@ -106,6 +107,21 @@ void OnlineLoopClosure::propose(int j) {
     ++figures_.proposed;
   }
   last_with_candidates_ = j;
+}
+
+void OnlineLoopClosure::propose_by_appearance(ImageView<const uint16_t> depth_mm, int frame) {
+  if (!appearance_) {
+    const int ratio = pipeline_.config().input.compute_size_ratio;
+    const SmallDepthParams params =
+        small_depth_params(depth_mm.width / ratio, depth_mm.height / ratio);
+    small_depth_ = std::make_unique<InputSmallDepth>(params, ratio);
+    appearance_ = std::make_unique<AppearanceMatcher>(params.width_px, params.height_px,
+                                                      options_.appearance, 1 << 20);
+  }
+  for (const LoopCandidate& c : appearance_->add(small_depth_->make(depth_mm), frame)) {
+    queue_.push_back(c);
+    ++figures_.proposed;
+  }
 }
 
 void OnlineLoopClosure::add_candidate(const LoopCandidate& candidate) {

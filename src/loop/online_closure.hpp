@@ -9,11 +9,14 @@
 /// judge_loop, keyframe_graph); docs/loop_closure.md says what it costs and why.
 
 #include <deque>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "core/image.hpp"
 #include "core/math.hpp"
+#include "localise/input_small_depth.hpp"
+#include "loop/appearance_candidates.hpp"
 #include "loop/drift_bound.hpp"
 #include "loop/keyframe_graph.hpp"
 #include "loop/keyframes.hpp"
@@ -34,6 +37,11 @@ namespace kfx::loop {
 struct OnlineClosureOptions {
   KeyframeOptions keyframes;
   ProximityOptions proximity;
+  /// Candidates by appearance as well as by proximity: a building's loop comes back further
+  /// than proximity looks (the house's, 0.65 m), and kfx optimise finds it so. False matches
+  /// (rooms alike) are what the verification and the drift bound below are for.
+  bool by_appearance = true;
+  AppearanceOptions appearance;
   VerifyOptions verify;
   PoseGraphOptions graph;
   KeyframeGraphNoise noise;
@@ -140,6 +148,9 @@ class OnlineLoopClosure {
   };
 
   void propose(int j);
+  /// Candidates pairing the keyframe just kept (input depth `depth_mm`, frame `frame`) with
+  /// older keyframes that look alike.
+  void propose_by_appearance(ImageView<const uint16_t> depth_mm, int frame);
   void verify_next();
   void take_result(const PoseGraphResult& result);
   bool rebuild_step(size_t keyframe_budget);
@@ -158,6 +169,10 @@ class OnlineLoopClosure {
   std::vector<int> keyframe_frames_;
   std::vector<Pose3d> est_by_frame_;  ///< keyframes' entries kept current (proximity reads them)
   int last_with_candidates_;
+  /// Appearance candidates (by_appearance): each keyframe's small depth image is made from its
+  /// input depth as the relocaliser makes it, and coded; made at the first keyframe.
+  std::unique_ptr<InputSmallDepth> small_depth_;
+  std::unique_ptr<AppearanceMatcher> appearance_;
   std::deque<LoopCandidate> queue_;
   /// Loop edges in the order they entered the graph, as records' indices.
   std::vector<size_t> loop_records_;

@@ -525,6 +525,41 @@ TEST(LoopClosureOnline, PullsDriftBackWhileRunningOnTheRoomsLoop) {
   EXPECT_LT(after, 0.35 * before);
 }
 
+// The same drifted loop with proximity's reach cut to 3 cm, as a building's loop comes back
+// decimetres from where it began: the running closure pairs the loop's last keyframes with the
+// first by their views, verifies them and pulls the drift back.
+TEST(LoopClosureOnline, AppearanceFindsTheLoopThatDriftHidesFromProximity) {
+  PipelineConfig config = small_frames();
+  set_config_value(config, "volume_resolution", "96");
+  const TrueRun run =
+      read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", config);
+  const std::vector<Pose3d> drifted = drifted_poses(run.poses);
+  loop::OnlineClosureOptions options;
+  options.proximity.min_frame_gap = 100;
+  options.proximity.max_distance_m = 0.03;
+  options.appearance.min_frame_gap = 100;
+  options.appearance.keyframe_stride = 1;
+  options.appearance.max_candidates_per_keyframe = 1;
+  const OnlineOutcome online = run_online(run, run.k, &options, &drifted);
+  const double before = position_rms_m(drifted, run.poses);
+  const double after = position_rms_m(online.poses, run.poses);
+  std::printf(
+      "room, online by appearance: %d proposed, %d verified, %d accepted; RMS %.1f -> %.1f mm\n",
+      online.figures.proposed, online.figures.verified, online.figures.accepted, before * 1000,
+      after * 1000);
+  // Proximity sees the loop only once a correction has brought its ends together.
+  ASSERT_FALSE(online.figures.loops.empty());
+  EXPECT_EQ(online.figures.loops.front().source, "appearance");
+  int by_appearance = 0;
+  for (const loop::LoopRecord& r : online.figures.loops) {
+    EXPECT_GE(r.to_pose - r.from_pose, 100);
+    by_appearance += r.in_graph && r.source == "appearance";
+  }
+  EXPECT_GE(by_appearance, 1);
+  EXPECT_GE(online.figures.accepted, 1);
+  EXPECT_LT(after, 0.5 * before);
+}
+
 // The twins with a perfect odometry (frames placed at the true poses): a place recogniser's
 // false loop between the rooms, handed to the running closure as the second room's keyframe
 // arrives, is verified by ICP (the rooms are identical) and switched off by the pose graph;
