@@ -59,6 +59,17 @@ bool OnlineLoopClosure::after_frame(const FrameReport& report, ImageView<const u
   current_ = pose;
   current_matrix_ = report.T_world_cam;
   est_by_frame_.push_back(pose);
+  // A frame the tracking state did not judge good (a view that lets the pose slide, or lost)
+  // is where the odometry is weakest: the graph lets such stretches take a loop's correction,
+  // as kfx optimise does from the run's stats.
+  if (report.quality != TrackingQuality::kGood) {
+    std::vector<std::pair<int, int>>& weak = options_.noise.weak_stretches;
+    if (!weak.empty() && weak.back().second == frame - 1) {
+      weak.back().second = frame;
+    } else {
+      weak.emplace_back(frame, frame);
+    }
+  }
   // Only a frame whose pose the run trusts (tracked, or fused as a bootstrap frame) is kept.
   if ((report.tracked || report.integrated) &&
       (keyframes_.empty() ||
