@@ -606,7 +606,8 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
   const std::vector<KeyframeMatch> nearest =
       db.nearest(db.encode(input_small_.make(depth_mm)), config_.tracking.localise_candidates);
   const double pixels = static_cast<double>(params_.accept.compute_pixels);
-  const LocatedPoseRule rule;
+  LocatedPoseRule rule;
+  rule.max_misfit_fraction = config_.tracking.localise_max_misfit;
   auto attempt_from = [&](const KeyframeMatch& m, int perturbation, const Mat4f& start) {
     LocaliseAttempt a;
     a.keyframe = m.keyframe;

@@ -42,6 +42,8 @@ void check_tracking(const PipelineConfig& config) {
   KFX_CHECK(
       tracking.localise_perturb_deg >= 0 && tracking.localise_perturb_deg <= 90,
       "localise_perturb_deg must be in [0, 90] degrees, got " << tracking.localise_perturb_deg);
+  KFX_CHECK(tracking.localise_max_misfit >= 0 && tracking.localise_max_misfit <= 1,
+            "localise_max_misfit must be in [0, 1], got " << tracking.localise_max_misfit);
   KFX_CHECK(!tracking.relocalise_each_frame || tracking.relocalise,
             "relocalise_each_frame=on locates frames from the keyframe database: it needs "
             "relocalise=on");
@@ -144,6 +146,13 @@ SettingsSection tracking_section() {
       "localise_perturb_deg", s,
       "relocalisation: localise_perturb's turn about each camera axis, degrees (0: no turns)",
       [](C& c) -> float& { return c.tracking.localise_perturb_deg; }));
+  rows.push_back(number_row(
+      "localise_max_misfit", s,
+      "relocalisation: a frame located alone is refused when more than this share of its pixels "
+      "met the map and did not fit it (too far, or normals that disagree; 1: no limit; 0.07 "
+      "kept right poses and refused wrong ones with localise_perturb on 256-voxel maps of real "
+      "rooms, docs/tracking.md)",
+      [](C& c) -> float& { return c.tracking.localise_max_misfit; }));
   return section;
 }
 

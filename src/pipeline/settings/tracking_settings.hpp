@@ -44,6 +44,9 @@ struct TrackingSettings {
   int localise_confirm_passes = 1;
   float localise_perturb_m = 0.1f;     ///< the move along each camera axis, metres
   float localise_perturb_deg = 10.0f;  ///< the turn about each camera axis, degrees
+  /// The located pose's largest share of pixels set against surfaces they do not fit
+  /// (LocatedPoseRule::max_misfit_fraction; 1: no limit).
+  float localise_max_misfit = 1.0f;
 };
 
 }  // namespace kfx
