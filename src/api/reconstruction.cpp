@@ -207,7 +207,11 @@ struct Reconstruction::Impl {
     const Localisation where = pipeline->localise(mm, rgb);
     Located out;
     out.found = where.found;
-    out.keyframes_tried = static_cast<int>(where.attempts.size());
+    // Keyframes, not poses: the poses tried around a keyframe's (setting localise_perturb) are
+    // that keyframe's.
+    out.keyframes_tried = static_cast<int>(
+        std::count_if(where.attempts.begin(), where.attempts.end(),
+                      [](const LocaliseAttempt& a) { return a.perturbation < 0; }));
     if (where.found) out.T_world_cam = api::to_pose(where.T_world_cam);
     return out;
   }

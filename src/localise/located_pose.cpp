@@ -13,16 +13,18 @@ void pose_difference(const Mat4f& a, const Mat4f& b, float& metres, float& degre
   degrees = std::acos(c) * 57.29577951f;
 }
 
+bool attempt_qualifies(const LocaliseAttempt& a, const LocatedPoseRule& rule) {
+  return a.accepted && a.confirmed && a.confirm_step_m <= rule.confirm_max_step_m &&
+         a.confirm_step_deg <= rule.confirm_max_step_deg && a.residual_rms_m <= rule.max_rms_m &&
+         a.inlier_fraction >= rule.min_inlier_fraction &&
+         a.misfit_fraction <= rule.max_misfit_fraction;
+}
+
 int choose_located_attempt(const std::vector<LocaliseAttempt>& attempts,
                            const LocatedPoseRule& rule) {
   std::vector<size_t> confirmed;
   for (size_t i = 0; i < attempts.size(); ++i) {
-    const LocaliseAttempt& a = attempts[i];
-    if (a.accepted && a.confirmed && a.confirm_step_m <= rule.confirm_max_step_m &&
-        a.confirm_step_deg <= rule.confirm_max_step_deg && a.residual_rms_m <= rule.max_rms_m &&
-        a.inlier_fraction >= rule.min_inlier_fraction) {
-      confirmed.push_back(i);
-    }
+    if (attempt_qualifies(attempts[i], rule)) confirmed.push_back(i);
   }
   if (confirmed.empty()) return -1;
   size_t best = confirmed[0];

@@ -16,7 +16,10 @@ namespace kfx {
 
 /// One keyframe tried for a view located alone.
 struct LocaliseAttempt {
-  int keyframe = -1;           ///< its index in the keyframe database
+  int keyframe = -1;  ///< its index in the keyframe database
+  /// Which of perturbed_poses() of the keyframe's pose the attempt started from; −1: the
+  /// keyframe's pose itself.
+  int perturbation = -1;
   float dissimilarity = 1.0f;  ///< share of ferns whose codes differ from the view's
   bool accepted = false;       ///< passed the accept test from the keyframe's pose
   bool confirmed = false;      ///< ... and again from the pose it reached
@@ -26,6 +29,10 @@ struct LocaliseAttempt {
   float confirm_step_deg = 0;  ///< ... and turned it, degrees
   double inlier_fraction = 0;  ///< of the last pass
   double residual_rms_m = 0;   ///< of the last pass
+  /// Of the last pass's compute pixels, the share whose match lay too far or whose normals
+  /// disagreed: pixels that met the map and did not fit it (holes and pixels that see past
+  /// the map count in neither).
+  double misfit_fraction = 0;
 };
 
 /// The rule's thresholds.
@@ -42,6 +49,17 @@ struct LocatedPoseRule {
   /// tum_fr1_xyz and 0.30–0.50 of the pixels on icl_office_kt0's walls.
   float max_rms_m = 0.01f;
   float min_inlier_fraction = 0.5f;
+  /// The second pass's pixels that met the map and did not fit it (too far, or normals that
+  /// disagree), as a share of the compute pixels; 1: no limit (setting localise_max_misfit).
+  /// A wrong pose on a room's walls, reached by several passes or from a start moved around
+  /// a keyframe, can leave a residual and an inlier share like a right one's, but it sets
+  /// surfaces against others that do not fit. How much a right pose leaves depends on the
+  /// map's detail and the sensor's noise, so there is no limit unless one is set: measured
+  /// (bench/RESULTS.md, "Localisation in a saved map: candidates around the keyframes"),
+  /// right poses left at most 0.008 of the pixels on icl_office_kt0 and 0.050 on tum_fr1_xyz
+  /// and tum_fr1_rpy (256 voxels over 4–5 m), wrong ones on the office 0.091 and more, and
+  /// right poses on the synthetic room mapped with 64 voxels 0.07–0.10.
+  float max_misfit_fraction = 1.0f;
   /// Candidates that pass must agree this well, or the view is ambiguous.
   float agree_m = 0.05f;
   float agree_deg = 5.0f;
@@ -49,6 +67,10 @@ struct LocatedPoseRule {
 
 /// Distance, metres, and angle, degrees, between two camera poses.
 void pose_difference(const Mat4f& a, const Mat4f& b, float& metres, float& degrees);
+
+/// Whether an attempt's pose is one the rule would take: confirmed within the step, residual,
+/// inlier and misfit limits (whether it agrees with the others is a separate question).
+bool attempt_qualifies(const LocaliseAttempt& attempt, const LocatedPoseRule& rule = {});
 
 /// The attempt whose pose locates the view, or −1 when none does: of the attempts confirmed
 /// within the rule's step, residual and inlier limits, the one with the most inliers, provided

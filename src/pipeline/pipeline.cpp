@@ -10,6 +10,7 @@
 #include "backend/block_map_mesh.hpp"
 #include "backend/memory_budget.hpp"
 #include "kernels/integrate.hpp"
+#include "localise/perturbed_poses.hpp"
 #include "map/host_block_map.hpp"
 #include "pipeline/depth_undistortion.hpp"
 
@@ -608,27 +609,55 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
   const std::vector<KeyframeMatch> nearest =
       db.nearest(db.encode(input_small_.make(depth_mm)), config_.tracking.localise_candidates);
   const double pixels = static_cast<double>(params_.accept.compute_pixels);
-  for (const KeyframeMatch& m : nearest) {
+  LocatedPoseRule rule;
+  rule.max_misfit_fraction = config_.tracking.localise_max_misfit;
+  auto attempt_from = [&](const KeyframeMatch& m, int perturbation, const Mat4f& start) {
     LocaliseAttempt a;
     a.keyframe = m.keyframe;
+    a.perturbation = perturbation;
     a.dissimilarity = m.dissimilarity;
-    TrackingState state =
-        localise_pass(depth_mm, rgb, db.keyframe(m.keyframe).T_world_cam, out.computation_ms);
+    TrackingState state = localise_pass(depth_mm, rgb, start, out.computation_ms);
     a.accepted = state.tracked;
     a.T_world_cam = state.T_world_cam;
-    if (a.accepted) {
-      const Mat4f first = state.T_world_cam;
-      state = localise_pass(depth_mm, rgb, first, out.computation_ms);
+    // A pose that passes is tried again from where it ended (a fresh raycast there). ICP from
+    // a start 20–50 cm off may stop short of its minimum; with setting localise_confirm_passes
+    // above 1 it is tried on from there until a pass barely moves it, and only that last
+    // pass confirms it.
+    for (int pass = 0; a.accepted && pass < config_.tracking.localise_confirm_passes; ++pass) {
+      const Mat4f before = state.T_world_cam;
+      state = localise_pass(depth_mm, rgb, before, out.computation_ms);
       a.confirmed = state.tracked;
       a.T_world_cam = state.T_world_cam;
-      pose_difference(first, state.T_world_cam, a.confirm_step_m, a.confirm_step_deg);
+      pose_difference(before, state.T_world_cam, a.confirm_step_m, a.confirm_step_deg);
+      if (!a.confirmed || (a.confirm_step_m <= rule.confirm_max_step_m &&
+                           a.confirm_step_deg <= rule.confirm_max_step_deg)) {
+        break;
+      }
     }
     const double inliers = state.accumulator[kAccInliers];
     a.inlier_fraction = inliers / pixels;
     a.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
+    a.misfit_fraction = (state.accumulator[kAccTooFar] + state.accumulator[kAccBadNormal]) / pixels;
     out.attempts.push_back(a);
+  };
+  for (const KeyframeMatch& m : nearest) attempt_from(m, -1, db.keyframe(m.keyframe).T_world_cam);
+  // Poses around the nearest keyframes' (setting localise_perturb) only when no keyframe's own
+  // pose gave one the rule would take: they cost twelve attempts a keyframe, and the view's
+  // answer is then already decided (located, or ambiguous, which more poses cannot undo).
+  const auto qualifies = [&rule](const LocaliseAttempt& a) { return attempt_qualifies(a, rule); };
+  const int perturbed =
+      std::min(config_.tracking.localise_perturb, static_cast<int>(nearest.size()));
+  for (int k = 0; k < perturbed; ++k) {
+    if (std::any_of(out.attempts.begin(), out.attempts.end(), qualifies)) break;
+    const KeyframeMatch& m = nearest[static_cast<size_t>(k)];
+    const std::vector<Mat4f> starts =
+        perturbed_poses(db.keyframe(m.keyframe).T_world_cam, config_.tracking.localise_perturb_m,
+                        config_.tracking.localise_perturb_deg);
+    // Every pose around one keyframe is tried, so that one right start does not hide a wrong
+    // one that qualifies too (the rule then finds the view ambiguous).
+    for (size_t i = 0; i < starts.size(); ++i) attempt_from(m, static_cast<int>(i), starts[i]);
   }
-  const int pick = choose_located_attempt(out.attempts);
+  const int pick = choose_located_attempt(out.attempts, rule);
   out.found = pick >= 0;
   out.chosen = pick;
   if (out.found) out.T_world_cam = out.attempts[static_cast<size_t>(pick)].T_world_cam;

@@ -10,7 +10,9 @@
 
 #include "api/internal.hpp"
 #include "kfx/kfx.hpp"
+#include "localise/keyframe_database.hpp"
 #include "localise/located_pose.hpp"
+#include "localise/perturbed_poses.hpp"
 #include "support/pose_compare.hpp"
 #include "support/test_dir.hpp"
 
@@ -86,6 +88,23 @@ TEST(LocatedPose, APoseThatPassedKFusionsAcceptTestIsRefusedOnAWideResidualOrFew
   EXPECT_EQ(choose_located_attempt(attempts), 0);
   attempts[0].inlier_fraction = 0.45;
   EXPECT_EQ(choose_located_attempt(attempts), -1);
+}
+
+TEST(LocatedPose, WithAMisfitLimitAPoseThatSetsTooManyPixelsAgainstSurfacesIsRefused) {
+  // As measured on icl_office_kt0's walls: a pose 49 cm and 51 degrees off passed twice with
+  // half the pixels as inliers and a 5 mm residual, but 0.091 of the pixels misfit; right
+  // poses on real sequences left at most 0.050.
+  std::vector<LocaliseAttempt> attempts(1, confirmed_at(moved(0, 0), 0.5));
+  attempts[0].residual_rms_m = 0.005;
+  attempts[0].misfit_fraction = 0.091;
+  EXPECT_TRUE(attempt_qualifies(attempts[0]));  // no limit unless one is set
+  LocatedPoseRule rule;
+  rule.max_misfit_fraction = 0.07f;
+  EXPECT_FALSE(attempt_qualifies(attempts[0], rule));
+  EXPECT_EQ(choose_located_attempt(attempts, rule), -1);
+  attempts[0].misfit_fraction = 0.05;
+  EXPECT_TRUE(attempt_qualifies(attempts[0], rule));
+  EXPECT_EQ(choose_located_attempt(attempts, rule), 0);
 }
 
 // ---- whole runs on the synthetic room ----------------------------------------------------
@@ -187,6 +206,70 @@ TEST(LocaliseAloneDense, TheSettingLocatesEveryFrameOfARunAloneAndIntegratesNoth
     EXPECT_LT(degrees, kWithinDeg) << "frame " << i;
   }
   EXPECT_EQ(loaded.trajectory().size(), order.size());
+}
+
+/// A view whose only keyframe lies beyond ICP's reach, turned `turn_deg` about the camera's
+/// vertical axis from the view's true pose, located with `perturb` keyframes perturbed.
+Located located_from_a_turned_keyframe(int view, float turn_deg, int perturb) {
+  const MappedRoom& room = mapped_room(false);
+  Sequence sequence(kLoop);
+  Settings s = settings(false);
+  s.set("localise_perturb", std::to_string(perturb))
+      .set("localise_perturb_m", "0")
+      .set("localise_perturb_deg", std::to_string(turn_deg));
+  Reconstruction loaded(s, sequence);
+  loaded.load_map(room.map_path);
+  Pipeline& pipeline = ReconstructionAccess::pipeline(loaded);
+  const KeyframeDatabase& saved = pipeline.relocaliser()->keyframes();
+  KeyframeDatabase one(saved.width_px(), saved.height_px(), saved.fern_count(), 1);
+  Keyframe keyframe;
+  keyframe.T_world_cam = api::to_mat4f(room.poses[static_cast<size_t>(view)]) *
+                         moved(0.0f, turn_deg);  // right-multiplied: about the camera's own y
+  // With one keyframe it is the nearest whatever its code.
+  EXPECT_TRUE(one.add(std::vector<uint8_t>(static_cast<size_t>(saved.fern_count()), 0), keyframe));
+  pipeline.adopt_loaded_map(std::move(one));
+  return loaded.localise(room.frames[static_cast<size_t>(view)]);
+}
+
+TEST(LocaliseAlonePerturbed, AKeyframeBeyondICPsReachIsReachedFromAPoseTurnedAroundIt) {
+  const MappedRoom& room = mapped_room(false);
+  constexpr int kView = 90;
+  constexpr float kTurnDeg = 25.0f;
+  // From the keyframe's own pose alone, the view is not located.
+  EXPECT_FALSE(located_from_a_turned_keyframe(kView, kTurnDeg, 0).found);
+  // One of the poses turned about the keyframe camera's axes starts at the view's: located.
+  const Located where = located_from_a_turned_keyframe(kView, kTurnDeg, 1);
+  ASSERT_TRUE(where.found);
+  EXPECT_EQ(where.keyframes_tried, 1);
+  float metres = 0, degrees = 0;
+  test::pose_error(where.T_world_cam, room.poses[static_cast<size_t>(kView)], metres, degrees);
+  EXPECT_LT(metres, kWithinM);
+  EXPECT_LT(degrees, kWithinDeg);
+}
+
+TEST(LocaliseAlonePerturbed, PosesMoveAlongAndTurnAboutEachOfTheCamerasOwnAxes) {
+  const Mat4f T = moved(1.0f, 30.0f);
+  const std::vector<Mat4f> poses = perturbed_poses(T, 0.1f, 10.0f);
+  ASSERT_EQ(poses.size(), 12u);
+  for (size_t i = 0; i < poses.size(); ++i) {
+    float metres = 0, degrees = 0;
+    pose_difference(T, poses[i], metres, degrees);
+    if (i < 6) {
+      EXPECT_NEAR(metres, 0.1f, 1e-5f) << i;
+      EXPECT_NEAR(degrees, 0.0f, 0.05f) << i;
+      // Along the camera's own axis: x, y, z of the camera, each both ways.
+      const Vec3f along =
+          rotate(rigid_inverse(T), poses[i].translation_part() - T.translation_part());
+      const float component[3] = {along.x, along.y, along.z};
+      EXPECT_NEAR(component[i / 2], i % 2 == 0 ? 0.1f : -0.1f, 1e-5f) << i;
+    } else {
+      // Turned about the camera's centre: it stays where it was.
+      EXPECT_NEAR(metres, 0.0f, 1e-5f) << i;
+      EXPECT_NEAR(degrees, 10.0f, 0.05f) << i;
+    }
+  }
+  EXPECT_EQ(perturbed_poses(T, 0.0f, 10.0f).size(), 6u);
+  EXPECT_TRUE(perturbed_poses(T, 0.0f, 0.0f).empty());
 }
 
 INSTANTIATE_TEST_SUITE_P(DenseAndBlocks, LocaliseAlone, ::testing::Values(false, true),

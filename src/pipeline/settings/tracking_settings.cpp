@@ -33,6 +33,17 @@ void check_tracking(const PipelineConfig& config) {
             "relocalise_harvest must be in (0, 1], got " << tracking.relocalise_harvest);
   KFX_CHECK(tracking.localise_candidates >= 1 && tracking.localise_candidates <= 100,
             "localise_candidates must be in 1..100, got " << tracking.localise_candidates);
+  KFX_CHECK(tracking.localise_perturb >= 0 && tracking.localise_perturb <= 100,
+            "localise_perturb must be in 0..100, got " << tracking.localise_perturb);
+  KFX_CHECK(tracking.localise_confirm_passes >= 1 && tracking.localise_confirm_passes <= 10,
+            "localise_confirm_passes must be in 1..10, got " << tracking.localise_confirm_passes);
+  KFX_CHECK(tracking.localise_perturb_m >= 0 && tracking.localise_perturb_m <= 1,
+            "localise_perturb_m must be in [0, 1] metres, got " << tracking.localise_perturb_m);
+  KFX_CHECK(
+      tracking.localise_perturb_deg >= 0 && tracking.localise_perturb_deg <= 90,
+      "localise_perturb_deg must be in [0, 90] degrees, got " << tracking.localise_perturb_deg);
+  KFX_CHECK(tracking.localise_max_misfit >= 0 && tracking.localise_max_misfit <= 1,
+            "localise_max_misfit must be in [0, 1], got " << tracking.localise_max_misfit);
   KFX_CHECK(!tracking.relocalise_each_frame || tracking.relocalise,
             "relocalise_each_frame=on locates frames from the keyframe database: it needs "
             "relocalise=on");
@@ -114,6 +125,34 @@ SettingsSection tracking_section() {
       "relocalisation: nearest keyframes tried for a frame located alone (relocalise_each_frame, "
       "Reconstruction::localise)",
       [](C& c) -> int& { return c.tracking.localise_candidates; }));
+  rows.push_back(integer_row(
+      "localise_confirm_passes", s,
+      "relocalisation: for a frame located alone, passes after the first that may confirm a "
+      "pose, each from where the last ended, until one moves it less than 2 cm and 2 degrees "
+      "(1: exactly one)",
+      [](C& c) -> int& { return c.tracking.localise_confirm_passes; }));
+  rows.push_back(integer_row(
+      "localise_perturb", s,
+      "relocalisation: of the keyframes a frame located alone tries, how many nearest are also "
+      "tried from 12 poses around theirs (moved localise_perturb_m along, turned "
+      "localise_perturb_deg about each camera axis) when no keyframe's own pose locates it "
+      "(0: none)",
+      [](C& c) -> int& { return c.tracking.localise_perturb; }));
+  rows.push_back(number_row(
+      "localise_perturb_m", s,
+      "relocalisation: localise_perturb's move along each camera axis, metres (0: no moves)",
+      [](C& c) -> float& { return c.tracking.localise_perturb_m; }));
+  rows.push_back(number_row(
+      "localise_perturb_deg", s,
+      "relocalisation: localise_perturb's turn about each camera axis, degrees (0: no turns)",
+      [](C& c) -> float& { return c.tracking.localise_perturb_deg; }));
+  rows.push_back(number_row(
+      "localise_max_misfit", s,
+      "relocalisation: a frame located alone is refused when more than this share of its pixels "
+      "met the map and did not fit it (too far, or normals that disagree; 1: no limit; 0.07 "
+      "kept right poses and refused wrong ones with localise_perturb on 256-voxel maps of real "
+      "rooms, docs/tracking.md)",
+      [](C& c) -> float& { return c.tracking.localise_max_misfit; }));
   return section;
 }
 

@@ -36,6 +36,17 @@ struct TrackingSettings {
   /// of the previous frame's pose (Pipeline::localise); nothing is integrated.
   bool relocalise_each_frame = false;
   int localise_candidates = 5;  ///< nearest keyframes a frame located alone tries
+  /// Of those, how many nearest are also tried from poses moved around theirs
+  /// (localise/perturbed_poses.hpp) when none of the keyframes' own poses locates the view.
+  int localise_perturb = 0;
+  /// Passes after the first that may confirm a pose, each from where the last ended, until
+  /// one barely moves it (1: exactly one).
+  int localise_confirm_passes = 1;
+  float localise_perturb_m = 0.1f;     ///< the move along each camera axis, metres
+  float localise_perturb_deg = 10.0f;  ///< the turn about each camera axis, degrees
+  /// The located pose's largest share of pixels set against surfaces they do not fit
+  /// (LocatedPoseRule::max_misfit_fraction; 1: no limit).
+  float localise_max_misfit = 1.0f;
 };
 
 }  // namespace kfx
