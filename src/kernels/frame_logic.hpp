@@ -41,6 +41,9 @@ struct IcpGuessParams {
   /// icp_robust_pin_factor (> 0 with a robust weight; 0 = off): find the previous frame's
   /// weak direction and the rows that pin it (kernels/weak_direction.hpp).
   float robust_pin_factor = 0.0f;
+  /// icp_robust_pin_floor: no row pins when the previous frame's weakest eigenvalue is
+  /// below this (0 = pins at any constraint).
+  float robust_pin_floor = 0.0f;
 };
 
 /// True when the last two tracked frames were both accepted, so T_world_cam_prev⁻¹ ·
@@ -56,8 +59,8 @@ KFX_HD inline bool velocity_known(const TrackingState& s) { return s.accepted_ru
 KFX_HD inline void begin_tracking(TrackingState& s, const IcpGuessParams& p) {
   if (p.robust_pin_factor > 0.0f) {
     // From the last frame's final pose and last iteration, before the motion model moves it.
-    s.weak_pin_threshold = weak_direction_pin_threshold(s.accumulator, s.T_world_cam,
-                                                        p.robust_pin_factor, s.weak_direction);
+    s.weak_pin_threshold = weak_direction_pin_threshold(
+        s.accumulator, s.T_world_cam, p.robust_pin_factor, s.weak_direction, p.robust_pin_floor);
   }
   s.T_world_cam_before = s.T_world_cam;
   if (p.motion_model == IcpMotionModel::kConstantVelocity && velocity_known(s)) {

@@ -59,6 +59,9 @@ struct IcpParams {
   /// The robust weight spares the rows that pin the previous frame's weak direction
   /// (icp_robust_pin_factor > 0; the state's weak_direction and weak_pin_threshold).
   bool robust_pins = false;
+  /// > 0: a pinning row keeps a robust weight at this many times the scale c instead of least
+  /// squares' (icp_robust_pin_scale; 0 = least squares).
+  float robust_pin_scale = 0.0f;
   IcpNoiseWeight noise_weight = IcpNoiseWeight::kOff;  ///< weight by the depth's noise
   /// Floor f of the noise model, metres (0 = none): σ² becomes f² + σ², so near points stop
   /// outweighing far ones once σ(z) < f (the map and the association have errors of their own).
@@ -130,7 +133,8 @@ KFX_HD inline TrackRow track_pixel(int x, int y, const TrackArgs& a) {
 /// test): the robust weight of its residual times its noise weight at camera depth `depth_m`.
 /// 1 when both are off. The noise weight is σ(0.4)²/σ(z)², or with a floor f > 0
 /// (f² + σ(0.4)²)/(f² + σ(z)²): 1 at 0.4 m either way, tending to 1 everywhere as f grows.
-/// `pinning`: the row pins the weak direction (icp_robust_pin_factor), so its robust weight is 1.
+/// `pinning`: the row pins the weak direction (icp_robust_pin_factor), so its robust weight is 1,
+/// or with robust_pin_scale > 0 the robust weight at that many times the scale.
 KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const IcpParams& p,
                                    bool pinning = false) {
   float w = 1.0f;
@@ -138,7 +142,11 @@ KFX_HD inline float icp_fit_weight(const TrackRow& row, float depth_m, const Icp
   float c = p.robust_scale_m;
   if (p.robust_scale_noise > 0.0f)
     c = fmaxf(c, p.robust_scale_noise * kinect_axial_sigma_m(depth_m));
-  if (pinning) {
+  // A pinning row gets least squares' weight, or with robust_pin_scale > 0 the robust weight at
+  // that many times the scale: its pull still grows with a slide up to k·c, while a pixel
+  // misassociated along the weak direction stays bounded.
+  if (pinning) c *= p.robust_pin_scale;
+  if (pinning && !(p.robust_pin_scale > 0.0f)) {
     // least squares for this row
   } else if (p.robust == IcpRobust::kHuber) {
     if (r > c) w = c / r;

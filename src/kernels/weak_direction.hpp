@@ -35,9 +35,14 @@ constexpr int kWeakDirectionIterations = 8;
 
 /// Sets `w` (the weak direction in the ICP's row coordinates: a row j pins it by (j·w)²) and
 /// returns factor · λ, the threshold on (j·w)², from accumulator `acc` taken at `T_world_cam`.
-/// Returns +∞ (no row pins) when the matrix has no weight or is not positive definite.
+/// Returns +∞ (no row pins) when the matrix has no weight or is not positive definite, and when
+/// λ is below `min_lambda` (icp_robust_pin_floor): a doorway's weak direction is still pinned
+/// by a band of rows, but in a view that almost nothing pins along w the few rows facing that
+/// way (perhaps edge pixels associated along the slide), given least squares' weight, were seen
+/// to move the pose instead of holding it (bench/RESULTS.md, the ICL office's weak stretch).
 KFX_HD inline float weak_direction_pin_threshold(const double* acc, const Mat4f& T_world_cam,
-                                                 float factor, float w[6]) {
+                                                 float factor, float w[6],
+                                                 float min_lambda = 0.0f) {
   for (int i = 0; i < 6; ++i) w[i] = 0.0f;
   double h[6][6];
   camera_normal_matrix(acc, T_world_cam, h);
@@ -81,6 +86,7 @@ KFX_HD inline float weak_direction_pin_threshold(const double* acc, const Mat4f&
     for (int k = 0; k < 6; ++k) hv += h[i][k] * v[k];
     lambda += v[i] * hv;
   }
+  if (lambda < static_cast<double>(min_lambda)) return INFINITY;
   // w = Bᵀv, B = diag(Rᵀ, Rᵀ)·[[I, 0], [−[c]×, I]] (camera_normal_matrix): the camera-centred,
   // camera-axes row is B·j, so (B·j)·v = j·(Bᵀv). Bᵀ = [[I, [c]×], [0, I]]·diag(R, R).
   double rt[3], rr[3];

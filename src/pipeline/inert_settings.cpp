@@ -54,6 +54,16 @@ const std::vector<Dependency>& dependencies() {
        [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
       {"icp_robust_pin_factor", "icp_robust=huber or tukey", "icp_robust=none",
        [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
+      {"icp_robust_pin_floor", "icp_robust_pin_factor > 0 with icp_robust",
+       "icp_robust_pin_factor=0 or icp_robust=none",
+       [](const C& c, const std::string&) {
+         return c.quality.icp_robust != IcpRobust::kNone && c.quality.icp_robust_pin_factor > 0;
+       }},
+      {"icp_robust_pin_scale", "icp_robust_pin_factor > 0 with icp_robust",
+       "icp_robust_pin_factor=0 or icp_robust=none",
+       [](const C& c, const std::string&) {
+         return c.quality.icp_robust != IcpRobust::kNone && c.quality.icp_robust_pin_factor > 0;
+       }},
       {"icp_noise_floor_m", "icp_noise_weight=nguyen", "icp_noise_weight=off",
        [](const C& c, const std::string&) {
          return c.quality.icp_noise_weight == IcpNoiseWeight::kNguyen;

@@ -35,7 +35,9 @@ StageParams make_stage_params(const PipelineConfig& config, const Intrinsics& co
   const bool pins =
       config.quality.icp_robust != IcpRobust::kNone && config.quality.icp_robust_pin_factor > 0.0f;
   p.icp_guess.robust_pin_factor = pins ? config.quality.icp_robust_pin_factor : 0.0f;
+  p.icp_guess.robust_pin_floor = pins ? config.quality.icp_robust_pin_floor : 0.0f;
   p.icp.robust_pins = pins;
+  p.icp.robust_pin_scale = pins ? config.quality.icp_robust_pin_scale : 0.0f;
   p.icp.dist_threshold_m = config.tracking.dist_threshold_m;
   p.icp.normal_threshold = config.tracking.normal_threshold;
   p.icp.icp_threshold = config.tracking.icp_threshold;

@@ -1,6 +1,8 @@
 /// icp_robust_pin_factor's kernels (kernels/weak_direction.hpp, kernels/track.hpp): the weak
 /// direction found by inverse iteration is the tracking constraint's weakest eigenvector, the
-/// rows that pin it are those facing along it, and a pinning row keeps least squares' weight.
+/// rows that pin it are those facing along it, and a pinning row keeps least squares' weight
+/// (or the robust weight at a widened scale, icp_robust_pin_scale); below a floor on the
+/// constraint (icp_robust_pin_floor) no row pins.
 
 #include <gtest/gtest.h>
 
@@ -38,13 +40,10 @@ std::vector<double> accumulator_of(const std::vector<std::pair<Vec3f, Vec3f>>& p
   return acc;
 }
 
-TEST(WeakDirection, IsTheTrackingConstraintsWeakestAndItsPinsAreTheRowsFacingIt) {
-  // A corridor seen from (1, 0.5, 2) looking along +z: floor, ceiling and two walls over 4 m, all
-  // parallel to z, and one small door frame facing -z: z is the one weakly pinned direction.
-  Mat4f pose = Mat4f::identity();
-  pose.m[0][3] = 1.0f;
-  pose.m[1][3] = 0.5f;
-  pose.m[2][3] = 2.0f;
+/// A corridor seen from (1, 0.5, 2) looking along +z: floor, ceiling and two walls over 4 m, all
+/// parallel to z, and one small door frame facing -z (the last two rows): z is the one weakly
+/// pinned direction.
+std::vector<std::pair<Vec3f, Vec3f>> corridor_rows() {
   std::vector<std::pair<Vec3f, Vec3f>> rows;
   for (int k = 0; k < 40; ++k) {
     const float z = 2.5f + 0.1f * k, a = -0.4f + 0.02f * k;
@@ -55,6 +54,20 @@ TEST(WeakDirection, IsTheTrackingConstraintsWeakestAndItsPinsAreTheRowsFacingIt)
   }
   rows.push_back({Vec3f{0.8f, 0.4f, 5.0f}, Vec3f{0, 0, -1}});  // the door frame
   rows.push_back({Vec3f{1.2f, 0.6f, 5.0f}, Vec3f{0, 0, -1}});
+  return rows;
+}
+
+Mat4f corridor_camera() {
+  Mat4f pose = Mat4f::identity();
+  pose.m[0][3] = 1.0f;
+  pose.m[1][3] = 0.5f;
+  pose.m[2][3] = 2.0f;
+  return pose;
+}
+
+TEST(WeakDirection, IsTheTrackingConstraintsWeakestAndItsPinsAreTheRowsFacingIt) {
+  const Mat4f pose = corridor_camera();
+  const std::vector<std::pair<Vec3f, Vec3f>> rows = corridor_rows();
   const std::vector<double> acc = accumulator_of(rows);
   float w[6];
   const float threshold = weak_direction_pin_threshold(acc.data(), pose, 10.0f, w);
@@ -86,6 +99,38 @@ TEST(WeakDirection, IsTheTrackingConstraintsWeakestAndItsPinsAreTheRowsFacingIt)
   // No rows: nothing pins.
   const std::vector<double> empty(kAccumulatorSize, 0.0);
   EXPECT_EQ(weak_direction_pin_threshold(empty.data(), pose, 10.0f, w), INFINITY);
+}
+
+TEST(WeakDirection, NoRowPinsWhenTheConstraintIsBelowTheFloor) {
+  const Mat4f pose = corridor_camera();
+  const std::vector<double> acc = accumulator_of(corridor_rows());
+  float w[6];
+  const float threshold = weak_direction_pin_threshold(acc.data(), pose, 10.0f, w);
+  const float lambda = tracking_constraint(acc.data(), pose).eigenvalues[0];
+  ASSERT_GT(lambda, 0.0f);
+  // A floor below the view's constraint leaves the pins as they are; above it, none pins.
+  float w_floor[6];
+  EXPECT_EQ(weak_direction_pin_threshold(acc.data(), pose, 10.0f, w_floor, 0.5f * lambda),
+            threshold);
+  for (int i = 0; i < 6; ++i) EXPECT_EQ(w_floor[i], w[i]);
+  EXPECT_EQ(weak_direction_pin_threshold(acc.data(), pose, 10.0f, w_floor, 2.0f * lambda),
+            INFINITY);
+}
+
+TEST(WeakDirection, APinningRowAtAWidenedScaleIsHuberAtThatScale) {
+  IcpParams p;
+  p.robust = IcpRobust::kHuber;
+  p.robust_scale_m = 0.01f;
+  p.robust_pin_scale = 3.0f;
+  // Within 3c a pinning row has full weight where Huber at c halves it; beyond, Huber at 3c.
+  EXPECT_NEAR(icp_fit_weight(inlier(0.02f), 1.0f, p), 0.5f, 1e-6f);
+  EXPECT_EQ(icp_fit_weight(inlier(0.02f), 1.0f, p, true), 1.0f);
+  EXPECT_NEAR(icp_fit_weight(inlier(-0.06f), 1.0f, p, true), 0.5f, 1e-6f);
+  // A row that does not pin is Huber's at c, as without the setting.
+  EXPECT_NEAR(icp_fit_weight(inlier(-0.06f), 1.0f, p), 1.0f / 6.0f, 1e-6f);
+  // Tukey at 3c: (1 - (0.015 / 0.03)^2)^2.
+  p.robust = IcpRobust::kTukey;
+  EXPECT_NEAR(icp_fit_weight(inlier(0.015f), 1.0f, p, true), 0.5625f, 1e-6f);
 }
 
 TEST(WeakDirection, APinningRowKeepsLeastSquaresWeightUnderHuber) {

@@ -116,8 +116,17 @@ TEST(QualityKnobs, DefaultsAreExactAndEachKnobChangesTheTrajectory) {
   EXPECT_TRUE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
                                                 "icp_robust_pin_factor=0"})));
   EXPECT_TRUE(identical(exact, trajectory_with({"icp_robust_pin_factor=4"})));
-  EXPECT_FALSE(identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
-                                                 "icp_robust_pin_factor=1"})));
+  const auto pins =
+      trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002", "icp_robust_pin_factor=1"});
+  EXPECT_FALSE(identical(huber, pins));
+  // The pins' floor and widened scale reach the track: a floor above any view's constraint pins
+  // no row (Huber's bits), and so does a pinning scale of 1 (Huber at c).
+  EXPECT_TRUE(
+      identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
+                                        "icp_robust_pin_factor=1", "icp_robust_pin_floor=2"})));
+  EXPECT_TRUE(
+      identical(huber, trajectory_with({"icp_robust=huber", "icp_robust_scale_m=0.002",
+                                        "icp_robust_pin_factor=1", "icp_robust_pin_scale=1"})));
 }
 
 TEST(QualityKnobs, SettingsAreValidated) {

@@ -18,6 +18,11 @@ void check_quality(const PipelineConfig& config) {
             "icp_robust_scale_noise must be >= 0, got " << quality.icp_robust_scale_noise);
   KFX_CHECK(quality.icp_robust_pin_factor >= 0 && std::isfinite(quality.icp_robust_pin_factor),
             "icp_robust_pin_factor must be >= 0, got " << quality.icp_robust_pin_factor);
+  KFX_CHECK(quality.icp_robust_pin_floor >= 0 && std::isfinite(quality.icp_robust_pin_floor),
+            "icp_robust_pin_floor must be >= 0 (0 = off), got " << quality.icp_robust_pin_floor);
+  KFX_CHECK(quality.icp_robust_pin_scale >= 0 && std::isfinite(quality.icp_robust_pin_scale),
+            "icp_robust_pin_scale must be >= 0 (0 = least squares), got "
+                << quality.icp_robust_pin_scale);
   KFX_CHECK(
       std::isfinite(quality.raycast_normal_span_m) && quality.raycast_normal_span_m >= 0,
       "raycast_normal_span_m must be >= 0 (0 = one voxel), got " << quality.raycast_normal_span_m);
@@ -91,6 +96,20 @@ SettingsSection quality_section() {
       "of the normal matrix about the camera, as the tracking constraint's): a doorway down a "
       "corridor stops a slide along it (0 = off; >= 0)",
       [](C& c) -> float& { return c.quality.icp_robust_pin_factor; }));
+  rows.push_back(number_row(
+      "icp_robust_pin_floor", s,
+      "track: with icp_robust_pin_factor > 0, no row pins in a frame after one whose tracking "
+      "constraint (the normal matrix's smallest eigenvalue per unit weight, "
+      "docs/tracking-constraint.md) was below this: the pins hold a moderately weak direction "
+      "(a doorway down a corridor), but where almost nothing pins the view they can move the "
+      "pose instead (0 = pins at any constraint; >= 0)",
+      [](C& c) -> float& { return c.quality.icp_robust_pin_floor; }));
+  rows.push_back(number_row(
+      "icp_robust_pin_scale", s,
+      "track: with icp_robust_pin_factor > 0, a pinning row keeps icp_robust's weight at this "
+      "many times its scale c instead of least squares': its pull grows with a slide up to that "
+      "residual and stays bounded beyond (0 = least squares; >= 0)",
+      [](C& c) -> float& { return c.quality.icp_robust_pin_scale; }));
   rows.push_back(choice_row(
       "icp_noise_weight", s,
       "track: weight each inlier by its depth noise: off | nguyen (1/sigma(z)^2, Kinect "

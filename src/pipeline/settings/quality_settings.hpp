@@ -19,6 +19,12 @@ struct QualitySettings {
   /// > 0: rows that pin the previous frame's weak direction, (j·w)² above this times its mean,
   /// keep full weight under icp_robust (kernels/weak_direction.hpp); 0 = off.
   float icp_robust_pin_factor = 0.0f;
+  /// With icp_robust_pin_factor: no row pins in a frame after one whose tracking constraint
+  /// (smallest eigenvalue) was below this; 0 = pins at any constraint.
+  float icp_robust_pin_floor = 0.0f;
+  /// With icp_robust_pin_factor: a pinning row's robust scale is this many times c instead of
+  /// least squares; 0 = least squares.
+  float icp_robust_pin_scale = 0.0f;
   IcpNoiseWeight icp_noise_weight = IcpNoiseWeight::kOff;  ///< off | nguyen (1/σ(z)²)
   float icp_noise_floor_m = 0.0f;  ///< nguyen's floor f: (f² + σ(0.4)²)/(f² + σ(z)²); 0 = none
   /// Accept test: reject a frame whose inliers' summed ICP fit weight / compute pixels is
