@@ -92,6 +92,18 @@ std::vector<Pose3d> drifted_poses(const std::vector<Pose3d>& truth) {
   return drifted;
 }
 
+/// `truth` with a slide of 8 cm along x over poses 60–70, kept after: a pose sliding at a weak
+/// view, as at the house's door.
+std::vector<Pose3d> slid_poses(const std::vector<Pose3d>& truth) {
+  std::vector<Pose3d> slid(truth.size());
+  for (size_t i = 0; i < truth.size(); ++i) {
+    Pose3d slide;
+    slide.t = Eigen::Vector3d(0.08 * std::clamp((static_cast<int>(i) - 60) / 10.0, 0.0, 1.0), 0, 0);
+    slid[i] = slide * truth[i];
+  }
+  return slid;
+}
+
 PipelineConfig small_frames() {
   PipelineConfig config;
   set_config_value(config, "compute_size_ratio", "1");
@@ -279,13 +291,7 @@ TEST(LoopClosure, AppearancePairsTheTwinsAndTheGraphKeepsTheOdometry) {
 TEST(LoopClosure, AWeakStretchTakesTheLoopsCorrection) {
   const TrueRun run =
       read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", small_frames());
-  const int n = static_cast<int>(run.poses.size());
-  std::vector<Pose3d> slid(n);
-  for (int i = 0; i < n; ++i) {
-    Pose3d slide;
-    slide.t = Eigen::Vector3d(0.08 * std::clamp((i - 60) / 10.0, 0.0, 1.0), 0, 0);
-    slid[i] = slide * run.poses[i];
-  }
+  const std::vector<Pose3d> slid = slid_poses(run.poses);
   loop::LoopVerifier verifier(run.config, run.k, run.width, run.height, BackendKind::kCpu);
   const auto close = [&](const std::vector<std::pair<int, int>>& weak) {
     loop::OfflineClosureOptions options;
@@ -496,6 +502,13 @@ OnlineOutcome run_online(const TrueRun& run, const Intrinsics& k,
   return out;
 }
 
+/// The room's loop at 160×120 on a 96³ cube: the online tests' input.
+TrueRun online_room_run() {
+  PipelineConfig config = small_frames();
+  set_config_value(config, "volume_resolution", "96");
+  return read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", config);
+}
+
 Intrinsics scaled_focal(Intrinsics k, float factor) {
   k.fx *= factor;
   k.fy *= factor;
@@ -507,10 +520,7 @@ Intrinsics scaled_focal(Intrinsics k, float factor) {
 // loop between frames, solves the graph on its thread, rebuilds the map at the optimised poses
 // and moves the camera, and the trajectory comes back near the truth.
 TEST(LoopClosureOnline, PullsDriftBackWhileRunningOnTheRoomsLoop) {
-  PipelineConfig config = small_frames();
-  set_config_value(config, "volume_resolution", "96");
-  const TrueRun run =
-      read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", config);
+  const TrueRun run = online_room_run();
   const std::vector<Pose3d> drifted = drifted_poses(run.poses);
   loop::OnlineClosureOptions options;
   options.proximity.min_frame_gap = 100;
@@ -533,10 +543,7 @@ TEST(LoopClosureOnline, PullsDriftBackWhileRunningOnTheRoomsLoop) {
 // decimetres from where it began: the running closure pairs the loop's last keyframes with the
 // first by their views, verifies them and pulls the drift back.
 TEST(LoopClosureOnline, AppearanceFindsTheLoopThatDriftHidesFromProximity) {
-  PipelineConfig config = small_frames();
-  set_config_value(config, "volume_resolution", "96");
-  const TrueRun run =
-      read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", config);
+  const TrueRun run = online_room_run();
   const std::vector<Pose3d> drifted = drifted_poses(run.poses);
   loop::OnlineClosureOptions options;
   options.proximity.min_frame_gap = 100;
@@ -568,17 +575,8 @@ TEST(LoopClosureOnline, AppearanceFindsTheLoopThatDriftHidesFromProximity) {
 // frame loop judges those frames poor, the running closure's graph puts the loop's correction
 // there instead of spreading it over the path.
 TEST(LoopClosureOnline, AWeakStretchTakesTheLoopsCorrectionWhileRunning) {
-  PipelineConfig config = small_frames();
-  set_config_value(config, "volume_resolution", "96");
-  const TrueRun run =
-      read_true_run("synthetic:frames=150,width=160,height=120,noise=0,speed=2", config);
-  const int n = static_cast<int>(run.poses.size());
-  std::vector<Pose3d> slid(n);
-  for (int i = 0; i < n; ++i) {
-    Pose3d slide;
-    slide.t = Eigen::Vector3d(0.08 * std::clamp((i - 60) / 10.0, 0.0, 1.0), 0, 0);
-    slid[i] = slide * run.poses[i];
-  }
+  const TrueRun run = online_room_run();
+  const std::vector<Pose3d> slid = slid_poses(run.poses);
   loop::OnlineClosureOptions options;
   options.proximity.min_frame_gap = 100;
   const OnlineOutcome spread = run_online(run, run.k, &options, &slid);
