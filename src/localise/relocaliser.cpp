@@ -5,6 +5,7 @@
 #include <cmath>
 
 #include "core/platform.hpp"
+#include "localise/located_pose.hpp"
 
 namespace kfx {
 namespace {
@@ -12,15 +13,6 @@ namespace {
 /// Lost frames during which the last good pose is tried first: a short loss (a fast turn, a
 /// blurred frame) usually leaves the camera near where it was; a long one, not.
 constexpr int kLastPoseFirstFrames = 3;
-
-/// Distance, metres, and angle, degrees, between two poses.
-void pose_step(const Mat4f& a, const Mat4f& b, float& metres, float& degrees) {
-  const Mat4f d = rigid_inverse(a) * b;
-  metres = length(d.translation_part());
-  const float c =
-      std::min(1.0f, std::max(-1.0f, (d.m[0][0] + d.m[1][1] + d.m[2][2] - 1.0f) * 0.5f));
-  degrees = std::acos(c) * 57.29577951f;
-}
 
 /// Whether `frame`'s fit fell apart against a good frame's (inlier fraction `inliers`, residual
 /// RMS `rms_m`): its residual grew past, and its inliers fell below, the settings' ratios. No
@@ -42,7 +34,7 @@ bool fit_fell_apart(const RelocaliserSettings& s, const RelocaliserObservation& 
 bool attempt_refused(const RelocaliserSettings& s, const RelocaliserObservation& frame,
                      const Mat4f& candidate, double inliers, double rms_m) {
   float metres = 0, degrees = 0;
-  pose_step(candidate, frame.T_world_cam, metres, degrees);
+  pose_difference(candidate, frame.T_world_cam, metres, degrees);
   return metres > s.candidate_reach_m ||
          (rms_m > 0 && (frame.residual_rms_m > s.view_jump_residual_ratio * rms_m ||
                         frame.inlier_fraction < s.view_jump_inlier_ratio * inliers));
@@ -264,7 +256,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
     }
     case Mode::kVerifying: {
       float metres = 0, degrees = 0;
-      if (frame.tracked) pose_step(verify_pose_, frame.T_world_cam, metres, degrees);
+      if (frame.tracked) pose_difference(verify_pose_, frame.T_world_cam, metres, degrees);
       if (!frame.tracked || metres > settings_.verify_max_step_m ||
           degrees > settings_.verify_max_step_deg ||
           fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_) ||
@@ -305,7 +297,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
 bool Relocaliser::frame_jumped(const RelocaliserObservation& frame) const {
   if (!last_tracked_ || !frame.tracking_ran || !frame.tracked) return false;
   float metres = 0, degrees = 0;
-  pose_step(last_pose_, frame.T_world_cam, metres, degrees);
+  pose_difference(last_pose_, frame.T_world_cam, metres, degrees);
   if (metres > settings_.verify_max_step_m || degrees > settings_.verify_max_step_deg) return true;
   return fit_fell_apart(settings_, frame, last_inlier_fraction_, last_residual_rms_m_);
 }

@@ -86,7 +86,7 @@ bool OnlineLoopClosure::after_frame(const FrameReport& report, ImageView<const u
     ++figures_.keyframes;
     if (rebuild_.active) rebuild_.targets.push_back(rebuild_.correction_after * pose);
     propose(static_cast<int>(keyframes_.size()) - 1);
-    if (options_.by_appearance) propose_by_appearance(depth_mm, frame);
+    if (options_.by_appearance) propose_lookalikes(depth_mm, frame);
   }
   if (auto result = worker_.try_take()) take_result(*result);
   // One piece of side work per frame at most: a share of a rebuild, or one verification.
@@ -120,7 +120,7 @@ void OnlineLoopClosure::propose(int j) {
   last_with_candidates_ = j;
 }
 
-void OnlineLoopClosure::propose_by_appearance(ImageView<const uint16_t> depth_mm, int frame) {
+void OnlineLoopClosure::propose_lookalikes(ImageView<const uint16_t> depth_mm, int frame) {
   if (!appearance_) {
     const int ratio = pipeline_.config().input.compute_size_ratio;
     const SmallDepthParams params =

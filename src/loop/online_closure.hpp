@@ -150,7 +150,7 @@ class OnlineLoopClosure {
   void propose(int j);
   /// Candidates pairing the keyframe just kept (input depth `depth_mm`, frame `frame`) with
   /// older keyframes that look alike.
-  void propose_by_appearance(ImageView<const uint16_t> depth_mm, int frame);
+  void propose_lookalikes(ImageView<const uint16_t> depth_mm, int frame);
   void verify_next();
   void take_result(const PoseGraphResult& result);
   bool rebuild_step(size_t keyframe_budget);

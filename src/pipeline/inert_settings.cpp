@@ -23,6 +23,10 @@ const std::vector<Dependency>& dependencies() {
   using C = PipelineConfig;
   const auto on_cuda = [](const C&, const std::string& backend) { return backend == "cuda"; };
   const auto on_blocks = [](const C& c, const std::string&) { return blocks(c); };
+  // The weak-direction pins run (icp_robust_pin_factor with a robust weight).
+  const auto pins_active = [](const C& c, const std::string&) {
+    return c.quality.icp_robust != IcpRobust::kNone && c.quality.icp_robust_pin_factor > 0;
+  };
   static const std::vector<Dependency> table = {
       {"camera_distortion", "depth_undistortion=on", "depth_undistortion=off",
        [](const C& c, const std::string&) { return c.quality.depth_undistortion; }},
@@ -55,15 +59,9 @@ const std::vector<Dependency>& dependencies() {
       {"icp_robust_pin_factor", "icp_robust=huber or tukey", "icp_robust=none",
        [](const C& c, const std::string&) { return c.quality.icp_robust != IcpRobust::kNone; }},
       {"icp_robust_pin_floor", "icp_robust_pin_factor > 0 with icp_robust",
-       "icp_robust_pin_factor=0 or icp_robust=none",
-       [](const C& c, const std::string&) {
-         return c.quality.icp_robust != IcpRobust::kNone && c.quality.icp_robust_pin_factor > 0;
-       }},
+       "icp_robust_pin_factor=0 or icp_robust=none", pins_active},
       {"icp_robust_pin_scale", "icp_robust_pin_factor > 0 with icp_robust",
-       "icp_robust_pin_factor=0 or icp_robust=none",
-       [](const C& c, const std::string&) {
-         return c.quality.icp_robust != IcpRobust::kNone && c.quality.icp_robust_pin_factor > 0;
-       }},
+       "icp_robust_pin_factor=0 or icp_robust=none", pins_active},
       {"icp_noise_floor_m", "icp_noise_weight=nguyen", "icp_noise_weight=off",
        [](const C& c, const std::string&) {
          return c.quality.icp_noise_weight == IcpNoiseWeight::kNguyen;

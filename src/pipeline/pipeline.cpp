@@ -15,6 +15,28 @@
 #include "pipeline/depth_undistortion.hpp"
 
 namespace kfx {
+namespace {
+
+/// What the last ICP iteration's accumulator says of the fit, per compute pixel: the frame's
+/// figures (FrameReport) and a located-alone attempt's (LocaliseAttempt) read the same sums.
+struct LastIterationFit {
+  double inlier_fraction = 0;
+  double residual_rms_m = 0;       ///< sqrt(Σe² / inliers), 0 without inliers
+  double too_far_fraction = 0;     ///< paired farther than the distance threshold
+  double bad_normal_fraction = 0;  ///< paired with a normal that disagrees
+};
+
+LastIterationFit last_iteration_fit(const TrackingState& state, double compute_pixels) {
+  LastIterationFit f;
+  const double inliers = state.accumulator[kAccInliers];
+  f.inlier_fraction = inliers / compute_pixels;
+  f.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
+  f.too_far_fraction = state.accumulator[kAccTooFar] / compute_pixels;
+  f.bad_normal_fraction = state.accumulator[kAccBadNormal] / compute_pixels;
+  return f;
+}
+
+}  // namespace
 
 Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrinsics,
                    int input_width_px, int input_height_px, BackendKind backend_kind,
@@ -442,12 +464,11 @@ FrameReport Pipeline::collect() {
 
 void Pipeline::fill_tracking_figures(FrameReport& report, const TrackingState& state) const {
   report.icp_iterations = state.iterations_run;
-  report.inlier_fraction =
-      state.accumulator[kAccInliers] / static_cast<double>(params_.accept.compute_pixels);
-  report.too_far_fraction =
-      state.accumulator[kAccTooFar] / static_cast<double>(params_.accept.compute_pixels);
-  const double inliers = state.accumulator[kAccInliers];
-  report.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
+  const LastIterationFit fit =
+      last_iteration_fit(state, static_cast<double>(params_.accept.compute_pixels));
+  report.inlier_fraction = fit.inlier_fraction;
+  report.too_far_fraction = fit.too_far_fraction;
+  report.residual_rms_m = fit.residual_rms_m;
   // On the host from the state both backends return: the GPU's one-thread decision kernels
   // stay as they were (a 6×6 eigen-decomposition in one device thread would cost the frame).
   report.constraint = tracking_constraint(state.accumulator, state.T_world_cam);
@@ -634,10 +655,10 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
         break;
       }
     }
-    const double inliers = state.accumulator[kAccInliers];
-    a.inlier_fraction = inliers / pixels;
-    a.residual_rms_m = inliers > 0 ? std::sqrt(state.accumulator[kAccErrorSq] / inliers) : 0.0;
-    a.misfit_fraction = (state.accumulator[kAccTooFar] + state.accumulator[kAccBadNormal]) / pixels;
+    const LastIterationFit fit = last_iteration_fit(state, pixels);
+    a.inlier_fraction = fit.inlier_fraction;
+    a.residual_rms_m = fit.residual_rms_m;
+    a.misfit_fraction = fit.too_far_fraction + fit.bad_normal_fraction;
     out.attempts.push_back(a);
   };
   for (const KeyframeMatch& m : nearest) attempt_from(m, -1, db.keyframe(m.keyframe).T_world_cam);
