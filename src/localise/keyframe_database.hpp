@@ -5,8 +5,10 @@
 /// random ferns (Glocker et al., "Real-time RGB-D camera relocalization via randomized ferns
 /// for keyframe encoding", TVCG 2015; InfiniTAM v3's relocaliser): each fern is a few tests
 /// "is the depth at pixel p beyond d?", its code the tests' bits; two views differ by the share
-/// of ferns whose codes differ. One floor above the frame loop: host code over the small image
-/// made on the host from each frame's input depth (localise/input_small_depth.hpp).
+/// of ferns whose codes differ. Each keyframe also keeps its small image, so that a lost view
+/// can be aligned to it (localise/small_depth_alignment.hpp). One floor above the frame loop:
+/// host code over the small image made on the host from each frame's input depth
+/// (localise/input_small_depth.hpp).
 
 #include <cstdint>
 #include <string>

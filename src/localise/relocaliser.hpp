@@ -7,11 +7,12 @@
 /// view differs enough from its nearest keyframe is filed with its pose. When a frame fails the
 /// accept test the camera is lost: integration stops, and the next frames attempt candidate
 /// poses, one at a time: the nearest keyframes of the last lost frame's view and the last good
-/// pose. An attempt frame moves the camera to the candidate, raycasts the map from it and
-/// tracks that same frame against the raycast. A frame that passes the accept test starts a
-/// verification: the frames after it are tracked as usual and must pass too, each moving the
-/// camera by no more than a frame's plausible motion, before the camera counts as found and
-/// integration resumes. Any failure on the way goes back to lost and the next candidate.
+/// pose, a keyframe's moved by the attempt frame's alignment to its small depth image
+/// (RelocaliserSettings::align_candidates). An attempt frame moves the camera to the candidate,
+/// raycasts the map from it and tracks that same frame against the raycast. A frame that passes the
+/// accept test starts a verification: the frames after it are tracked as usual and must pass too,
+/// each moving the camera by no more than a frame's plausible motion, before the camera counts as
+/// found and integration resumes. Any failure on the way goes back to lost and the next candidate.
 
 #include <cstdint>
 #include <deque>
