@@ -115,7 +115,7 @@ int pair_up(const SmallCloud& view, const SmallCloud& key, int w, int h, const I
 
 /// Solves (A + λ·diag) x = −b by Gaussian elimination; the damping keeps a view that pins only
 /// some directions (one wall) from moving along the others. False when singular.
-bool solve_damped(double a[36], const double b[6], double x[6]) {
+bool solve_damped(const double a[36], const double b[6], double x[6]) {
   double m[6][7];
   for (int r = 0; r < 6; ++r) {
     for (int c = 0; c < 6; ++c) m[r][c] = a[r * 6 + c];
@@ -208,20 +208,18 @@ SmallDepthAlignment align_small_depth(ImageView<const uint16_t> view_mm,
   for (int i = 0; i < kSeedCount; ++i) order[i] = i;
   std::stable_sort(order, order + kSeedCount,
                    [&](int a, int b) { return better(runs[a], runs[b]); });
-  bool have = false;
+  const Run* chosen = nullptr;
   for (int k = 0; k < kSeedCount; ++k) {
     Run& run = runs[order[k]];
     if (k < kKeptStarts) {
       iterate(run, kFirstIterations, kIterations);
       score(run);
     }
-    if (!have || better(run, Run{best.T_keyframe_view, best.inlier_fraction, best.rms_m})) {
-      have = true;
-      best.T_keyframe_view = run.T;
-      best.inlier_fraction = run.fraction;
-      best.rms_m = run.rms_m;
-    }
+    if (chosen == nullptr || better(run, *chosen)) chosen = &run;
   }
+  best.T_keyframe_view = chosen->T;
+  best.inlier_fraction = chosen->fraction;
+  best.rms_m = chosen->rms_m;
   return best;
 }
 
