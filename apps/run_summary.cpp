@@ -93,6 +93,9 @@ nlohmann::json RunSummary::to_json() const {
                            {"keyframe_database_bytes", relocaliser->memory_bytes},
                            {"keyframe_database_capacity_bytes", relocaliser->capacity_bytes},
                            {"host_ms", relocaliser->host_ms},
+                           {"candidate_alignments", relocaliser->alignments},
+                           {"aligned_starts", relocaliser->aligned_starts},
+                           {"max_alignment_host_ms", relocaliser->max_alignment_ms},
                            {"attempt_computation_ms",
                             {{"median", median_of(attempt_computation_ms)},
                              {"max", attempt_computation_ms.empty()

@@ -35,6 +35,12 @@ constexpr int kMaxSmallSidePx = 4096;
 constexpr int kMaxFerns = 1 << 16;
 constexpr int kMaxKeyframes = 1 << 24;
 
+/// Bytes one keyframe takes in memory at most: its code, its record and its small image.
+uint64_t keyframe_bytes(int ferns, int width_px, int height_px) {
+  return static_cast<uint64_t>(ferns) + sizeof(Keyframe) +
+         static_cast<uint64_t>(width_px) * height_px * sizeof(uint16_t);
+}
+
 }  // namespace
 
 KeyframeDatabase::KeyframeDatabase(int width_px, int height_px, int fern_count, int capacity)
@@ -90,28 +96,55 @@ std::vector<KeyframeMatch> KeyframeDatabase::nearest(const std::vector<uint8_t>&
   return all;
 }
 
-bool KeyframeDatabase::add(const std::vector<uint8_t>& code, const Keyframe& keyframe) {
+bool KeyframeDatabase::add(const std::vector<uint8_t>& code, const Keyframe& keyframe,
+                           ImageView<const uint16_t> small_mm) {
   KFX_CHECK(static_cast<int>(code.size()) == fern_count_,
             "a code of " << code.size() << " ferns for a database of " << fern_count_);
+  const bool with_image = small_mm.data != nullptr;
+  KFX_CHECK(!with_image || (small_mm.width == width_px_ && small_mm.height == height_px_),
+            "a " << small_mm.width << "x" << small_mm.height << " keyframe image for a database of "
+                 << width_px_ << "x" << height_px_);
   if (full()) return false;
   codes_.insert(codes_.end(), code.begin(), code.end());
   keyframes_.push_back(keyframe);
+  std::vector<uint16_t>& image = images_.emplace_back();
+  if (with_image) {
+    image.resize(static_cast<size_t>(width_px_) * height_px_);
+    for (int y = 0; y < height_px_; ++y) {
+      for (int x = 0; x < width_px_; ++x)
+        image[x + y * static_cast<size_t>(width_px_)] = small_mm(x, y);
+    }
+  }
   return true;
+}
+
+ImageView<const uint16_t> KeyframeDatabase::image(int i) const {
+  if (i < 0 || i >= size() || images_[static_cast<size_t>(i)].empty()) return {};
+  return {images_[static_cast<size_t>(i)].data(), width_px_, height_px_, width_px_};
+}
+
+bool KeyframeDatabase::has_images() const {
+  return std::none_of(images_.begin(), images_.end(),
+                      [](const std::vector<uint16_t>& image) { return image.empty(); });
 }
 
 void KeyframeDatabase::clear() {
   codes_.clear();
   keyframes_.clear();
+  images_.clear();
 }
 
 uint64_t KeyframeDatabase::memory_bytes() const {
+  uint64_t images = 0;
+  for (const std::vector<uint16_t>& image : images_) images += image.size() * sizeof(uint16_t);
   return tests_.size() * sizeof(FernTest) +
-         static_cast<uint64_t>(size()) * (static_cast<uint64_t>(fern_count_) + sizeof(Keyframe));
+         static_cast<uint64_t>(size()) * (static_cast<uint64_t>(fern_count_) + sizeof(Keyframe)) +
+         images;
 }
 
 uint64_t KeyframeDatabase::capacity_bytes() const {
   return tests_.size() * sizeof(FernTest) +
-         static_cast<uint64_t>(capacity_) * (static_cast<uint64_t>(fern_count_) + sizeof(Keyframe));
+         static_cast<uint64_t>(capacity_) * keyframe_bytes(fern_count_, width_px_, height_px_);
 }
 
 std::vector<uint8_t> KeyframeDatabase::serialise() const {
@@ -132,11 +165,16 @@ std::vector<uint8_t> KeyframeDatabase::serialise() const {
     append(&frame, 4);
     append(k.T_world_cam.m, 64);
   }
+  if (has_images()) {
+    for (const std::vector<uint16_t>& image : images_) {
+      append(image.data(), image.size() * sizeof(uint16_t));
+    }
+  }
   return out;
 }
 
 KeyframeDatabase KeyframeDatabase::parse(const uint8_t* bytes, size_t size, const std::string& file,
-                                         int capacity) {
+                                         int capacity, bool with_images) {
   const std::string where = file + ": the keyframe database ";
   KFX_CHECK(size >= kSectionHeaderBytes,
             where << "is truncated (" << size << " bytes, shorter than its header)");
@@ -152,11 +190,16 @@ KeyframeDatabase KeyframeDatabase::parse(const uint8_t* bytes, size_t size, cons
             where << "has " << tests << " tests per fern, this kfx uses " << kTestsPerFern);
   KFX_CHECK(count >= 0 && count <= kMaxKeyframes,
             where << "declares " << count << " keyframes (a corrupt file)");
-  const size_t want =
-      kSectionHeaderBytes + static_cast<size_t>(ferns) * kTestsPerFern * 3 * sizeof(uint16_t) +
-      static_cast<size_t>(count) * (static_cast<size_t>(ferns) + kKeyframeRecordBytes);
+  const size_t image_bytes =
+      with_images ? static_cast<size_t>(width) * height * sizeof(uint16_t) : 0;
+  const size_t want = kSectionHeaderBytes +
+                      static_cast<size_t>(ferns) * kTestsPerFern * 3 * sizeof(uint16_t) +
+                      static_cast<size_t>(count) *
+                          (static_cast<size_t>(ferns) + kKeyframeRecordBytes + image_bytes);
   KFX_CHECK(size == want, where << "has " << size << " bytes; " << count << " keyframes of "
-                                << ferns << " ferns take " << want << " (truncated or corrupt)");
+                                << ferns << " ferns"
+                                << (with_images ? " with their small images" : "") << " take "
+                                << want << " (truncated or corrupt)");
   KeyframeDatabase db;
   db.width_px_ = width;
   db.height_px_ = height;
@@ -189,6 +232,16 @@ KeyframeDatabase KeyframeDatabase::parse(const uint8_t* bytes, size_t size, cons
     k.frame = frame;
     const std::string problem = rigid_transform_problem(k.T_world_cam);
     KFX_CHECK(problem.empty(), where << "keyframe " << i << "'s pose " << problem);
+  }
+  // Any depth is a depth (0 a hole): the images need no check beyond their size.
+  db.images_.resize(static_cast<size_t>(count));
+  if (with_images) {
+    const size_t pixels = static_cast<size_t>(width) * height;
+    for (std::vector<uint16_t>& image : db.images_) {
+      image.resize(pixels);
+      std::memcpy(image.data(), p, pixels * sizeof(uint16_t));
+      p += pixels * sizeof(uint16_t);
+    }
   }
   return db;
 }

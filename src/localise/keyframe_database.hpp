@@ -5,8 +5,10 @@
 /// random ferns (Glocker et al., "Real-time RGB-D camera relocalization via randomized ferns
 /// for keyframe encoding", TVCG 2015; InfiniTAM v3's relocaliser): each fern is a few tests
 /// "is the depth at pixel p beyond d?", its code the tests' bits; two views differ by the share
-/// of ferns whose codes differ. One floor above the frame loop: host code over the small image
-/// made on the host from each frame's input depth (localise/input_small_depth.hpp).
+/// of ferns whose codes differ. Each keyframe also keeps its small image, so that a lost view
+/// can be aligned to it (localise/small_depth_alignment.hpp). One floor above the frame loop:
+/// host code over the small image made on the host from each frame's input depth
+/// (localise/input_small_depth.hpp).
 
 #include <cstdint>
 #include <string>
@@ -56,8 +58,12 @@ class KeyframeDatabase {
   std::vector<uint8_t> encode(ImageView<const uint16_t> small_mm) const;
   /// The `k` keyframes whose codes differ least from `code`, nearest first (ties: older first).
   std::vector<KeyframeMatch> nearest(const std::vector<uint8_t>& code, int k) const;
-  /// Files a keyframe under `code`; false (nothing added) when full.
-  bool add(const std::vector<uint8_t>& code, const Keyframe& keyframe);
+  /// Files a keyframe under `code`, with the small depth image the code was made from (kept so
+  /// that a lost view can be aligned to the keyframe: localise/small_depth_alignment.hpp; an
+  /// empty view: none, as in maps saved before images were kept); false (nothing added) when
+  /// full.
+  bool add(const std::vector<uint8_t>& code, const Keyframe& keyframe,
+           ImageView<const uint16_t> small_mm = {});
   /// Room for `capacity` keyframes (never fewer than it holds).
   void set_capacity(int capacity) { capacity_ = capacity > size() ? capacity : size(); }
   /// Forgets every keyframe (the ferns stay).
@@ -72,18 +78,24 @@ class KeyframeDatabase {
   bool full() const { return size() >= capacity_; }
   const Keyframe& keyframe(int i) const { return keyframes_[static_cast<size_t>(i)]; }
   const std::vector<FernTest>& tests() const { return tests_; }
-  /// Bytes the database takes now: the tests, the codes and the keyframes.
+  /// Keyframe `i`'s small depth image; an empty view (null data) when it has none.
+  ImageView<const uint16_t> image(int i) const;
+  /// Whether every keyframe has its small image (so the section saves them).
+  bool has_images() const;
+  /// Bytes the database takes now: the tests, the codes, the keyframes and their images.
   uint64_t memory_bytes() const;
   /// Bytes it takes when full.
   uint64_t capacity_bytes() const;
 
-  /// The database (ferns, codes, poses) as bytes, little-endian, as the map files embed it
-  /// (output/keyframe_section.hpp describes the layout).
+  /// The database (ferns, codes, poses, and the small images when has_images()) as bytes,
+  /// little-endian, as the map files embed it (output/keyframe_section.hpp describes the
+  /// layout).
   std::vector<uint8_t> serialise() const;
-  /// Parses what serialise() made; throws kfx::Error naming `file` on a truncated or corrupt
-  /// section. `capacity`: room for keyframes in the result (raised to the stored count).
+  /// Parses what serialise() made, `with_images` as has_images() was; throws kfx::Error naming
+  /// `file` on a truncated or corrupt section. `capacity`: room for keyframes in the result
+  /// (raised to the stored count).
   static KeyframeDatabase parse(const uint8_t* bytes, size_t size, const std::string& file,
-                                int capacity);
+                                int capacity, bool with_images = false);
 
  private:
   int width_px_ = 0;
@@ -93,6 +105,8 @@ class KeyframeDatabase {
   std::vector<FernTest> tests_;  ///< fern_count × kTestsPerFern
   std::vector<uint8_t> codes_;   ///< size() × fern_count, keyframe-major
   std::vector<Keyframe> keyframes_;
+  /// Per keyframe its small image, width × height mm row by row; empty: none.
+  std::vector<std::vector<uint16_t>> images_;
 };
 
 }  // namespace kfx

@@ -6,6 +6,7 @@
 
 #include "core/platform.hpp"
 #include "localise/located_pose.hpp"
+#include "localise/small_depth_alignment.hpp"
 
 namespace kfx {
 namespace {
@@ -66,7 +67,7 @@ void Relocaliser::reset() {
   candidate_ids_.clear();
   failed_ids_.clear();
   last_view_code_.clear();
-  submitted_codes_.clear();
+  submitted_views_.clear();
   last_submitted_frame_ = -1;
   hold_to_frame_ = -1;
   doubt_frame_ = -1;
@@ -86,7 +87,32 @@ void Relocaliser::reset() {
   attempts_ = 0;
   relocalisations_ = 0;
   host_ms_ = 0;
+  alignments_ = 0;
+  aligned_starts_ = 0;
+  max_alignment_ms_ = 0;
   can_relocalise_ = true;
+}
+
+Mat4f Relocaliser::candidate_pose(int keyframe, ImageView<const uint16_t> small_mm) {
+  const Mat4f& raw = db_.keyframe(keyframe).T_world_cam;
+  const ImageView<const uint16_t> image = db_.image(keyframe);
+  if (!settings_.align_candidates || image.data == nullptr || small_mm.data == nullptr ||
+      !(small_k_.fx != 0.0f)) {
+    return raw;
+  }
+  const auto start = std::chrono::steady_clock::now();
+  const SmallDepthAlignment a = align_small_depth(small_mm, image, small_k_);
+  const double ms =
+      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+  host_ms_ += ms;
+  max_alignment_ms_ = std::max(max_alignment_ms_, ms);
+  ++alignments_;
+  if (a.inlier_fraction < settings_.align_min_inliers ||
+      length(a.T_keyframe_view.translation_part()) > settings_.candidate_reach_m) {
+    return raw;
+  }
+  ++aligned_starts_;
+  return raw * a.T_keyframe_view;
 }
 
 void Relocaliser::trust_pose(const Mat4f& T_world_cam) {
@@ -153,7 +179,13 @@ bool Relocaliser::submitted_view(int frame, ImageView<const uint16_t> small_mm, 
     hold_to_frame_ = frame + 1;
   }
   last_submitted_frame_ = frame;
-  submitted_codes_.emplace_back(frame, code);
+  SubmittedView& view = submitted_views_.emplace_back();
+  view.frame = frame;
+  view.code = code;
+  view.small_mm = HostImage<uint16_t>(small_mm.width, small_mm.height);
+  for (int y = 0; y < small_mm.height; ++y) {
+    for (int x = 0; x < small_mm.width; ++x) view.small_mm.view()(x, y) = small_mm(x, y);
+  }
   last_view_code_ = std::move(code);
   host_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -177,6 +209,12 @@ RelocaliserPlan Relocaliser::plan() {
   }
   p.attempt = true;
   p.T_world_cam = candidates_[pick];
+  // A keyframe's candidate is aligned to the frame the attempt is made on: the frame just
+  // submitted (submitted_view()).
+  if (candidate_ids_[pick] >= 0 && settings_.align_candidates && !submitted_views_.empty() &&
+      submitted_views_.back().frame == last_submitted_frame_) {
+    p.T_world_cam = candidate_pose(candidate_ids_[pick], submitted_views_.back().small_mm.view());
+  }
   pending_attempt_id_ = candidate_ids_[pick];
   attempt_ids_.push_back(pending_attempt_id_);
   attempt_starts_.push_back(p.T_world_cam);
@@ -201,15 +239,16 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
     }
     last_attempt_refused_ = refused;
   }
-  // The frame's code from submitted_view(); frames observed out of turn leave theirs behind.
-  std::vector<uint8_t> code;
-  while (!submitted_codes_.empty() && submitted_codes_.front().first < frame.frame) {
-    submitted_codes_.pop_front();
+  // The frame's view from submitted_view(); frames observed out of turn leave theirs behind.
+  SubmittedView view;
+  while (!submitted_views_.empty() && submitted_views_.front().frame < frame.frame) {
+    submitted_views_.pop_front();
   }
-  if (!submitted_codes_.empty() && submitted_codes_.front().first == frame.frame) {
-    code = std::move(submitted_codes_.front().second);
-    submitted_codes_.pop_front();
+  if (!submitted_views_.empty() && submitted_views_.front().frame == frame.frame) {
+    view = std::move(submitted_views_.front());
+    submitted_views_.pop_front();
   }
+  const std::vector<uint8_t>& code = view.code;
   bool found = false;
   // A frame submitted before the view jump that made the camera lost: it tracked (or not) in
   // the old view, and the loss's candidates belong to the new one.
@@ -217,7 +256,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
   switch (before_jump ? Mode::kTracking : mode_) {
     case Mode::kTracking:
       if (before_jump) {
-        if (frame.tracked && frame.good && !code.empty()) harvest(frame, code);
+        if (frame.tracked && frame.good && !code.empty()) harvest(frame, view);
       } else if (frame.tracked && !frame.attempt && frame_jumped(frame)) {
         // Tracked from the old pose into a view it does not belong to: the frames behind it,
         // in flight, were tracked on from its pose and belong to the loss too.
@@ -230,7 +269,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
         if (!code.empty()) choose_candidates(code);
       } else if (frame.tracked && frame.good) {
         last_good_pose_ = frame.T_world_cam;
-        if (!code.empty()) harvest(frame, code);
+        if (!code.empty()) harvest(frame, view);
       }
       break;
     case Mode::kLost: {
@@ -313,11 +352,11 @@ void Relocaliser::lose_at_view_jump(int frame, const std::vector<uint8_t>& code)
   if (!code.empty()) choose_candidates(code);
 }
 
-void Relocaliser::harvest(const RelocaliserObservation& frame, const std::vector<uint8_t>& code) {
+void Relocaliser::harvest(const RelocaliserObservation& frame, const SubmittedView& view) {
   if (db_.full()) return;
-  const std::vector<KeyframeMatch> nearest = db_.nearest(code, 1);
+  const std::vector<KeyframeMatch> nearest = db_.nearest(view.code, 1);
   if (nearest.empty() || nearest[0].dissimilarity > settings_.harvest_dissimilarity) {
-    db_.add(code, Keyframe{frame.T_world_cam, frame.frame});
+    db_.add(view.code, Keyframe{frame.T_world_cam, frame.frame}, view.small_mm.view());
   }
 }
 
@@ -357,6 +396,9 @@ RelocaliserFigures Relocaliser::figures() const {
   f.memory_bytes = db_.memory_bytes();
   f.capacity_bytes = db_.capacity_bytes();
   f.host_ms = host_ms_;
+  f.alignments = alignments_;
+  f.aligned_starts = aligned_starts_;
+  f.max_alignment_ms = max_alignment_ms_;
   f.can_relocalise = can_relocalise_;
   return f;
 }

@@ -7,17 +7,19 @@
 /// view differs enough from its nearest keyframe is filed with its pose. When a frame fails the
 /// accept test the camera is lost: integration stops, and the next frames attempt candidate
 /// poses, one at a time: the nearest keyframes of the last lost frame's view and the last good
-/// pose. An attempt frame moves the camera to the candidate, raycasts the map from it and
-/// tracks that same frame against the raycast. A frame that passes the accept test starts a
-/// verification: the frames after it are tracked as usual and must pass too, each moving the
-/// camera by no more than a frame's plausible motion, before the camera counts as found and
-/// integration resumes. Any failure on the way goes back to lost and the next candidate.
+/// pose, a keyframe's moved by the attempt frame's alignment to its small depth image
+/// (RelocaliserSettings::align_candidates). An attempt frame moves the camera to the candidate,
+/// raycasts the map from it and tracks that same frame against the raycast. A frame that passes the
+/// accept test starts a verification: the frames after it are tracked as usual and must pass too,
+/// each moving the camera by no more than a frame's plausible motion, before the camera counts as
+/// found and integration resumes. Any failure on the way goes back to lost and the next candidate.
 
 #include <cstdint>
 #include <deque>
 #include <optional>
 #include <vector>
 
+#include "core/camera.hpp"
 #include "core/image.hpp"
 #include "core/math.hpp"
 #include "localise/keyframe_database.hpp"
@@ -72,7 +74,10 @@ struct RelocaliserSettings {
   /// tracked on from it can pass. Measured (bench/RESULTS.md, "Attempts that end far from
   /// their candidate"): right attempts on the cut real sequences ended 0.03–0.14 m from their
   /// keyframe, the office's false ones 1.2 and 1.5 m, the rejected ones on tum_fr1_rpy
-  /// 0.65–0.98 m. The angle is not bounded: a right attempt turned 37°.
+  /// 0.65–0.98 m. The angle is not bounded: a right attempt turned 37°. With align_candidates
+  /// the attempt starts at the keyframe's pose moved by the lost view's alignment to it, and the
+  /// reach is measured from there: it guards against the map ICP sliding, not the alignment
+  /// (which is bounded by the same distance from the keyframe on its own).
   float candidate_reach_m = 0.5f;
   /// A frame that starts or continues a verification disagrees with the map when the share of
   /// its pixels that the ICP paired with a map point farther than its distance threshold (10 cm
@@ -85,6 +90,19 @@ struct RelocaliserSettings {
   /// false ones 0.012–0.19 at 6–90 times.
   float candidate_too_far_floor = 0.01f;
   float candidate_too_far_ratio = 4.0f;
+  /// Align the frame an attempt is made on to the candidate keyframe's small depth image
+  /// (localise/small_depth_alignment.hpp) and start the attempt at the keyframe's pose moved
+  /// by that alignment, instead of at the keyframe's pose (setting relocalise_align). The
+  /// keyframe's own pose stays the start when it has no image (a map saved without them), the
+  /// alignment paired less than align_min_inliers of the frame's small pixels (it found no
+  /// overlap), or it moved the camera farther than candidate_reach_m (views that look alike are
+  /// near each other; farther is the small ICP sliding along a wall). The share paired does
+  /// not tell right alignments from wrong ones: on icl_office_kt0's cut, right ones (1–4 cm,
+  /// 1–2° from the truth) paired 0.07–0.34 at a 5 cm gate, wrong ones 0.2–0.34, and those that
+  /// found nothing 0.01–0.03 (bench/RESULTS.md, "Candidates aligned to the lost view"); the
+  /// attempt's own tests against the map judge the rest.
+  bool align_candidates = true;
+  float align_min_inliers = 0.05f;
 };
 
 /// What the relocaliser reads of one collected frame.
@@ -114,7 +132,10 @@ struct RelocaliserFigures {
   int relocalisations = 0;      ///< times the camera was found after being lost
   uint64_t memory_bytes = 0;    ///< the keyframe database's
   uint64_t capacity_bytes = 0;  ///< ... when full
-  double host_ms = 0;           ///< host time: codes, queries, harvesting
+  double host_ms = 0;           ///< host time: codes, queries, harvesting, alignments
+  int alignments = 0;           ///< candidates aligned to a lost frame (align_candidates)
+  int aligned_starts = 0;       ///< ... whose attempt started at the aligned pose
+  double max_alignment_ms = 0;  ///< host time of the slowest alignment
   bool can_relocalise = true;   ///< false with a loaded map that came without keyframes
 };
 
@@ -123,6 +144,14 @@ class Relocaliser {
   Relocaliser() = default;
   /// For small depth images of width × height pixels.
   Relocaliser(const RelocaliserSettings& settings, int small_width_px, int small_height_px);
+
+  /// The small image's intrinsics (small_depth_intrinsics()), which aligning candidates needs;
+  /// without them candidates start at their keyframes' poses.
+  void set_small_intrinsics(const Intrinsics& small_k) { small_k_ = small_k; }
+  /// Where an attempt from keyframe `keyframe` starts for the view whose small image is
+  /// `small_mm`: the keyframe's pose, moved by the view's alignment to it when
+  /// align_candidates is set and the alignment holds (RelocaliserSettings::align_candidates).
+  Mat4f candidate_pose(int keyframe, ImageView<const uint16_t> small_mm);
 
   /// Starts over: empty database, tracking (the first pose is given).
   void reset();
@@ -164,13 +193,20 @@ class Relocaliser {
 
  private:
   enum class Mode { kTracking, kLost, kVerifying };
+  /// A submitted frame's view: its code and its small image (a keyframe keeps both).
+  struct SubmittedView {
+    int frame = 0;
+    std::vector<uint8_t> code;
+    HostImage<uint16_t> small_mm;
+  };
+
   /// Whether tracked frame `frame`, collected after the tracked frame last_* describe, moved
   /// the camera more than a frame's plausible motion (verify_max_step_*) or fit the map far
   /// worse than that frame (view_jump_residual_ratio and view_jump_inlier_ratio).
   bool frame_jumped(const RelocaliserObservation& frame) const;
   /// Lost from frame `frame` on, at a view jump: the last good pose is suspect.
   void lose_at_view_jump(int frame, const std::vector<uint8_t>& code);
-  void harvest(const RelocaliserObservation& frame, const std::vector<uint8_t>& code);
+  void harvest(const RelocaliserObservation& frame, const SubmittedView& view);
   void choose_candidates(const std::vector<uint8_t>& code);
 
   RelocaliserSettings settings_;
@@ -181,8 +217,9 @@ class Relocaliser {
   std::vector<int> candidate_ids_;            ///< their keyframes (−1: the last good pose)
   std::vector<int> failed_ids_;               ///< candidates tried since the view last changed
   std::vector<uint8_t> last_view_code_;       ///< the last submitted frame's input-depth code
-  /// The codes of the frames submitted and not yet observed, oldest first, by frame number.
-  std::deque<std::pair<int, std::vector<uint8_t>>> submitted_codes_;
+  /// The views of the frames submitted and not yet observed, oldest first, by frame number.
+  std::deque<SubmittedView> submitted_views_;
+  Intrinsics small_k_;  ///< zeros until set_small_intrinsics()
   int last_submitted_frame_ = -1;
   /// The last frame not to be integrated while a doubtful frame is in flight
   /// (view_doubt_dissimilarity), −1 for none.
@@ -211,6 +248,9 @@ class Relocaliser {
   int attempts_ = 0;
   int relocalisations_ = 0;
   double host_ms_ = 0;
+  int alignments_ = 0;
+  int aligned_starts_ = 0;
+  double max_alignment_ms_ = 0;
   bool can_relocalise_ = true;
 };
 

@@ -11,6 +11,7 @@
 #include "backend/memory_budget.hpp"
 #include "kernels/integrate.hpp"
 #include "localise/perturbed_poses.hpp"
+#include "localise/small_depth_alignment.hpp"
 #include "map/host_block_map.hpp"
 #include "pipeline/depth_undistortion.hpp"
 
@@ -78,6 +79,7 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
     r.fern_count = config_.tracking.relocalise_ferns;
     r.keyframe_capacity = config_.tracking.relocalise_keyframes;
     r.harvest_dissimilarity = config_.tracking.relocalise_harvest;
+    r.align_candidates = config_.tracking.relocalise_align;
     relocaliser_ = Relocaliser(r, small_params_.width_px, small_params_.height_px);
     input_small_ = InputSmallDepth(small_params_, ratio);
   }
@@ -88,6 +90,8 @@ Pipeline::Pipeline(const PipelineConfig& config, const Intrinsics& input_intrins
   }
 
   compute_k_ = input_intrinsics.scaled_down(static_cast<float>(ratio));
+  if (relocalise_)
+    relocaliser_.set_small_intrinsics(small_depth_intrinsics(compute_k_, small_params_));
   const auto& f = config_.volume.init_pose_factor;
   const float size = config_.volume.size_m;
   initial_pose_ = Mat4f::translation(Vec3f{f[0] * size, f[1] * size, f[2] * size});
@@ -627,8 +631,9 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
   Backend& b = *backend_;
   // The view's code from the host's small image of the input depth, made as the keyframes'
   // were (localise/input_small_depth.hpp).
+  const ImageView<const uint16_t> small_mm = input_small_.make(depth_mm);
   const std::vector<KeyframeMatch> nearest =
-      db.nearest(db.encode(input_small_.make(depth_mm)), config_.tracking.localise_candidates);
+      db.nearest(db.encode(small_mm), config_.tracking.localise_candidates);
   const double pixels = static_cast<double>(params_.accept.compute_pixels);
   LocatedPoseRule rule;
   rule.max_misfit_fraction = config_.tracking.localise_max_misfit;
@@ -661,7 +666,11 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
     a.misfit_fraction = fit.too_far_fraction + fit.bad_normal_fraction;
     out.attempts.push_back(a);
   };
-  for (const KeyframeMatch& m : nearest) attempt_from(m, -1, db.keyframe(m.keyframe).T_world_cam);
+  // Each keyframe's start: its pose, moved by the view's alignment to its small image with
+  // setting relocalise_align.
+  for (const KeyframeMatch& m : nearest) {
+    attempt_from(m, -1, relocaliser_.candidate_pose(m.keyframe, small_mm));
+  }
   // Poses around the nearest keyframes' (setting localise_perturb) only when no keyframe's own
   // pose gave one the rule would take: they cost twelve attempts a keyframe, and the view's
   // answer is then already decided (located, or ambiguous, which more poses cannot undo).

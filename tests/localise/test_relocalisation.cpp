@@ -118,12 +118,15 @@ TEST(KeyframeDatabase, HarvestAndQueryFindTheNearestViewWithinCapacity) {
     Keyframe k;
     k.T_world_cam = Mat4f::translation(Vec3f{static_cast<float>(i), 0, 0});
     k.frame = 10 * i;
-    EXPECT_TRUE(db.add(db.encode(wall(10 * (i + 1), offsets[i]).view()), k));
+    const HostImage<uint16_t> image = wall(10 * (i + 1), offsets[i]);
+    EXPECT_TRUE(db.add(db.encode(image.view()), k, image.view()));
   }
   EXPECT_TRUE(db.full());
   EXPECT_FALSE(db.add(db.encode(wall(5, 1500).view()), Keyframe{}));
   EXPECT_EQ(db.size(), 3);
-  EXPECT_EQ(db.memory_bytes(), 2000u * sizeof(FernTest) + 3u * (500u + sizeof(Keyframe)));
+  // Each keyframe: its code, its record and its 40×30 small image.
+  EXPECT_EQ(db.memory_bytes(),
+            2000u * sizeof(FernTest) + 3u * (500u + sizeof(Keyframe) + 40u * 30u * 2u));
   EXPECT_EQ(db.memory_bytes(), db.capacity_bytes());
   // A view a little off the second keyframe's finds it first, with a small dissimilarity.
   const auto near = db.nearest(db.encode(wall(20, 2030).view()), 2);

@@ -91,7 +91,8 @@ SettingsSection tracking_section() {
       [](C& c) -> bool& { return c.tracking.relocalise; }));
   rows.push_back(integer_row(
       "relocalise_keyframes", s,
-      "relocalisation: keyframes the database holds at most (568 bytes each with 500 ferns)",
+      "relocalisation: keyframes the database holds at most (about 3 KB each with 500 ferns: the "
+      "code, the pose and the 40x30 small depth image)",
       [](C& c) -> int& { return c.tracking.relocalise_keyframes; }));
   rows.push_back(integer_row("relocalise_ferns", s,
                              "relocalisation: random ferns (4 depth tests each) per keyframe code",
@@ -114,6 +115,12 @@ SettingsSection tracking_section() {
       "relocalisation: a well-tracked frame becomes a keyframe when this share of its ferns "
       "differs from its nearest keyframe's (smaller: more keyframes, nearer candidates)",
       [](C& c) -> float& { return c.tracking.relocalise_harvest; }));
+  rows.push_back(on_off_row(
+      "relocalise_align", s,
+      "relocalisation: align a lost frame's small depth image to each candidate keyframe's on "
+      "the host and start the attempt at the keyframe's pose moved by that alignment (on|off; "
+      "docs/tracking.md)",
+      [](C& c) -> bool& { return c.tracking.relocalise_align; }));
   rows.push_back(on_off_row(
       "relocalise_each_frame", s,
       "locate every frame alone in the loaded map from its nearest keyframes, with no memory of "

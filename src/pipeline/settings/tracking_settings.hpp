@@ -32,6 +32,9 @@ struct TrackingSettings {
   int loop_min_gap_frames = 200;  ///< a loop joins frames at least this many apart in time
   /// A good frame becomes a keyframe when this share of ferns differs from its nearest one's.
   float relocalise_harvest = 0.2f;
+  /// A lost frame is aligned to each candidate keyframe's small depth image before the attempt,
+  /// which starts at the keyframe's pose moved by the alignment (RelocaliserSettings).
+  bool relocalise_align = true;
   /// Every frame is located alone in the loaded map from its nearest keyframes, with no memory
   /// of the previous frame's pose (Pipeline::localise); nothing is integrated.
   bool relocalise_each_frame = false;
