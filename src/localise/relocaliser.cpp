@@ -32,13 +32,25 @@ bool fit_fell_apart(const RelocaliserSettings& s, const RelocaliserObservation& 
 /// Measured (bench/RESULTS.md, "Attempts that end far from their candidate"): right attempts
 /// on the cut real sequences left 0.8–1.7 times the last good residual, a false one on
 /// icl_office_kt0 5.9 times with 0.7 times the inliers.
+/// The share of a frame's pixels paired with a map point that are inliers: how well the pixels
+/// the map covers fit, whatever share of the view the map covers.
+double paired_inlier_share(const RelocaliserObservation& frame) {
+  const double paired = frame.inlier_fraction + frame.too_far_fraction + frame.bad_normal_fraction;
+  return paired > 0 ? frame.inlier_fraction / paired : 0.0;
+}
+
+/// Whether an attempt's pose is refused. Its inliers are weighed over the pixels the map covers
+/// from the candidate (paired_inlier_share), not over the view: a camera found again where the
+/// map covers part of its view pairs only that part, and its inliers over the whole view fall
+/// short of the last good frame's though each paired pixel fits (bench/RESULTS.md, "Attempts
+/// over part of the map").
 bool attempt_refused(const RelocaliserSettings& s, const RelocaliserObservation& frame,
-                     const Mat4f& candidate, double inliers, double rms_m) {
+                     const Mat4f& candidate, double paired_share, double rms_m) {
   float metres = 0, degrees = 0;
   pose_difference(candidate, frame.T_world_cam, metres, degrees);
   return metres > s.candidate_reach_m ||
          (rms_m > 0 && (frame.residual_rms_m > s.view_jump_residual_ratio * rms_m ||
-                        frame.inlier_fraction < s.view_jump_inlier_ratio * inliers));
+                        paired_inlier_share(frame) < s.view_jump_inlier_ratio * paired_share));
 }
 
 /// Whether a frame of a lost camera's attempt or verification disagrees with the map: more of
@@ -75,6 +87,7 @@ void Relocaliser::reset() {
   last_inlier_fraction_ = 0;
   last_residual_rms_m_ = 0;
   last_too_far_fraction_ = 0;
+  last_paired_inlier_share_ = 0;
   view_jumped_ = false;
   lost_from_frame_ = 0;
   attempt_ids_.clear();
@@ -233,8 +246,8 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
     if (!attempt_ids_.empty()) {
       attempt_id = attempt_ids_.front();
       attempt_ids_.erase(attempt_ids_.begin());
-      refused = attempt_refused(settings_, frame, attempt_starts_.front(), last_inlier_fraction_,
-                                last_residual_rms_m_);
+      refused = attempt_refused(settings_, frame, attempt_starts_.front(),
+                                last_paired_inlier_share_, last_residual_rms_m_);
       attempt_starts_.erase(attempt_starts_.begin());
     }
     last_attempt_refused_ = refused;
@@ -327,6 +340,7 @@ bool Relocaliser::observe(const RelocaliserObservation& frame) {
     last_inlier_fraction_ = frame.inlier_fraction;
     last_residual_rms_m_ = frame.residual_rms_m;
     last_too_far_fraction_ = frame.too_far_fraction;
+    last_paired_inlier_share_ = paired_inlier_share(frame);
   }
   host_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();

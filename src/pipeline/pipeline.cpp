@@ -456,6 +456,7 @@ FrameReport Pipeline::collect() {
     o.inlier_fraction = report.inlier_fraction;
     o.residual_rms_m = report.residual_rms_m;
     o.too_far_fraction = report.too_far_fraction;
+    o.bad_normal_fraction = report.bad_normal_fraction;
     report.relocalised = relocaliser_.observe(o);
     // Until it is found, a lost camera stays lost, tracked frames or not (they verify).
     if (relocaliser_.lost_at(report.index)) report.quality = TrackingQuality::kLost;
@@ -472,6 +473,7 @@ void Pipeline::fill_tracking_figures(FrameReport& report, const TrackingState& s
       last_iteration_fit(state, static_cast<double>(params_.accept.compute_pixels));
   report.inlier_fraction = fit.inlier_fraction;
   report.too_far_fraction = fit.too_far_fraction;
+  report.bad_normal_fraction = fit.bad_normal_fraction;
   report.residual_rms_m = fit.residual_rms_m;
   // On the host from the state both backends return: the GPU's one-thread decision kernels
   // stay as they were (a 6×6 eigen-decomposition in one device thread would cost the frame).

@@ -40,6 +40,7 @@ struct FrameReport {
   /// it was paired with, at the last iteration, per compute pixel: the view and the map
   /// disagree there.
   double too_far_fraction = 0;
+  double bad_normal_fraction = 0;  ///< paired with a disagreeing normal / compute pixels
   /// sqrt(Σe² / inliers) of the last ICP iteration, metres (the accept test's RMS; 0 when
   /// tracking did not run or had no inliers).
   double residual_rms_m = 0;

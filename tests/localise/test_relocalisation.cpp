@@ -387,6 +387,35 @@ TEST(Relocaliser, ACandidateThatPairsMuchOfItsViewWithMapPointsFarAwayVerifiesNo
   EXPECT_FALSE(r.lost());
 }
 
+TEST(Relocaliser, AnAttemptWhosePairedPixelsFitIsFoundThoughTheMapCoversPartOfItsView) {
+  const HostImage<uint16_t> a = wall(10, 1000);
+  Relocaliser r = lost_at_frame_two(a);  // good frames: inliers 0.7, 0.2 % paired too far
+  int f = 3;
+  // Inliers 0.3 of the view (0.43 times a good frame's), and of the pixels the map covers 0.3
+  // fit while 0.3 pair with a normal that disagrees: half the paired pixels fit. Never found.
+  for (; f < 9; ++f) {
+    r.submitted_view(f, a.view());
+    RelocaliserObservation o = tracked_at(f, 0.02f, 0.3, 0.003, 0.002);
+    o.bad_normal_fraction = 0.3;
+    o.attempt = r.plan().attempt;
+    EXPECT_FALSE(r.observe(o)) << "frame " << f;
+    EXPECT_TRUE(r.lost());
+  }
+  // The same inliers with the rest of the view beyond the map (paired with nothing): the
+  // paired pixels fit as a good frame's do, and the camera is found.
+  int found_at = -1;
+  for (; f < 15 && found_at < 0; ++f) {
+    r.submitted_view(f, a.view());
+    RelocaliserObservation o = tracked_at(f, 0.02f, 0.3, 0.003, 0.002);
+    o.bad_normal_fraction = 0.01;
+    o.attempt = r.plan().attempt;
+    if (r.observe(o)) found_at = f;
+  }
+  EXPECT_GE(found_at, 9);
+  EXPECT_LE(found_at, 12);
+  EXPECT_FALSE(r.lost());
+}
+
 TEST(Relocaliser, ADoubtfulViewAndTheFrameBehindItWaitForItsTrackingBeforeIntegrating) {
   const HostImage<uint16_t> a = wall(10, 1000);
   // b: a's view with a band of its columns moved far, changing a share of the ferns between the
