@@ -63,10 +63,9 @@ struct RelocaliserSettings {
   /// minimum reached far from the truth). The same test refuses a lost camera's candidate
   /// whose fit fell apart so, however it passed the accept test, with its inliers counted over
   /// the pixels the map pairs rather than the view (a candidate sees the map over part of its
-  /// view). Measured: tracked frames of
-  /// the three shared sequences at most 1.64 and at least 0.64 against the last good frame
-  /// (never both past the bounds), 5.1 and 0.30 at the rpy cut, 4–5 and 0.4–0.5 at candidates
-  /// the accept test passed 10–20 cm off.
+  /// view). Measured: tracked frames of the three shared sequences at most 1.64 and at least
+  /// 0.64 against the last good frame (never both past the bounds), 5.1 and 0.30 at the rpy
+  /// cut, 4–5 and 0.4–0.5 at candidates the accept test passed 10–20 cm off.
   float view_jump_residual_ratio = 2.5f;
   float view_jump_inlier_ratio = 0.6f;
   /// Farthest an attempt's ICP may take the camera from its candidate's pose, metres, for the
