@@ -20,26 +20,13 @@
 #include "output/volume_file.hpp"
 #include "support/io_test_support.hpp"
 #include "support/pose_compare.hpp"
+#include "support/small_depth_support.hpp"
 #include "support/test_dir.hpp"
 
 namespace kfx {
 namespace {
 
 // ---- the small depth image -------------------------------------------------------------
-
-HostImage<uint16_t> small_of(const HostImage<float>& depth_m) {
-  const SmallDepthParams p = small_depth_params(depth_m.width(), depth_m.height());
-  HostImage<uint16_t> mean(p.width_px, p.height_px), out(p.width_px, p.height_px);
-  const SmallDepthMeanArgs m{p, depth_m.view(), mean.view()};
-  for (int y = 0; y < p.height_px; ++y) {
-    for (int x = 0; x < p.width_px; ++x) small_depth_mean_pixel(x, y, m);
-  }
-  const SmallDepthBlurArgs b{mean.view(), out.view()};
-  for (int y = 0; y < p.height_px; ++y) {
-    for (int x = 0; x < p.width_px; ++x) small_depth_blur_pixel(x, y, b);
-  }
-  return out;
-}
 
 TEST(SmallDepth, SizesFollowTheComputeSize) {
   const SmallDepthParams a = small_depth_params(320, 240);
@@ -67,7 +54,7 @@ TEST(SmallDepth, AveragesValidDepthKeepsHolesAndBlursOverValidNeighboursOnly) {
   for (int y = 80; y < 88; ++y) {
     for (int x = 160; x < 168; ++x) depth(x, y) = (x == 160 && y < 83) ? 3.0f : 0.0f;
   }
-  const HostImage<uint16_t> s = small_of(depth);
+  const HostImage<uint16_t> s = test::small_depth_of(depth);
   ASSERT_EQ(s.width(), 40);
   EXPECT_EQ(s(5, 5), 0);    // the hole stays a hole
   EXPECT_EQ(s(20, 10), 0);  // 3 valid pixels of 64: below a quarter

@@ -20,6 +20,7 @@
 #include "localise/small_depth_alignment.hpp"
 #include "output/keyframe_section.hpp"
 #include "support/io_test_support.hpp"
+#include "support/small_depth_support.hpp"
 #include "support/test_dir.hpp"
 
 namespace kfx {
@@ -73,17 +74,7 @@ HostImage<uint16_t> small_view(const Mat4f& T_world_cam) {
       depth.view()(x, y) = t < 1e8f ? t : 0.0f;  // t along a ray of unit z: the depth
     }
   }
-  const SmallDepthParams p = small_depth_params(kWidthPx, kHeightPx);
-  HostImage<uint16_t> mean(p.width_px, p.height_px), out(p.width_px, p.height_px);
-  const SmallDepthMeanArgs m{p, depth.view(), mean.view()};
-  for (int y = 0; y < p.height_px; ++y) {
-    for (int x = 0; x < p.width_px; ++x) small_depth_mean_pixel(x, y, m);
-  }
-  const SmallDepthBlurArgs b{mean.view(), out.view()};
-  for (int y = 0; y < p.height_px; ++y) {
-    for (int x = 0; x < p.width_px; ++x) small_depth_blur_pixel(x, y, b);
-  }
-  return out;
+  return test::small_depth_of(depth);
 }
 
 Intrinsics small_k() {
