@@ -639,6 +639,7 @@ Localisation Pipeline::localise(ImageView<const uint16_t> depth_mm, ImageView<co
   const double pixels = static_cast<double>(params_.accept.compute_pixels);
   LocatedPoseRule rule;
   rule.max_misfit_fraction = config_.tracking.localise_max_misfit;
+  rule.min_inlier_fraction = config_.tracking.localise_min_inliers;
   auto attempt_from = [&](const KeyframeMatch& m, int perturbation, const Mat4f& start) {
     LocaliseAttempt a;
     a.keyframe = m.keyframe;

@@ -208,6 +208,20 @@ TEST(LocaliseAloneDense, TheSettingLocatesEveryFrameOfARunAloneAndIntegratesNoth
   EXPECT_EQ(loaded.trajectory().size(), order.size());
 }
 
+TEST(LocaliseAloneDense, TheInlierFloorIsASetting) {
+  const MappedRoom& room = mapped_room(false);
+  Sequence sequence(kLoop);
+  // No view matches every pixel: with the floor at 1 nothing is located, at its default (half)
+  // the same view is.
+  for (const char* floor : {"1", "0.5"}) {
+    Settings s = settings(false);
+    s.set("localise_min_inliers", floor);
+    Reconstruction loaded(s, sequence);
+    loaded.load_map(room.map_path);
+    EXPECT_EQ(loaded.localise(room.frames[97]).found, std::string(floor) != "1") << floor;
+  }
+}
+
 /// A view whose only keyframe lies beyond ICP's reach, turned `turn_deg` about the camera's
 /// vertical axis from the view's true pose, located with `perturb` keyframes perturbed.
 Located located_from_a_turned_keyframe(int view, float turn_deg, int perturb) {

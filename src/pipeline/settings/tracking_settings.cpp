@@ -44,6 +44,8 @@ void check_tracking(const PipelineConfig& config) {
       "localise_perturb_deg must be in [0, 90] degrees, got " << tracking.localise_perturb_deg);
   KFX_CHECK(tracking.localise_max_misfit >= 0 && tracking.localise_max_misfit <= 1,
             "localise_max_misfit must be in [0, 1], got " << tracking.localise_max_misfit);
+  KFX_CHECK(tracking.localise_min_inliers >= 0 && tracking.localise_min_inliers <= 1,
+            "localise_min_inliers must be in [0, 1], got " << tracking.localise_min_inliers);
   KFX_CHECK(!tracking.relocalise_each_frame || tracking.relocalise,
             "relocalise_each_frame=on locates frames from the keyframe database: it needs "
             "relocalise=on");
@@ -160,6 +162,13 @@ SettingsSection tracking_section() {
       "kept right poses and refused wrong ones with localise_perturb on 256-voxel maps of real "
       "rooms, docs/tracking.md)",
       [](C& c) -> float& { return c.tracking.localise_max_misfit; }));
+  rows.push_back(number_row(
+      "localise_min_inliers", s,
+      "relocalisation: a frame located alone is refused when fewer than this share of its "
+      "pixels are inliers (0.5; with candidates aligned to the view, 0.3 together with "
+      "localise_max_misfit=0.07 located more frames of real rooms and none falsely, "
+      "docs/tracking.md)",
+      [](C& c) -> float& { return c.tracking.localise_min_inliers; }));
   return section;
 }
 

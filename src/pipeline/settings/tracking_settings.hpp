@@ -50,6 +50,9 @@ struct TrackingSettings {
   /// The located pose's largest share of pixels set against surfaces they do not fit
   /// (LocatedPoseRule::max_misfit_fraction; 1: no limit).
   float localise_max_misfit = 1.0f;
+  /// The located pose's least share of the pixels as inliers
+  /// (LocatedPoseRule::min_inlier_fraction).
+  float localise_min_inliers = 0.5f;
 };
 
 }  // namespace kfx
