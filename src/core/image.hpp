@@ -1,6 +1,7 @@
 #pragma once
 /// Non-owning 2-D image views (host or device memory) and an owning host image.
 
+#include <algorithm>
 #include <cstdint>
 #include <type_traits>
 #include <vector>
@@ -68,5 +69,17 @@ struct Rgba8 {
 struct Rgb8 {
   uint8_t r, g, b;
 };
+
+/// An owning copy of the pixels `view` shows (its pitch dropped).
+template <class T>
+HostImage<T> copy_of(ImageView<const T> view) {
+  HostImage<T> out(view.width, view.height);
+  for (int y = 0; y < view.height; ++y) {
+    std::copy(view.data + static_cast<size_t>(y) * view.pitch,
+              view.data + static_cast<size_t>(y) * view.pitch + view.width,
+              out.data() + static_cast<size_t>(y) * view.width);
+  }
+  return out;
+}
 
 }  // namespace kfx

@@ -107,25 +107,18 @@ bool KeyframeDatabase::add(const std::vector<uint8_t>& code, const Keyframe& key
   if (full()) return false;
   codes_.insert(codes_.end(), code.begin(), code.end());
   keyframes_.push_back(keyframe);
-  std::vector<uint16_t>& image = images_.emplace_back();
-  if (with_image) {
-    image.resize(static_cast<size_t>(width_px_) * height_px_);
-    for (int y = 0; y < height_px_; ++y) {
-      for (int x = 0; x < width_px_; ++x)
-        image[x + y * static_cast<size_t>(width_px_)] = small_mm(x, y);
-    }
-  }
+  images_.push_back(with_image ? copy_of(small_mm) : HostImage<uint16_t>());
   return true;
 }
 
 ImageView<const uint16_t> KeyframeDatabase::image(int i) const {
   if (i < 0 || i >= size() || images_[static_cast<size_t>(i)].empty()) return {};
-  return {images_[static_cast<size_t>(i)].data(), width_px_, height_px_, width_px_};
+  return images_[static_cast<size_t>(i)].view();
 }
 
 bool KeyframeDatabase::has_images() const {
   return std::none_of(images_.begin(), images_.end(),
-                      [](const std::vector<uint16_t>& image) { return image.empty(); });
+                      [](const HostImage<uint16_t>& image) { return image.empty(); });
 }
 
 void KeyframeDatabase::clear() {
@@ -136,7 +129,8 @@ void KeyframeDatabase::clear() {
 
 uint64_t KeyframeDatabase::memory_bytes() const {
   uint64_t images = 0;
-  for (const std::vector<uint16_t>& image : images_) images += image.size() * sizeof(uint16_t);
+  for (const HostImage<uint16_t>& image : images_)
+    images += image.pixels().size() * sizeof(uint16_t);
   return tests_.size() * sizeof(FernTest) +
          static_cast<uint64_t>(size()) * (static_cast<uint64_t>(fern_count_) + sizeof(Keyframe)) +
          images;
@@ -166,8 +160,8 @@ std::vector<uint8_t> KeyframeDatabase::serialise() const {
     append(k.T_world_cam.m, 64);
   }
   if (has_images()) {
-    for (const std::vector<uint16_t>& image : images_) {
-      append(image.data(), image.size() * sizeof(uint16_t));
+    for (const HostImage<uint16_t>& image : images_) {
+      append(image.data(), image.pixels().size() * sizeof(uint16_t));
     }
   }
   return out;
@@ -237,8 +231,8 @@ KeyframeDatabase KeyframeDatabase::parse(const uint8_t* bytes, size_t size, cons
   db.images_.resize(static_cast<size_t>(count));
   if (with_images) {
     const size_t pixels = static_cast<size_t>(width) * height;
-    for (std::vector<uint16_t>& image : db.images_) {
-      image.resize(pixels);
+    for (HostImage<uint16_t>& image : db.images_) {
+      image = HostImage<uint16_t>(width, height);
       std::memcpy(image.data(), p, pixels * sizeof(uint16_t));
       p += pixels * sizeof(uint16_t);
     }

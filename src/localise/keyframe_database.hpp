@@ -106,7 +106,7 @@ class KeyframeDatabase {
   std::vector<uint8_t> codes_;   ///< size() × fern_count, keyframe-major
   std::vector<Keyframe> keyframes_;
   /// Per keyframe its small image, width × height mm row by row; empty: none.
-  std::vector<std::vector<uint16_t>> images_;
+  std::vector<HostImage<uint16_t>> images_;
 };
 
 }  // namespace kfx

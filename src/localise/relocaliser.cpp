@@ -24,14 +24,6 @@ bool fit_fell_apart(const RelocaliserSettings& s, const RelocaliserObservation& 
          frame.inlier_fraction < s.view_jump_inlier_ratio * inliers;
 }
 
-/// Whether an attempt's pose is refused before any verification: its ICP ended farther than
-/// candidate_reach_m from the candidate it started at, or left a residual RMS past
-/// view_jump_residual_ratio times the last good frame's `rms_m`, whatever its inliers. A frame
-/// tracked on from a good pose may fit worse for a while (a fast turn); a candidate that fits
-/// so is a wrong minimum more often than not, and taking one fuses a view at the wrong place.
-/// Measured (bench/RESULTS.md, "Attempts that end far from their candidate"): right attempts
-/// on the cut real sequences left 0.8–1.7 times the last good residual, a false one on
-/// icl_office_kt0 5.9 times with 0.7 times the inliers.
 /// The share of a frame's pixels paired with a map point that are inliers: how well the pixels
 /// the map covers fit, whatever share of the view the map covers.
 double paired_inlier_share(const RelocaliserObservation& frame) {
@@ -39,11 +31,19 @@ double paired_inlier_share(const RelocaliserObservation& frame) {
   return paired > 0 ? frame.inlier_fraction / paired : 0.0;
 }
 
-/// Whether an attempt's pose is refused. Its inliers are weighed over the pixels the map covers
-/// from the candidate (paired_inlier_share), not over the view: a camera found again where the
-/// map covers part of its view pairs only that part, and its inliers over the whole view fall
-/// short of the last good frame's though each paired pixel fits (bench/RESULTS.md, "Attempts
-/// over part of the map").
+/// Whether an attempt's pose is refused before any verification: its ICP ended farther than
+/// candidate_reach_m from the candidate it started at, or left a residual RMS past
+/// view_jump_residual_ratio times the last good frame's `rms_m`, or a paired inlier share
+/// below view_jump_inlier_ratio times that frame's `paired_share`. A frame tracked on from a
+/// good pose may fit worse for a while (a fast turn); a candidate that fits so is a wrong
+/// minimum more often than not, and taking one fuses a view at the wrong place. Measured
+/// (bench/RESULTS.md, "Attempts that end far from their candidate"): right attempts on the cut
+/// real sequences left 0.8–1.7 times the last good residual, a false one on icl_office_kt0 5.9
+/// times. Its inliers are weighed over the pixels the map covers from the candidate
+/// (paired_inlier_share), not over the view: a camera found again where the map covers part of
+/// its view pairs only that part, and its inliers over the whole view fall short of the last
+/// good frame's though each paired pixel fits (bench/RESULTS.md, "Attempts over part of the
+/// map").
 bool attempt_refused(const RelocaliserSettings& s, const RelocaliserObservation& frame,
                      const Mat4f& candidate, double paired_share, double rms_m) {
   float metres = 0, degrees = 0;
@@ -195,10 +195,7 @@ bool Relocaliser::submitted_view(int frame, ImageView<const uint16_t> small_mm, 
   SubmittedView& view = submitted_views_.emplace_back();
   view.frame = frame;
   view.code = code;
-  view.small_mm = HostImage<uint16_t>(small_mm.width, small_mm.height);
-  for (int y = 0; y < small_mm.height; ++y) {
-    for (int x = 0; x < small_mm.width; ++x) view.small_mm.view()(x, y) = small_mm(x, y);
-  }
+  view.small_mm = copy_of(small_mm);
   last_view_code_ = std::move(code);
   host_ms_ +=
       std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
@@ -224,7 +221,7 @@ RelocaliserPlan Relocaliser::plan() {
   p.T_world_cam = candidates_[pick];
   // A keyframe's candidate is aligned to the frame the attempt is made on: the frame just
   // submitted (submitted_view()).
-  if (candidate_ids_[pick] >= 0 && settings_.align_candidates && !submitted_views_.empty() &&
+  if (candidate_ids_[pick] >= 0 && !submitted_views_.empty() &&
       submitted_views_.back().frame == last_submitted_frame_) {
     p.T_world_cam = candidate_pose(candidate_ids_[pick], submitted_views_.back().small_mm.view());
   }

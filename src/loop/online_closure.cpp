@@ -17,16 +17,6 @@ double ms_since(Clock::time_point start) {
 }
 
 template <class T>
-HostImage<T> copy_of(ImageView<const T> view) {
-  HostImage<T> out(view.width, view.height);
-  for (int y = 0; y < view.height; ++y) {
-    std::copy(view.data + y * view.pitch, view.data + y * view.pitch + view.width,
-              out.data() + static_cast<size_t>(y) * view.width);
-  }
-  return out;
-}
-
-template <class T>
 ImageView<const T> view_or_none(const HostImage<T>& image) {
   return !image.empty() ? image.view() : ImageView<const T>{};
 }
